@@ -1,0 +1,14 @@
+/* SPDX-License-Identifier: MIT */
+/** @file dth.h  Umbrella header of the dth library: include this one. */
+#ifndef DTH_DTH_H
+#define DTH_DTH_H
+
+#define DTH_VERSION_STRING "0.1.0"
+
+#include "dth/status.h"
+#include "dth/model.h"
+#include "dth/models.h"
+#include "dth/integrator.h"
+#include "dth/scene.h"
+
+#endif

@@ -1,0 +1,174 @@
+/* SPDX-License-Identifier: MIT */
+/**
+ * @file integrator.h  The DTH step (paper, Theorem "DTH Equations") and its driver state.
+ *
+ * One step from the vertex z_k solves, for the midpoint zbar and the time step lambda,
+ *     zbar - z_k - (lambda/2) J grad H(zbar) = 0,    H(zbar) = 0,
+ * and sets z_{k+1} = 2 zbar - z_k. H(z) = wp + H_phys(q, t, p), so the energy -wp holds at
+ * every midpoint and the time advances by exactly lambda. The unknowns (zbar - z_k, lambda) are
+ * found by Newton's method on the bordered system
+ *     [ I - (lambda/2) J H_zz(zbar)   -(1/2) J grad H(zbar) ]
+ *     [ grad H(zbar)^T                 0                    ]
+ * factored with LAPACK. For autonomous models the t and wp rows are solved in closed form
+ * (t advances by lambda, wp is carried bit for bit), leaving a (2n+1)-square system.
+ */
+#ifndef DTH_INTEGRATOR_H
+#define DTH_INTEGRATOR_H
+
+#include <stddef.h>
+#include "dth/model.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** How the initial state (q0, p0, t0) is placed on the trajectory. */
+typedef enum dth_start {
+    /** (q0, t0, p0) is the first midpoint, wp = -H_phys: the first step is exactly h. */
+    DTH_START_MIDPOINT = 0,
+    /** (q0, t0, p0) is the vertex z_0; wp = -H_phys + psi h^2/8 unless given explicitly. */
+    DTH_START_VERTEX = 1
+} dth_start;
+
+/** Options of an integrator. Initialize with dth_options_default(). */
+typedef struct dth_options {
+    double h;                   /**< first step; its sign is the direction of travel */
+    dth_start start;            /**< start mode */
+    int has_wp;                 /**< vertex start: use `wp` exactly as the vertex's wp */
+    double wp;                  /**< explicit wp (has_wp) */
+    int max_iter;               /**< Newton iteration limit per step (default 30) */
+    double K;                   /**< the paper's constant K for regions; <= 0: local estimate */
+    const dth_allocator *alloc; /**< allocation functions, NULL for malloc */
+} dth_options;
+
+/** Fill `o` with defaults: h = 0.01, midpoint start, max_iter = 30, K = 0. */
+DTH_API void dth_options_default(dth_options *o);
+
+/** Which root a step took (filled by the branch logic; see branch.h). */
+typedef enum dth_branch {
+    DTH_BRANCH_NONE = 0,  /**< no step taken */
+    DTH_BRANCH_MINUS = 1, /**< physical backward root */
+    DTH_BRANCH_PLUS = 2,  /**< physical forward root */
+    DTH_BRANCH_GHOST = 3, /**< ghost root (never taken silently) */
+    DTH_BRANCH_EXACT = 4, /**< the exact first step of a midpoint start */
+    DTH_BRANCH_REG = 5    /**< a regularizer's crossing step */
+} dth_branch;
+
+/** Record of one step. */
+typedef struct dth_step_info {
+    double lambda;   /**< time step taken */
+    int iters;       /**< Newton iterations (factorizations) */
+    double residual; /**< |H(zbar)| at the accepted midpoint */
+    dth_branch branch; /**< which root was taken */
+    unsigned flags;  /**< DTH_STEP_* flags */
+} dth_step_info;
+
+/** dth_step_info.flags */
+enum {
+    DTH_STEP_REGULARIZED = 1u, /**< a regularizer changed the vertex or replaced the step */
+    DTH_STEP_CROSSING = 2u     /**< psi changed sign across this step */
+};
+
+/** The integrator: state plus preallocated workspace. Opaque. */
+typedef struct dth_integrator dth_integrator;
+
+/**
+ * Create an integrator for `model` (borrowed: it must outlive the integrator). All working
+ * memory is allocated here; stepping allocates nothing.
+ * @return DTH_OK, DTH_EINVAL (h == 0 or not finite, bad options), DTH_ENOMEM.
+ */
+DTH_API int dth_integrator_new(const dth_model *model, const dth_options *opt,
+                               dth_integrator **out);
+/** Free; NULL is a no-op. */
+DTH_API void dth_integrator_free(dth_integrator *it);
+
+/**
+ * Place the initial state according to the start mode. q0, p0 have n values each.
+ * @return DTH_OK, DTH_EINVAL (non-finite input), DTH_EDOMAIN / DTH_EMODEL from the model.
+ */
+DTH_API int dth_integrator_start(dth_integrator *it, const double *q0, const double *p0, double t0);
+
+/**
+ * Set the vertex z (length 2n+2: q, t, p, wp) exactly, with `lambda` as the incoming step
+ * (its sign sets the direction; its size seeds the predictor). Clears the step history.
+ */
+DTH_API int dth_integrator_set_vertex(dth_integrator *it, const double *z, double lambda);
+
+/**
+ * Take one step from the current vertex. On success the vertex advances; on any failure the
+ * state is exactly as before the call and `info` (may be NULL) says how far Newton got.
+ * @return DTH_OK or a status (positive: recoverable).
+ */
+DTH_API int dth_integrator_step(dth_integrator *it, dth_step_info *info);
+
+/** Reverse the direction of travel in place: the next step retraces the last one backward. */
+DTH_API void dth_integrator_reverse(dth_integrator *it);
+
+/** The current vertex z_k (length 2n+2). */
+DTH_API const double *dth_integrator_vertex(const dth_integrator *it);
+/** The midpoint of the last step (length 2n+2), or NULL before the first step. */
+DTH_API const double *dth_integrator_midpoint(const dth_integrator *it);
+/** The incoming (last) step lambda, 0 before the first step of a vertex start. */
+DTH_API double dth_integrator_lambda(const dth_integrator *it);
+/** Steps taken since start / set_vertex. */
+DTH_API long dth_integrator_steps(const dth_integrator *it);
+/** Dimension of the extended state, 2n+2. */
+DTH_API size_t dth_integrator_dim(const dth_integrator *it);
+/** The model. */
+DTH_API const dth_model *dth_integrator_model(const dth_integrator *it);
+/** Detail of the last failure (a fixed string if none). */
+DTH_API const char *dth_integrator_errmsg(const dth_integrator *it);
+
+/**
+ * Tangent map of the last step, M = d z_{k+1} / d z_k ((2n+2)^2, row-major), by implicit
+ * differentiation of the bordered system with the step's LU factors.
+ * @return DTH_OK, DTH_EINVAL before any step.
+ */
+DTH_API int dth_integrator_tangent(dth_integrator *it, double *M);
+
+/** Region of a vertex in the paper's sense (section 5). */
+typedef enum dth_region {
+    DTH_REGION_NONE = 0, /**< psi = 0 and dpsi = 0 (an equilibrium) */
+    DTH_REGION_I = 1,    /**< psi != 0, dpsi^2 <= 24 K |psi| */
+    DTH_REGION_II = 2,   /**< psi != 0, dpsi^2 > 24 K |psi| */
+    DTH_REGION_III = 3   /**< psi = 0, dpsi != 0 */
+} dth_region;
+
+/** Per-vertex diagnostics. */
+typedef struct dth_diag {
+    double H;    /**< extended Hamiltonian at the vertex, H(z_k) */
+    double psi;  /**< psi(z_k) */
+    double dpsi; /**< psi'(z_k) = [psi, H] */
+    double K;    /**< the K used for the region */
+    dth_region region;
+} dth_diag;
+
+/**
+ * Diagnose a vertex z (length 2n+2). K: if `K` > 0 it is used; else the model's bound if any;
+ * else a local estimate from a known root `lambda_root` of the step constraint at z (for
+ * example the incoming step negated, or the outgoing step):
+ *     K ~ |H_k - psi lambda^2/8 - psi' lambda^3/24| / lambda^4   (Lemma g_taylor, inverted).
+ * If none is available (lambda_root == 0), K = 0 (psi != 0 then reads as region II).
+ * `work` must hold dth_model_work_size(model) doubles.
+ */
+DTH_API int dth_diagnose(const dth_model *model, const double *z, double lambda_root, double K,
+                         dth_diag *d, double *work);
+
+/** Region from psi, dpsi and K. */
+DTH_API dth_region dth_region_of(double psi, double dpsi, double K);
+
+/** Name of a region ("I", "II", "III", "-"). */
+DTH_API const char *dth_region_name(dth_region r);
+/** Name of a branch ("minus", "plus", "ghost", "exact", "reg", "-"). */
+DTH_API const char *dth_branch_name(dth_branch b);
+
+/**
+ * Dense output on the piecewise-linear trajectory: the point of the segment za -> zb (length
+ * dim) whose time coordinate (index n) is t. t outside the segment extrapolates linearly.
+ */
+DTH_API void dth_interpolate(size_t n, const double *za, const double *zb, double t, double *z);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

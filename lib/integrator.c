@@ -1,0 +1,556 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The DTH step (paper, Theorem "DTH Equations"): Newton's method on the bordered system for
+ * (zbar - z_k, lambda), start modes, compensated vertex updates, per-vertex diagnostics
+ * (regions of section 5) and the tangent map of a step.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+#include "dth_internal.h"
+#include "integrator_impl.h"
+
+void dth_options_default(dth_options *o)
+{
+    memset(o, 0, sizeof *o);
+    o->h = 0.01;
+    o->start = DTH_START_MIDPOINT;
+    o->max_iter = 30;
+}
+
+const char *dth_region_name(dth_region r)
+{
+    switch (r) {
+    case DTH_REGION_I: return "I";
+    case DTH_REGION_II: return "II";
+    case DTH_REGION_III: return "III";
+    default: return "-";
+    }
+}
+
+const char *dth_branch_name(dth_branch b)
+{
+    switch (b) {
+    case DTH_BRANCH_MINUS: return "minus";
+    case DTH_BRANCH_PLUS: return "plus";
+    case DTH_BRANCH_GHOST: return "ghost";
+    case DTH_BRANCH_EXACT: return "exact";
+    case DTH_BRANCH_REG: return "reg";
+    default: return "-";
+    }
+}
+
+dth_region dth_region_of(double psi, double dpsi, double K)
+{
+    if (psi == 0) return dpsi != 0 ? DTH_REGION_III : DTH_REGION_NONE;
+    return dpsi * dpsi <= 24 * K * fabs(psi) ? DTH_REGION_I : DTH_REGION_II;
+}
+
+static void seterr(dth_integrator *it, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void seterr(dth_integrator *it, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(it->errmsg, sizeof it->errmsg, fmt, ap);
+    va_end(ap);
+}
+
+int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integrator **out)
+{
+    if (!out) return DTH_EINVAL;
+    *out = NULL;
+    if (!model || !opt || !isfinite(opt->h) || opt->h == 0 || opt->max_iter < 1 ||
+        !isfinite(opt->K) || (opt->has_wp && !isfinite(opt->wp)) ||
+        (opt->start != DTH_START_MIDPOINT && opt->start != DTH_START_VERTEX))
+        return DTH_EINVAL;
+    const dth_allocator *al = opt->alloc;
+    dth_integrator *it = dth_calloc(al, 1, sizeof *it);
+    if (!it) return DTH_ENOMEM;
+    it->model = model;
+    it->opt = *opt;
+    it->alloc = al;
+    it->n = dth_model_dof(model);
+    it->N = 2 * it->n + 2;
+    it->d = 2 * it->n + 1;
+    it->auton = dth_model_get_info(model)->autonomous;
+    it->m = (int)(it->auton ? 2 * it->n + 1 : 2 * it->n + 3);
+    size_t N = it->N, d = it->d, m = (size_t)it->m;
+    size_t nd = 0;
+    /* one block of doubles, carved below */
+    size_t sizes[] = {N, N, N, N, N, N, N, d, d * d, d, d, m * m, m * m, m, m, m, m,
+                      dth_model_work_size(model), N * N};
+    for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) nd += sizes[i];
+    it->block = dth_calloc(al, nd, sizeof(double));
+    it->ipiv = dth_calloc(al, 2 * m + m, sizeof(int));
+    if (!it->block || !it->ipiv) {
+        dth_integrator_free(it);
+        return DTH_ENOMEM;
+    }
+    double *p = it->block;
+    double **slots[] = {&it->z, &it->zlo, &it->zbar, &it->dprev, &it->znew, &it->znewlo,
+                        &it->zb, &it->grad, &it->hess, &it->u, &it->ybar, &it->A, &it->Af,
+                        &it->F, &it->x, &it->x0, &it->dx, &it->work, &it->B};
+    for (size_t i = 0; i < sizeof slots / sizeof slots[0]; i++) {
+        *slots[i] = p;
+        p += sizes[i];
+    }
+    it->piv = it->ipiv;
+    it->pivf = it->ipiv + m;
+    it->act = it->ipiv + 2 * m;
+    /* unknowns: the z-components that Newton solves for, then lambda */
+    int a = 0;
+    for (size_t j = 0; j < N; j++) {
+        if (it->auton && (j == it->n || j == N - 1)) continue; /* t and wp in closed form */
+        it->act[a++] = (int)j;
+    }
+    it->dir = opt->h > 0 ? 1.0 : -1.0;
+    it->lam_hint = opt->h;
+    snprintf(it->errmsg, sizeof it->errmsg, "no error");
+    *out = it;
+    return DTH_OK;
+}
+
+void dth_integrator_free(dth_integrator *it)
+{
+    if (!it) return;
+    dth_free(it->alloc, it->block);
+    dth_free(it->alloc, it->ipiv);
+    dth_free(it->alloc, it);
+}
+
+const double *dth_integrator_vertex(const dth_integrator *it) { return it->z; }
+const double *dth_integrator_midpoint(const dth_integrator *it) { return it->have_mid ? it->zbar : NULL; }
+double dth_integrator_lambda(const dth_integrator *it) { return it->lam; }
+long dth_integrator_steps(const dth_integrator *it) { return it->steps; }
+size_t dth_integrator_dim(const dth_integrator *it) { return it->N; }
+const dth_model *dth_integrator_model(const dth_integrator *it) { return it->model; }
+const char *dth_integrator_errmsg(const dth_integrator *it) { return it->errmsg; }
+
+/* Error-free sum: s + e == a + b exactly (Knuth's TwoSum). */
+static inline double two_sum(double a, double b, double *e)
+{
+    double s = a + b, bb = s - a;
+    *e = (a - (s - bb)) + (b - bb);
+    return s;
+}
+
+/* u = J grad H over z = (q, t, p, wp) from the gradient of H_phys over y. */
+static void flow_z(size_t n, const double *grad, double *u)
+{
+    dth__flow_y(n, grad, u);
+    u[2 * n + 1] = -grad[n];
+}
+
+static void reset_history(dth_integrator *it)
+{
+    it->have_prev = 0;
+    it->have_mid = 0;
+    it->fact_valid = 0;
+    it->pending_exact = 0;
+    it->steps = 0;
+}
+
+int dth_integrator_start(dth_integrator *it, const double *q0, const double *p0, double t0)
+{
+    if (!it || !q0 || !p0 || !isfinite(t0)) return DTH_EINVAL;
+    size_t n = it->n, N = it->N;
+    for (size_t i = 0; i < n; i++)
+        if (!isfinite(q0[i]) || !isfinite(p0[i])) {
+            seterr(it, "initial value %zu is not finite", i);
+            return DTH_EINVAL;
+        }
+    double *y = it->ybar, H;
+    memcpy(y, q0, n * sizeof *y);
+    y[n] = t0;
+    memcpy(y + n + 1, p0, n * sizeof *y);
+    double h = it->opt.h;
+    if (it->opt.start == DTH_START_MIDPOINT) {
+        int rc = dth_model_eval(it->model, y, DTH_EVAL_H | DTH_EVAL_GRAD, &H, it->grad, NULL);
+        if (rc) {
+            seterr(it, "model evaluation failed at the initial state");
+            return rc;
+        }
+        reset_history(it);
+        memcpy(it->zbar, y, (N - 1) * sizeof *y);
+        it->zbar[N - 1] = -H;
+        flow_z(n, it->grad, it->u);
+        /* z_0 = zbar_0 - (h/2) u, kept in double-double so the first step returns to zbar_0 */
+        for (size_t j = 0; j < N; j++) {
+            it->dprev[j] = 0.5 * h * it->u[j];
+            it->z[j] = two_sum(it->zbar[j], -it->dprev[j], &it->zlo[j]);
+        }
+        it->lam = 0;
+        it->lam_hint = h;
+        it->dir = h > 0 ? 1.0 : -1.0;
+        it->pending_exact = 1;
+        return DTH_OK;
+    }
+    double wp;
+    if (it->opt.has_wp) {
+        wp = it->opt.wp;
+    } else {
+        double psi;
+        int rc = dth_model_eval(it->model, y, DTH_EVAL_H, &H, NULL, NULL);
+        if (!rc) rc = dth_model_psi(it->model, y, &psi, NULL, it->work);
+        if (rc) {
+            seterr(it, "model evaluation failed at the initial state");
+            return rc;
+        }
+        wp = -H + psi * h * h / 8;
+    }
+    for (size_t j = 0; j < N - 1; j++) it->z[j] = y[j];
+    it->z[N - 1] = wp;
+    return dth_integrator_set_vertex(it, it->z, h);
+}
+
+int dth_integrator_set_vertex(dth_integrator *it, const double *z, double lambda)
+{
+    if (!it || !z || !isfinite(lambda) || lambda == 0) return DTH_EINVAL;
+    for (size_t j = 0; j < it->N; j++)
+        if (!isfinite(z[j])) return DTH_EINVAL;
+    if (z != it->z) memcpy(it->z, z, it->N * sizeof *z);
+    memset(it->zlo, 0, it->N * sizeof *it->zlo);
+    reset_history(it);
+    it->lam = 0;
+    it->lam_hint = lambda;
+    it->dir = lambda > 0 ? 1.0 : -1.0;
+    return DTH_OK;
+}
+
+void dth_integrator_reverse(dth_integrator *it)
+{
+    /* The backward step from z_k has the midpoint of the last step: d -> -d, lambda -> -lambda. */
+    for (size_t j = 0; j < it->N; j++) it->dprev[j] = -it->dprev[j];
+    it->lam = -it->lam;
+    it->lam_hint = -it->lam_hint;
+    it->dir = -it->dir;
+    it->opt.h = -it->opt.h;
+    if (it->pending_exact) {
+        /* not stepped yet from a midpoint start: reversing means the exact step goes backward */
+        it->pending_exact = 0;
+        it->have_prev = 0;
+        it->lam_hint = -it->opt.h;
+    }
+}
+
+/* zbar = (z + zlo) + d for the unknowns x; passive t, wp in closed form (autonomous). */
+static void midpoint_from_x(const dth_integrator *it, const double *x, double *zb)
+{
+    size_t N = it->N;
+    int m = it->m;
+    double lam = x[m - 1];
+    for (size_t j = 0; j < N; j++) zb[j] = it->z[j] + it->zlo[j];
+    for (int a = 0; a < m - 1; a++) {
+        int j = it->act[a];
+        zb[j] = it->z[j] + (it->zlo[j] + x[a]);
+    }
+    if (it->auton) zb[it->n] = it->z[it->n] + (it->zlo[it->n] + 0.5 * lam);
+}
+
+/*
+ * Residual F and Jacobian A (column-major) at the unknowns x, given grad and hess of H_phys
+ * at the midpoint zb. F_a = d_j - (lambda/2) u_j(zbar); F_last = H(zbar).
+ */
+static void assemble(const dth_integrator *it, const double *x, const double *zb, double Hphys,
+                     double *F, double *A)
+{
+    size_t n = it->n, d = it->d, N = it->N;
+    int m = it->m;
+    const double *g = it->grad, *Hy = it->hess;
+    double lam = x[m - 1];
+    double *u = it->u;
+    flow_z(n, g, u);
+    for (int a = 0; a < m - 1; a++) {
+        int j = it->act[a];
+        F[a] = x[a] - 0.5 * lam * u[j];
+        for (int b = 0; b < m - 1; b++) {
+            int l = it->act[b];
+            double dudz = 0; /* d u_j / d z_l: rows of J H_zz; the wp column is zero */
+            if (l < (int)d) {
+                if (j < (int)n) dudz = Hy[(n + 1 + (size_t)j) * d + (size_t)l];
+                else if (j >= (int)n + 1 && j < (int)d) dudz = -Hy[((size_t)j - n - 1) * d + (size_t)l];
+                else if (j == (int)N - 1) dudz = -Hy[n * d + (size_t)l];
+            }
+            A[a + b * m] = (a == b ? 1.0 : 0.0) - 0.5 * lam * dudz;
+        }
+        A[a + (m - 1) * m] = -0.5 * u[j];
+        A[(m - 1) + a * m] = (j == (int)N - 1) ? 1.0 : g[j];
+    }
+    A[(m - 1) + (m - 1) * m] = 0.0;
+    F[m - 1] = zb[N - 1] + Hphys;
+}
+
+/* Scale of the terms of H at the midpoint, for round-off judgements. */
+static double h_scale(const dth_integrator *it, const double *zb, double Hphys)
+{
+    double s = fabs(zb[it->N - 1]) + fabs(Hphys);
+    for (size_t j = 0; j < it->d; j++) s += fabs(it->grad[j] * zb[j]);
+    return s;
+}
+
+/* The cubic model of the constraint (Lemma g_taylor): root of H - psi l^2/8 - dpsi l^3/24 near
+ * `target`, on its side of 0; `target` itself if the cubic has none there. */
+static double cubic_predict(double Hk, double psi, double dpsi, double target)
+{
+    double l = target;
+    if (psi != 0 && Hk / psi > 0) l = copysign(sqrt(8 * Hk / psi), target);
+    for (int i = 0; i < 20; i++) {
+        double c = Hk - psi * l * l / 8 - dpsi * l * l * l / 24;
+        double dc = -psi * l / 4 - dpsi * l * l / 8;
+        if (dc == 0) break;
+        double ln = l - c / dc;
+        if (!isfinite(ln) || ln * target <= 0) return target;
+        if (fabs(ln - l) <= 1e-15 * fabs(l)) {
+            l = ln;
+            break;
+        }
+        l = ln;
+    }
+    return (l * target > 0 && fabs(l) < 16 * fabs(target) && fabs(l) > fabs(target) / 16) ? l : target;
+}
+
+int dth__newton(dth_integrator *it, double lam0, const double *d0, dth__solution *sol)
+{
+    size_t N = it->N;
+    int m = it->m, rc = DTH_OK;
+    double *x = it->x, *F = it->F, *A = it->A, *zb = it->zb, Hphys = 0;
+    for (int a = 0; a < m - 1; a++) x[a] = d0[it->act[a]];
+    x[m - 1] = lam0;
+    double r_prev = INFINITY;
+    sol->iters = 0;
+    sol->residual = NAN;
+    for (int iter = 1; iter <= it->opt.max_iter; iter++) {
+        midpoint_from_x(it, x, zb);
+        rc = dth_model_eval(it->model, zb, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &Hphys,
+                            it->grad, it->hess);
+        if (rc) {
+            seterr(it, "model evaluation failed at a trial midpoint (iteration %d): %s", iter, dth_strerror(rc));
+            return rc;
+        }
+        assemble(it, x, zb, Hphys, F, A);
+        rc = dth__lu_factor(m, A, it->piv);
+        if (rc) {
+            seterr(it, "bordered Jacobian is singular at iteration %d (lambda = %.17g)", iter, x[m - 1]);
+            return rc;
+        }
+        memcpy(it->dx, F, (size_t)m * sizeof *F);
+        rc = dth__lu_solve(m, A, it->piv, 1, it->dx);
+        if (rc) return rc;
+        double r = 0;
+        for (int a = 0; a < m; a++) {
+            x[a] -= it->dx[a];
+            double sc = a == m - 1 ? fabs(x[a]) : fabs(it->z[it->act[a]]) + fabs(zb[it->act[a]]) + fabs(x[a]);
+            double ra = fabs(it->dx[a]) / (sc > 0 ? sc : 1e-300);
+            if (!(ra <= r)) r = ra; /* NaN propagates */
+        }
+        sol->iters = iter;
+        if (!isfinite(r) || !isfinite(x[m - 1])) {
+            seterr(it, "Newton diverged at iteration %d", iter);
+            return DTH_ENOCONV;
+        }
+        if (r <= 4 * DBL_EPSILON) break;
+        /* Quadratic rate r_(k+1) ~ r_k^3 / r_(k-1)^2: stop when the next correction is below
+         * round-off, rather than paying one more factorization to see it. */
+        if (iter >= 2 && r < 1e-6 && r * (r / r_prev) * (r / r_prev) <= DBL_EPSILON) break;
+        if (r >= 0.5 * r_prev) {
+            /* The correction stopped decreasing: accept only if the residual is at round-off. */
+            double fs = 0;
+            for (int a = 0; a < m - 1; a++) {
+                int j = it->act[a];
+                fs = fmax(fs, fabs(F[a]) / (fabs(it->z[j]) + fabs(zb[j]) + 1e-300));
+            }
+            double hs = h_scale(it, zb, Hphys);
+            if (fs <= 1e3 * DBL_EPSILON && fabs(F[m - 1]) <= 1e3 * DBL_EPSILON * hs) break;
+            if (iter >= 8) {
+                seterr(it, "Newton stalled at relative correction %.3g (residual %.3g)", r, fabs(F[m - 1]));
+                return DTH_ENOCONV;
+            }
+        }
+        r_prev = r;
+        if (iter == it->opt.max_iter) {
+            seterr(it, "Newton did not converge in %d iterations (last correction %.3g)", iter, r);
+            return DTH_ENOCONV;
+        }
+    }
+    /* the accepted midpoint and its energy residual */
+    midpoint_from_x(it, x, zb);
+    rc = dth_model_eval(it->model, zb, DTH_EVAL_H, &Hphys, NULL, NULL);
+    if (rc) {
+        seterr(it, "model evaluation failed at the converged midpoint");
+        return rc;
+    }
+    sol->residual = fabs(zb[N - 1] + Hphys);
+    sol->lambda = x[m - 1];
+    return DTH_OK;
+}
+
+/* Commit the solution in it->x / it->zb: new vertex z + 2 d in double-double. */
+static void commit(dth_integrator *it, double lam)
+{
+    size_t N = it->N;
+    int m = it->m;
+    double *d = it->znew; /* reuse as the full offset vector */
+    for (size_t j = 0; j < N; j++) d[j] = 0;
+    for (int a = 0; a < m - 1; a++) d[it->act[a]] = it->x[a];
+    if (it->auton) d[it->n] = 0.5 * lam;
+    for (size_t j = 0; j < N; j++) {
+        double e, s = two_sum(it->z[j], 2 * d[j] + it->zlo[j], &e);
+        if (it->auton && j == N - 1) continue; /* wp carried bit for bit */
+        it->z[j] = s;
+        it->zlo[j] = e;
+        it->dprev[j] = d[j];
+    }
+    it->dprev[N - 1] = d[N - 1];
+    memcpy(it->zbar, it->zb, N * sizeof *it->zb);
+    /* keep the factors of this step for the tangent map */
+    double *t = it->Af;
+    it->Af = it->A;
+    it->A = t;
+    int *tp = it->pivf;
+    it->pivf = it->piv;
+    it->piv = tp;
+    it->fact_valid = 1;
+    it->lam_fact = lam;
+    it->lam = lam;
+    it->have_prev = 1;
+    it->have_mid = 1;
+    it->steps++;
+}
+
+int dth_integrator_step(dth_integrator *it, dth_step_info *info)
+{
+    dth_step_info tmp;
+    if (!info) info = &tmp;
+    memset(info, 0, sizeof *info);
+    if (!it) return DTH_EINVAL;
+    size_t N = it->N;
+    int m = it->m;
+    if (it->pending_exact) {
+        /* Midpoint start: zbar_0 and lambda = h solve the step equations exactly. */
+        double lam = it->lam_hint, Hphys;
+        for (int a = 0; a < m - 1; a++) it->x[a] = it->dprev[it->act[a]];
+        it->x[m - 1] = lam;
+        memcpy(it->zb, it->zbar, N * sizeof *it->zb);
+        int rc = dth_model_eval(it->model, it->zb, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS,
+                                &Hphys, it->grad, it->hess);
+        if (!rc) {
+            assemble(it, it->x, it->zb, Hphys, it->F, it->A);
+            rc = dth__lu_factor(m, it->A, it->piv);
+        }
+        if (rc) {
+            seterr(it, "cannot factor the first (exact) step");
+            return rc;
+        }
+        commit(it, lam);
+        it->pending_exact = 0;
+        info->lambda = lam;
+        info->iters = 0;
+        info->residual = fabs(it->zbar[N - 1] + Hphys);
+        info->branch = DTH_BRANCH_EXACT;
+        return DTH_OK;
+    }
+    double lam0;
+    const double *d0;
+    if (it->have_prev) {
+        /* reflection predictor: the next midpoint offset mirrors the last one */
+        lam0 = it->lam;
+        d0 = it->dprev;
+    } else {
+        double Hphys, psi, dpsi;
+        int rc = dth_model_eval(it->model, it->z, DTH_EVAL_H | DTH_EVAL_GRAD, &Hphys, it->grad, NULL);
+        if (!rc) rc = dth_model_psi(it->model, it->z, &psi, &dpsi, it->work);
+        if (rc) {
+            seterr(it, "model evaluation failed at the vertex");
+            return rc;
+        }
+        lam0 = cubic_predict(it->z[N - 1] + Hphys, psi, dpsi, it->lam_hint);
+        flow_z(it->n, it->grad, it->u);
+        for (size_t j = 0; j < N; j++) it->znewlo[j] = 0.5 * lam0 * it->u[j];
+        d0 = it->znewlo;
+    }
+    dth__solution sol;
+    int rc = dth__newton(it, lam0, d0, &sol);
+    info->iters = sol.iters;
+    info->residual = sol.residual;
+    if (rc) return rc;
+    if (!(sol.lambda * it->dir > 0)) {
+        seterr(it, "Newton found lambda = %.17g, against the direction of travel", sol.lambda);
+        info->lambda = sol.lambda;
+        return DTH_ENOROOT;
+    }
+    commit(it, sol.lambda);
+    info->lambda = sol.lambda;
+    info->branch = sol.lambda > 0 ? DTH_BRANCH_PLUS : DTH_BRANCH_MINUS;
+    return DTH_OK;
+}
+
+int dth_integrator_tangent(dth_integrator *it, double *M)
+{
+    if (!it || !M || !it->fact_valid) return DTH_EINVAL;
+    size_t n = it->n, N = it->N, d = it->d;
+    int m = it->m;
+    double Hphys, lam = it->lam_fact;
+    int rc = dth_model_eval(it->model, it->zbar, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS,
+                            &Hphys, it->grad, it->hess);
+    if (rc) return rc;
+    /* B = dF/dz_k (m x N, column-major): rows of -(lambda/2) J H_zz, last row grad H. */
+    double *B = it->B;
+    double *u = it->u;
+    flow_z(n, it->grad, u);
+    for (size_t l = 0; l < N; l++) {
+        for (int a = 0; a < m - 1; a++) {
+            int j = it->act[a];
+            double dudz = 0;
+            if (l < d) {
+                if (j < (int)n) dudz = it->hess[(n + 1 + (size_t)j) * d + l];
+                else if (j >= (int)n + 1 && j < (int)d) dudz = -it->hess[((size_t)j - n - 1) * d + l];
+                else if (j == (int)N - 1) dudz = -it->hess[n * d + l];
+            }
+            B[(size_t)a + l * (size_t)m] = -0.5 * lam * dudz;
+        }
+        B[(size_t)(m - 1) + l * (size_t)m] = l == N - 1 ? 1.0 : it->grad[l];
+    }
+    /* X = -A^{-1} B: derivatives of the unknowns (d, lambda) with respect to z_k. */
+    for (size_t k = 0; k < (size_t)m * N; k++) B[k] = -B[k];
+    rc = dth__lu_solve(m, it->Af, it->pivf, (int)N, B);
+    if (rc) return rc;
+    /* M = I + 2 dd/dz_k; autonomous: d_t = lambda/2, d_wp = 0. */
+    memset(M, 0, N * N * sizeof *M);
+    for (size_t i = 0; i < N; i++) M[i * N + i] = 1.0;
+    for (int a = 0; a < m - 1; a++) {
+        size_t j = (size_t)it->act[a];
+        for (size_t l = 0; l < N; l++) M[j * N + l] += 2 * B[(size_t)a + l * (size_t)m];
+    }
+    if (it->auton)
+        for (size_t l = 0; l < N; l++) M[n * N + l] += B[(size_t)(m - 1) + l * (size_t)m];
+    return DTH_OK;
+}
+
+int dth_diagnose(const dth_model *model, const double *z, double lambda_root, double K,
+                 dth_diag *dg, double *work)
+{
+    if (!model || !z || !dg || !work) return DTH_EINVAL;
+    size_t n = dth_model_dof(model), N = 2 * n + 2;
+    double Hphys;
+    int rc = dth_model_eval(model, z, DTH_EVAL_H, &Hphys, NULL, NULL);
+    if (!rc) rc = dth_model_psi(model, z, &dg->psi, &dg->dpsi, work);
+    if (rc) return rc;
+    dg->H = z[N - 1] + Hphys;
+    if (!(K > 0)) K = dth_model_get_info(model)->K;
+    if (!(K > 0) && lambda_root != 0 && isfinite(lambda_root)) {
+        double l = lambda_root, l2 = l * l;
+        K = fabs(dg->H - dg->psi * l2 / 8 - dg->dpsi * l2 * l / 24) / (l2 * l2);
+    }
+    dg->K = K > 0 ? K : 0;
+    dg->region = dth_region_of(dg->psi, dg->dpsi, dg->K);
+    return DTH_OK;
+}
+
+void dth_interpolate(size_t n, const double *za, const double *zb, double t, double *z)
+{
+    size_t N = 2 * n + 2;
+    double ta = za[n], tb = zb[n];
+    double s = tb != ta ? (t - ta) / (tb - ta) : 0.0;
+    for (size_t j = 0; j < N; j++) z[j] = za[j] + s * (zb[j] - za[j]);
+    z[n] = t;
+}

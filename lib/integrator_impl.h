@@ -1,0 +1,49 @@
+/* SPDX-License-Identifier: MIT */
+/* The integrator's private state, shared by integrator.c and the branch/regularization code. */
+#ifndef DTH_INTEGRATOR_IMPL_H
+#define DTH_INTEGRATOR_IMPL_H
+
+#include <stdarg.h>
+#include "dth/integrator.h"
+
+struct dth_integrator {
+    const dth_model *model;
+    const dth_allocator *alloc;
+    dth_options opt;
+    size_t n, N, d;   /* dof, extended dim 2n+2, physical dim 2n+1 */
+    int auton;        /* autonomous model: t and wp rows in closed form */
+    int m;            /* Newton unknowns: active components of d, then lambda */
+    int *act;         /* z-index of each active unknown (m-1 of them) */
+    /* state: vertex in double-double, last step */
+    double *z, *zlo;  /* vertex z_k = z + zlo */
+    double *zbar;     /* midpoint of the last step */
+    double *dprev;    /* offset zbar - z_{k-1} of the last step (predictor) */
+    double lam;       /* last step (0 if none) */
+    double lam_hint;  /* step size to aim for when there is no history */
+    double dir;       /* +1 forward, -1 backward */
+    int have_prev, have_mid, pending_exact;
+    long steps;
+    /* workspace */
+    double *znew, *znewlo, *zb, *grad, *hess, *u, *ybar, *A, *Af, *F, *x, *x0, *dx, *work, *B;
+    int *ipiv, *piv, *pivf;
+    int fact_valid;   /* Af/pivf hold the factors of the last step's Jacobian */
+    double lam_fact;
+    double *block;
+    char errmsg[192];
+};
+
+/** Outcome of a Newton solve. */
+typedef struct dth__solution {
+    double lambda;
+    double residual;
+    int iters;
+} dth__solution;
+
+/**
+ * Newton on the bordered system from the current vertex, seeded with lambda0 and the offset
+ * d0 (length 2n+2). On success it->x holds (d, lambda) and it->zb the midpoint; the factors of
+ * the last iteration are in it->A / it->piv. Does not change the vertex.
+ */
+int dth__newton(dth_integrator *it, double lam0, const double *d0, dth__solution *sol);
+
+#endif

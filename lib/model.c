@@ -1,0 +1,354 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Model instances, psi and psi' (paper, Lemmas g_lambda and g_taylor), a finite-difference
+ * model checker, and parameter-parsing helpers for model writers.
+ */
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include "dth_internal.h"
+
+struct dth_model {
+    const dth_model_type *type;
+    void *self;
+    dth_model_info info;
+    const dth_allocator *alloc;
+};
+
+static void set_err(char *err, size_t len, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static void set_err(char *err, size_t len, const char *fmt, ...)
+{
+    if (!err || !len) return;
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(err, len, fmt, ap);
+    va_end(ap);
+}
+
+static int spec_accepts(const dth_model_type *t, const char *key)
+{
+    for (size_t i = 0; i < t->n_params; i++) {
+        const char *k = t->params[i].key;
+        size_t len = strlen(k);
+        if (len && k[len - 1] == '*') {
+            if (strncmp(k, key, len - 1) == 0) return 1;
+        } else if (strcmp(k, key) == 0) {
+            return 1;
+        }
+    }
+    return 0;
+}
+
+int dth__model_accepts_key(const dth_model_type *t, const char *key) { return spec_accepts(t, key); }
+
+int dth_model_new(const dth_model_type *type, const dth_kv *kv, size_t nkv, size_t n_hint,
+                  const dth_allocator *alloc, dth_model **out, char *err, size_t errlen)
+{
+    if (out) *out = NULL;
+    if (!type || !out || (nkv && !kv) || !type->create || !type->eval) {
+        set_err(err, errlen, "invalid arguments to dth_model_new");
+        return DTH_EINVAL;
+    }
+    for (size_t i = 0; i < nkv; i++) {
+        if (!kv[i].key || !kv[i].value) {
+            set_err(err, errlen, "parameter %zu has no key or value", i);
+            return DTH_EINVAL;
+        }
+        if (!spec_accepts(type, kv[i].key)) {
+            set_err(err, errlen, "model '%s' has no parameter '%s'", type->name, kv[i].key);
+            return DTH_EINVAL;
+        }
+    }
+    dth_model *m = dth_calloc(alloc, 1, sizeof *m);
+    if (!m) {
+        set_err(err, errlen, "out of memory");
+        return DTH_ENOMEM;
+    }
+    m->type = type;
+    m->alloc = alloc;
+    dth_model_args args = {kv, nkv, n_hint, alloc, err, errlen};
+    if (err && errlen) err[0] = '\0';
+    int rc = type->create(&args, &m->self, &m->info);
+    if (rc == DTH_OK && m->info.n == 0) {
+        set_err(err, errlen, "model '%s' reported zero degrees of freedom", type->name);
+        rc = DTH_EINVAL;
+    }
+    if (rc != DTH_OK) {
+        if (m->self && type->destroy) type->destroy(m->self, alloc);
+        dth_free(alloc, m);
+        if (err && errlen && !err[0]) set_err(err, errlen, "model '%s': %s", type->name, dth_strerror(rc));
+        return rc < 0 ? rc : DTH_EINVAL;
+    }
+    *out = m;
+    return DTH_OK;
+}
+
+void dth_model_free(dth_model *m)
+{
+    if (!m) return;
+    if (m->type->destroy) m->type->destroy(m->self, m->alloc);
+    dth_free(m->alloc, m);
+}
+
+const dth_model_info *dth_model_get_info(const dth_model *m) { return m ? &m->info : NULL; }
+const dth_model_type *dth_model_get_type(const dth_model *m) { return m ? m->type : NULL; }
+size_t dth_model_dof(const dth_model *m) { return m ? m->info.n : 0; }
+const void *dth__model_self(const dth_model *m) { return m->self; }
+
+static int all_finite(const double *v, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        if (!isfinite(v[i])) return 0;
+    return 1;
+}
+
+int dth_model_eval(const dth_model *m, const double *y, unsigned what, double *H, double *grad,
+                   double *hess)
+{
+    size_t d = 2 * m->info.n + 1;
+    int rc = m->type->eval(m->self, y, what, H, grad, hess);
+    if (rc > 0) return DTH_EDOMAIN;
+    if (rc < 0) return DTH_EMODEL;
+    if ((what & DTH_EVAL_H) && !isfinite(*H)) return DTH_EDOMAIN;
+    if ((what & DTH_EVAL_GRAD) && !all_finite(grad, d)) return DTH_EDOMAIN;
+    if ((what & DTH_EVAL_HESS) && !all_finite(hess, d * d)) return DTH_EDOMAIN;
+    return DTH_OK;
+}
+
+size_t dth_model_work_size(const dth_model *m)
+{
+    size_t d = 2 * m->info.n + 1;
+    return d * d + 4 * d;
+}
+
+/* u = J grad H restricted to y = (q, t, p): (dH/dp, 1, -dH/dq). */
+void dth__flow_y(size_t n, const double *grad, double *u)
+{
+    for (size_t i = 0; i < n; i++) {
+        u[i] = grad[n + 1 + i];
+        u[n + 1 + i] = -grad[i];
+    }
+    u[n] = 1.0;
+}
+
+/* v^T A v for a dense symmetric row-major A. */
+static double quad_form(size_t d, const double *A, const double *v)
+{
+    double s = 0;
+    for (size_t i = 0; i < d; i++) {
+        double r = 0;
+        for (size_t j = 0; j < d; j++) r += A[i * d + j] * v[j];
+        s += v[i] * r;
+    }
+    return s;
+}
+
+int dth_model_psi(const dth_model *m, const double *y, double *psi, double *dpsi, double *work)
+{
+    size_t n = m->info.n, d = 2 * n + 1;
+    double *hess = work, *grad = work + d * d, *u = grad + d, *ys = u + d;
+    double H;
+    int rc = dth_model_eval(m, y, DTH_EVAL_GRAD | DTH_EVAL_HESS, &H, grad, hess);
+    if (rc) return rc;
+    dth__flow_y(n, grad, u);
+    if (psi) *psi = quad_form(d, hess, u);
+    if (!dpsi) return DTH_OK;
+    /* psi' = [psi, H] = D^3 H[u, u, u]: the term 2 (H_zz u)^T J (H_zz u) vanishes (J skew). */
+    if (m->type->third) {
+        double d3;
+        int r3 = m->type->third(m->self, y, u, &d3);
+        if (r3 > 0) return DTH_EDOMAIN;
+        if (r3 < 0) return DTH_EMODEL;
+        if (!isfinite(d3)) return DTH_EDOMAIN;
+        *dpsi = d3;
+        return DTH_OK;
+    }
+    /* Central difference of u^T H_yy(y + e u) u in e with u fixed: error O(e^2) + eps/e. */
+    double ynorm = 0, unorm = 0;
+    for (size_t i = 0; i < d; i++) {
+        ynorm = fmax(ynorm, fabs(y[i]));
+        unorm = fmax(unorm, fabs(u[i]));
+    }
+    double e = cbrt(DBL_EPSILON) * fmax(ynorm, 1.0) / unorm;
+    double f[2];
+    for (int s = 0; s < 2; s++) {
+        double sg = s ? -1.0 : 1.0;
+        for (size_t i = 0; i < d; i++) ys[i] = y[i] + sg * e * u[i];
+        rc = dth_model_eval(m, ys, DTH_EVAL_HESS, NULL, NULL, hess);
+        if (rc) return rc;
+        f[s] = quad_form(d, hess, u);
+    }
+    *dpsi = (f[0] - f[1]) / (2 * e);
+    return DTH_OK;
+}
+
+/* ---------------------------------------------------------------- model checker */
+
+int dth_model_check(const dth_model *m, const double *y, dth_model_check_report *rep)
+{
+    if (!m || !y || !rep) return DTH_EINVAL;
+    memset(rep, 0, sizeof *rep);
+    size_t n = m->info.n, d = 2 * n + 1;
+    double *buf = malloc(sizeof(double) * (3 * d * d + 6 * d));
+    if (!buf) return DTH_ENOMEM;
+    double *hess = buf, *hp = hess + d * d, *hm = hp + d * d;
+    double *grad = hm + d * d, *gp = grad + d, *gm = gp + d, *yy = gm + d, *u = yy + d;
+    double H, Hp, Hm;
+    int rc = dth_model_eval(m, y, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &H, grad, hess);
+    double gscale = 0, hscale = 0;
+    for (size_t i = 0; !rc && i < d; i++) gscale = fmax(gscale, fabs(grad[i]));
+    for (size_t i = 0; !rc && i < d * d; i++) hscale = fmax(hscale, fabs(hess[i]));
+    gscale = fmax(gscale, 1e-300);
+    hscale = fmax(hscale, 1e-300);
+    for (size_t j = 0; !rc && j < d; j++) {
+        double e = cbrt(DBL_EPSILON) * fmax(fabs(y[j]), 1.0);
+        memcpy(yy, y, d * sizeof *yy);
+        yy[j] = y[j] + e;
+        rc = dth_model_eval(m, yy, DTH_EVAL_H | DTH_EVAL_GRAD, &Hp, gp, NULL);
+        if (rc) break;
+        yy[j] = y[j] - e;
+        rc = dth_model_eval(m, yy, DTH_EVAL_H | DTH_EVAL_GRAD, &Hm, gm, NULL);
+        if (rc) break;
+        double ge = fabs((Hp - Hm) / (2 * e) - grad[j]) / fmax(gscale, fabs(H) + 1e-300);
+        if (ge > rep->grad_err) {
+            rep->grad_err = ge;
+            rep->grad_idx = j;
+        }
+        for (size_t i = 0; i < d; i++) {
+            double he = fabs((gp[i] - gm[i]) / (2 * e) - hess[i * d + j]) / fmax(hscale, gscale);
+            if (he > rep->hess_err) {
+                rep->hess_err = he;
+                rep->hess_i = i;
+                rep->hess_j = j;
+            }
+        }
+    }
+    for (size_t i = 0; !rc && i < d; i++)
+        for (size_t j = 0; j < i; j++)
+            rep->sym_err = fmax(rep->sym_err, fabs(hess[i * d + j] - hess[j * d + i]) / hscale);
+    if (!rc && m->type->third) {
+        /* Compare D^3 H[u,u,u] with a difference of the Hessian form along a fixed direction. */
+        dth__flow_y(n, grad, u);
+        double unorm = 0, ynorm = 0, d3 = 0, f[2];
+        for (size_t i = 0; i < d; i++) {
+            unorm = fmax(unorm, fabs(u[i]));
+            ynorm = fmax(ynorm, fabs(y[i]));
+        }
+        double e = cbrt(DBL_EPSILON) * fmax(ynorm, 1.0) / unorm;
+        for (int s = 0; s < 2 && !rc; s++) {
+            for (size_t i = 0; i < d; i++) yy[i] = y[i] + (s ? -e : e) * u[i];
+            rc = dth_model_eval(m, yy, DTH_EVAL_HESS, NULL, NULL, hp);
+            if (!rc) f[s] = quad_form(d, hp, u);
+        }
+        if (!rc) {
+            int r3 = m->type->third(m->self, y, u, &d3);
+            if (r3) rc = r3 > 0 ? DTH_EDOMAIN : DTH_EMODEL;
+            else {
+                double fd = (f[0] - f[1]) / (2 * e);
+                rep->third_err = fabs(fd - d3) / fmax(fmax(fabs(fd), fabs(d3)), hscale * unorm * unorm * unorm / fmax(ynorm, 1.0));
+            }
+        }
+    }
+    if (!rc && m->info.hess_kind == DTH_HESS_BANDED && m->type->hess_band) {
+        size_t w = m->info.bandwidth, bw = 2 * w + 1, nn = 2 * n;
+        double *band = malloc(sizeof(double) * nn * bw);
+        if (!band) rc = DTH_ENOMEM;
+        else if (m->type->hess_band(m->self, y, band) != 0) rc = DTH_EMODEL;
+        else {
+            /* interleaved index x_(2i) = q_i -> y_i, x_(2i+1) = p_i -> y_(n+1+i) */
+            for (size_t a = 0; a < nn; a++)
+                for (size_t b = 0; b < nn; b++) {
+                    size_t ya = (a % 2) ? n + 1 + a / 2 : a / 2, yb = (b % 2) ? n + 1 + b / 2 : b / 2;
+                    double dense = hess[ya * d + yb];
+                    double bv = 0;
+                    if ((a > b ? a - b : b - a) <= w) bv = band[a * bw + (b + w - a)];
+                    rep->band_err = fmax(rep->band_err, fabs(bv - dense) / hscale);
+                }
+        }
+        free(band);
+    }
+    free(buf);
+    return rc;
+}
+
+/* ---------------------------------------------------------------- parameter helpers */
+
+int dth_parse_double(const char *s, double *out)
+{
+    if (!s) return -1;
+    while (*s == ' ' || *s == '\t') s++;
+    if (!*s) return -1;
+    char *end;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (end == s) return -1;
+    while (*end == ' ' || *end == '\t') end++;
+    if (*end) return -1;
+    if (!isfinite(v)) return -1;
+    if (errno == ERANGE && fabs(v) > 1.0) return -1; /* overflow; underflow to a denormal is fine */
+    *out = v;
+    return 0;
+}
+
+const char *dth_args_get(const dth_model_args *a, const char *key)
+{
+    const char *v = NULL;
+    for (size_t i = 0; a && i < a->nkv; i++)
+        if (strcmp(a->kv[i].key, key) == 0) v = a->kv[i].value; /* last one wins */
+    return v;
+}
+
+int dth_args_error(const dth_model_args *a, const char *fmt, ...)
+{
+    if (a && a->err && a->errlen) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(a->err, a->errlen, fmt, ap);
+        va_end(ap);
+    }
+    return DTH_EINVAL;
+}
+
+int dth_args_double(const dth_model_args *a, const char *key, double def, double *out)
+{
+    const char *v = dth_args_get(a, key);
+    if (!v) {
+        *out = def;
+        return DTH_OK;
+    }
+    if (dth_parse_double(v, out)) return dth_args_error(a, "parameter '%s': '%s' is not a finite number", key, v);
+    return DTH_OK;
+}
+
+int dth_args_list(const dth_model_args *a, const char *key, double *out, size_t max, size_t *count)
+{
+    *count = 0;
+    const char *v = dth_args_get(a, key);
+    if (!v) return DTH_OK;
+    return dth__parse_list(v, out, max, count) ? dth_args_error(a, "parameter '%s': '%s' is not a list of at most %zu finite numbers", key, v, max) : DTH_OK;
+}
+
+int dth__parse_list(const char *v, double *out, size_t max, size_t *count)
+{
+    char tok[128];
+    size_t k = 0;
+    *count = 0;
+    const char *s = v;
+    for (;;) {
+        const char *c = strchr(s, ',');
+        size_t len = c ? (size_t)(c - s) : strlen(s);
+        if (len >= sizeof tok) return -1;
+        memcpy(tok, s, len);
+        tok[len] = '\0';
+        if (k >= max) return -1;
+        if (dth_parse_double(tok, &out[k])) return -1;
+        k++;
+        if (!c) break;
+        s = c + 1;
+    }
+    *count = k;
+    return 0;
+}

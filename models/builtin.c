@@ -1,0 +1,16 @@
+/* SPDX-License-Identifier: MIT */
+/* The list of built-in models: the only place that names them all. */
+#include "dth/models.h"
+
+int dth_registry_add_builtin(dth_registry *r)
+{
+    static const dth_model_type *const builtin[] = {
+        &dth_model_pendulum,
+        &dth_model_harmonic,
+    };
+    for (size_t i = 0; i < sizeof builtin / sizeof builtin[0]; i++) {
+        int rc = dth_registry_add_model(r, builtin[i]);
+        if (rc) return rc;
+    }
+    return DTH_OK;
+}
