@@ -1,0 +1,244 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Model conformance, run on every registered model: derivatives against finite differences
+ * (dth_model_check), Hessian symmetry, psi' against an independent difference of psi along the
+ * flow, exact solutions against the equations of motion, and invariants against the flow.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include "cu_main.h"
+#include "dth/dth.h"
+#include "dth_internal.h"
+
+/* Parameters for models whose defaults alone do not define an instance. */
+static const dth_kv coupled_kv[] = {{"preset", "chain"}, {"size", "4"}, {"dim", "2"}, {"L", "0.5"}};
+
+static int make_model(const dth_model_type *t, dth_model **m)
+{
+    char err[256];
+    if (strcmp(t->name, "coupled") == 0 && dth_model_new(t, coupled_kv, 4, 8, NULL, m, err, sizeof err) == DTH_OK)
+        return 0;
+    for (size_t n = 1; n <= 3; n++)
+        if (dth_model_new(t, NULL, 0, n, NULL, m, err, sizeof err) == DTH_OK) return 0;
+    fprintf(stderr, "cannot create model '%s' for conformance: %s\n", t->name, err);
+    return -1;
+}
+
+/* Deterministic pseudo-random numbers in [-1, 1] (no global state). */
+static double rnd(unsigned long *s)
+{
+    *s = *s * 6364136223846793005UL + 1442695040888963407UL;
+    return ((double)(*s >> 11) / 9007199254740992.0) * 2 - 1;
+}
+
+static void random_point(const dth_model *m, unsigned long *s, double *y)
+{
+    size_t n = dth_model_dof(m), d = 2 * n + 1;
+    for (size_t i = 0; i < d; i++) y[i] = 1.5 * rnd(s);
+    /* spread positions apart so that distance-based models stay away from singularities */
+    for (size_t i = 0; i < n; i++) y[i] += 0.9 * (double)(i + 1);
+    y[n] = 0.3;
+}
+
+static void for_each_model(void (*fn)(const dth_model *m))
+{
+    dth_registry *r;
+    CU_ASSERT_FATAL(dth_registry_new(NULL, &r) == DTH_OK);
+    CU_ASSERT_FATAL(dth_registry_add_builtin(r) == DTH_OK);
+    CU_ASSERT(dth_registry_model_count(r) >= 2);
+    for (size_t i = 0; i < dth_registry_model_count(r); i++) {
+        dth_model *m = NULL;
+        CU_ASSERT(make_model(dth_registry_model_at(r, i), &m) == 0);
+        if (m) fn(m);
+        dth_model_free(m);
+    }
+    dth_registry_free(r);
+}
+
+static void check_derivatives(const dth_model *m)
+{
+    unsigned long s = 12345;
+    size_t d = 2 * dth_model_dof(m) + 1;
+    double *y = calloc(d, sizeof *y);
+    for (int k = 0; k < 20; k++) {
+        random_point(m, &s, y);
+        dth_model_check_report rep;
+        int rc = dth_model_check(m, y, &rep);
+        if (rc == DTH_EDOMAIN) continue;
+        CU_ASSERT_EQUAL(rc, DTH_OK);
+        CU_ASSERT(rep.grad_err < 1e-6);
+        CU_ASSERT(rep.hess_err < 1e-6);
+        CU_ASSERT(rep.sym_err <= 1e-14);
+        CU_ASSERT(rep.third_err < 1e-5);
+        CU_ASSERT(rep.band_err <= 1e-14);
+        if (rep.grad_err >= 1e-6 || rep.hess_err >= 1e-6 || rep.third_err >= 1e-5)
+            fprintf(stderr, "%s: grad %.3g hess %.3g third %.3g\n", dth_model_get_type(m)->name,
+                    rep.grad_err, rep.hess_err, rep.third_err);
+    }
+    free(y);
+}
+
+static void test_derivatives(void) { for_each_model(check_derivatives); }
+
+/* psi' = [psi, H] = grad psi . J grad H, computed by differencing psi along the flow. */
+static void check_dpsi(const dth_model *m)
+{
+    unsigned long s = 777;
+    size_t n = dth_model_dof(m), d = 2 * n + 1;
+    double *y = calloc(d, sizeof *y), *g = calloc(d, sizeof *g), *u = calloc(d, sizeof *u);
+    double *yy = calloc(d, sizeof *yy), *w = calloc(dth_model_work_size(m), sizeof *w);
+    for (int k = 0; k < 10; k++) {
+        random_point(m, &s, y);
+        double H, psi, dpsi, pp, pm;
+        if (dth_model_eval(m, y, DTH_EVAL_GRAD, &H, g, NULL) != DTH_OK) continue;
+        CU_ASSERT_FATAL(dth_model_psi(m, y, &psi, &dpsi, w) == DTH_OK);
+        dth__flow_y(n, g, u);
+        double e = 1e-5;
+        for (size_t i = 0; i < d; i++) yy[i] = y[i] + e * u[i];
+        CU_ASSERT_FATAL(dth_model_psi(m, yy, &pp, NULL, w) == DTH_OK);
+        for (size_t i = 0; i < d; i++) yy[i] = y[i] - e * u[i];
+        CU_ASSERT_FATAL(dth_model_psi(m, yy, &pm, NULL, w) == DTH_OK);
+        double fd = (pp - pm) / (2 * e);
+        CU_ASSERT(fabs(fd - dpsi) <= 1e-6 * (1 + fabs(dpsi) + fabs(psi)));
+    }
+    free(y); free(g); free(u); free(yy); free(w);
+}
+
+static void test_dpsi(void) { for_each_model(check_dpsi); }
+
+/* The exact solution starts at y0, conserves H, composes (group property), and solves
+ * the equations of motion (central difference in t against J grad H). */
+static void check_exact(const dth_model *m)
+{
+    const dth_model_type *t = dth_model_get_type(m);
+    if (!t->exact) return;
+    const void *self = dth__model_self(m);
+    size_t n = dth_model_dof(m), d = 2 * n + 1;
+    double *y0 = calloc(d, sizeof *y0), *y1 = calloc(d, sizeof *y1), *y2 = calloc(d, sizeof *y2);
+    double *yp = calloc(d, sizeof *yp), *ym = calloc(d, sizeof *ym), *g = calloc(d, sizeof *g);
+    unsigned long s = 99;
+    int tried = 0;
+    for (int k = 0; k < 30 && tried < 8; k++) {
+        random_point(m, &s, y0);
+        if (t->exact(self, y0, y0[n] + 0.7, y1) != 0) continue; /* outside the exact solver's scope */
+        tried++;
+        double H0, H1;
+        CU_ASSERT_FATAL(dth_model_eval(m, y0, DTH_EVAL_H, &H0, NULL, NULL) == DTH_OK);
+        CU_ASSERT(t->exact(self, y0, y0[n], y2) == 0);
+        for (size_t i = 0; i < d; i++) CU_ASSERT(fabs(y2[i] - y0[i]) <= 1e-12 * (1 + fabs(y0[i])));
+        CU_ASSERT(dth_model_eval(m, y1, DTH_EVAL_H | DTH_EVAL_GRAD, &H1, g, NULL) == DTH_OK);
+        CU_ASSERT(fabs(H1 - H0) <= 1e-11 * (1 + fabs(H0)));
+        CU_ASSERT(t->exact(self, y1, y0[n] + 1.9, y2) == 0);
+        CU_ASSERT(t->exact(self, y0, y0[n] + 1.9, yp) == 0);
+        for (size_t i = 0; i < d; i++) CU_ASSERT(fabs(y2[i] - yp[i]) <= 1e-9 * (1 + fabs(yp[i])));
+        double e = 1e-5;
+        CU_ASSERT(t->exact(self, y0, y0[n] + 0.7 + e, yp) == 0);
+        CU_ASSERT(t->exact(self, y0, y0[n] + 0.7 - e, ym) == 0);
+        for (size_t i = 0; i < n; i++) {
+            CU_ASSERT(fabs((yp[i] - ym[i]) / (2 * e) - g[n + 1 + i]) <= 1e-6 * (1 + fabs(g[n + 1 + i])));
+            CU_ASSERT(fabs((yp[n + 1 + i] - ym[n + 1 + i]) / (2 * e) + g[i]) <= 1e-6 * (1 + fabs(g[i])));
+        }
+    }
+    CU_ASSERT(tried > 0);
+    free(y0); free(y1); free(y2); free(yp); free(ym); free(g);
+}
+
+static void test_exact(void) { for_each_model(check_exact); }
+
+/* Reported invariants are constant along the exact flow: dI/dt = grad I . J grad H = 0. */
+static void check_invariants(const dth_model *m)
+{
+    const dth_model_type *t = dth_model_get_type(m);
+    if (!t->invariants || !t->n_invariants) return;
+    const void *self = dth__model_self(m);
+    size_t n = dth_model_dof(m), d = 2 * n + 1, ni = t->n_invariants(self);
+    double *y = calloc(d, sizeof *y), *g = calloc(d, sizeof *g), *u = calloc(d, sizeof *u);
+    double *yy = calloc(d, sizeof *yy), *ip = calloc(ni, sizeof *ip), *im = calloc(ni, sizeof *im);
+    unsigned long s = 4242;
+    for (int k = 0; k < 10; k++) {
+        random_point(m, &s, y);
+        double H;
+        if (dth_model_eval(m, y, DTH_EVAL_GRAD, &H, g, NULL) != DTH_OK) continue;
+        dth__flow_y(n, g, u);
+        double e = 1e-6;
+        for (size_t i = 0; i < d; i++) yy[i] = y[i] + e * u[i];
+        CU_ASSERT(t->invariants(self, yy, ip) == 0);
+        for (size_t i = 0; i < d; i++) yy[i] = y[i] - e * u[i];
+        CU_ASSERT(t->invariants(self, yy, im) == 0);
+        for (size_t j = 0; j < ni; j++) {
+            CU_ASSERT_PTR_NOT_NULL(t->invariant_name(self, j));
+            CU_ASSERT(fabs(ip[j] - im[j]) / (2 * e) <= 1e-6 * (1 + fabs(ip[j])));
+        }
+    }
+    free(y); free(g); free(u); free(yy); free(ip); free(im);
+}
+
+static void test_invariants(void) { for_each_model(check_invariants); }
+
+/* Parameter validation names the key. */
+static void test_bad_params(void)
+{
+    dth_model *m = NULL;
+    char err[256];
+    dth_kv bad1[] = {{"omega2", "-1"}};
+    CU_ASSERT_EQUAL(dth_model_new(&dth_model_pendulum, bad1, 1, 1, NULL, &m, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "omega2"));
+    CU_ASSERT_PTR_NULL(m);
+    dth_kv bad2[] = {{"omega2", "1x"}};
+    CU_ASSERT_EQUAL(dth_model_new(&dth_model_pendulum, bad2, 1, 1, NULL, &m, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "omega2"));
+    dth_kv bad3[] = {{"nosuchkey", "1"}};
+    CU_ASSERT_EQUAL(dth_model_new(&dth_model_pendulum, bad3, 1, 1, NULL, &m, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "nosuchkey"));
+    dth_kv bad4[] = {{"mass", "1,2,3"}, {"omega", "1,2"}};
+    CU_ASSERT_EQUAL(dth_model_new(&dth_model_harmonic, bad4, 2, 0, NULL, &m, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "omega"));
+    dth_kv bad5[] = {{"mass", "1,0"}};
+    CU_ASSERT_EQUAL(dth_model_new(&dth_model_harmonic, bad5, 1, 0, NULL, &m, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "mass"));
+    dth_kv bad6[] = {{"omega", "nan"}};
+    CU_ASSERT_EQUAL(dth_model_new(&dth_model_harmonic, bad6, 1, 0, NULL, &m, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT_EQUAL(dth_model_new(&dth_model_pendulum, NULL, 0, 2, NULL, &m, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT_EQUAL(dth_model_new(NULL, NULL, 0, 1, NULL, &m, err, sizeof err), DTH_EINVAL);
+    /* the harmonic oscillator's dimension follows its lists */
+    dth_kv ok[] = {{"omega", "1,2,3"}};
+    CU_ASSERT_EQUAL_FATAL(dth_model_new(&dth_model_harmonic, ok, 1, 0, NULL, &m, err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL(dth_model_dof(m), 3);
+    dth_model_free(m);
+    dth_model_free(NULL);
+}
+
+/* The pendulum's psi is the paper's p^2 cos q + sin^2 q and psi' = -p^3 sin q. */
+static void test_pendulum_psi(void)
+{
+    dth_model *m;
+    CU_ASSERT_FATAL(dth_model_new(&dth_model_pendulum, NULL, 0, 1, NULL, &m, NULL, 0) == DTH_OK);
+    double w[64], psi, dpsi;
+    double y[3] = {2.0, 0.0, 1.3};
+    CU_ASSERT_FATAL(dth_model_psi(m, y, &psi, &dpsi, w) == DTH_OK);
+    double s = sin(2.0), c = cos(2.0);
+    CU_ASSERT_DOUBLE_EQUAL(psi, 1.3 * 1.3 * c + s * s, 1e-15);
+    CU_ASSERT_DOUBLE_EQUAL(dpsi, -1.3 * 1.3 * 1.3 * s, 1e-14);
+    dth_model_free(m);
+}
+
+static CU_TestInfo conformance[] = {
+    {"derivatives match finite differences", test_derivatives},
+    {"psi' matches a difference of psi along the flow", test_dpsi},
+    {"exact solutions solve the equations of motion", test_exact},
+    {"invariants are constant along the flow", test_invariants},
+    CU_TEST_INFO_NULL,
+};
+static CU_TestInfo params[] = {
+    {"bad parameters are rejected naming the key", test_bad_params},
+    {"pendulum psi and psi' match the paper", test_pendulum_psi},
+    CU_TEST_INFO_NULL,
+};
+
+CU_SuiteInfo dth_test_suites[] = {
+    {.pName = "conformance", .pTests = conformance},
+    {.pName = "params", .pTests = params},
+    CU_SUITE_INFO_NULL,
+};
