@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Install what is missing (Debian 12 packages), then configure and build dth in ./build.
+# Usage: bash scripts/setup.sh [builddir]   (idempotent; safe to run on every invocation)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+builddir=${1:-build}
+
+packages=(gcc pkg-config meson ninja-build liblapacke-dev libopenblas-dev libcunit1-dev
+          libinih-dev libgsl-dev gnuplot-nox)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing ${missing[*]}" >&2
+  sudo=""
+  [ "$(id -u)" -eq 0 ] || sudo="sudo"
+  export DEBIAN_FRONTEND=noninteractive
+  $sudo apt-get update -qq
+  $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+if [ ! -f "$builddir/build.ninja" ]; then
+  meson setup "$builddir" >/dev/null
+fi
+ninja -C "$builddir" >/dev/null
