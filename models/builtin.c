@@ -7,6 +7,7 @@ int dth_registry_add_builtin(dth_registry *r)
     static const dth_model_type *const builtin[] = {
         &dth_model_pendulum,
         &dth_model_harmonic,
+        &dth_model_kepler,
     };
     for (size_t i = 0; i < sizeof builtin / sizeof builtin[0]; i++) {
         int rc = dth_registry_add_model(r, builtin[i]);

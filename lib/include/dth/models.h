@@ -13,6 +13,8 @@ extern "C" {
 DTH_API extern const dth_model_type dth_model_pendulum;
 /** Harmonic oscillator: H = sum p_i^2/(2 m_i) + m_i w_i^2 q_i^2 / 2. */
 DTH_API extern const dth_model_type dth_model_harmonic;
+/** Kepler problem: H = |p|^2/2 - mu/|q| in 2 or 3 Cartesian dimensions (parameters mu, dim). */
+DTH_API extern const dth_model_type dth_model_kepler;
 
 /** A set of named model types (and, see regularize.h, regularizers). No global state. */
 typedef struct dth_registry dth_registry;
