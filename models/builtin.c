@@ -8,6 +8,7 @@ int dth_registry_add_builtin(dth_registry *r)
         &dth_model_pendulum,
         &dth_model_harmonic,
         &dth_model_kepler,
+        &dth_model_coupled,
     };
     for (size_t i = 0; i < sizeof builtin / sizeof builtin[0]; i++) {
         int rc = dth_registry_add_model(r, builtin[i]);

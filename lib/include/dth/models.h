@@ -15,6 +15,8 @@ DTH_API extern const dth_model_type dth_model_pendulum;
 DTH_API extern const dth_model_type dth_model_harmonic;
 /** Kepler problem: H = |p|^2/2 - mu/|q| in 2 or 3 Cartesian dimensions (parameters mu, dim). */
 DTH_API extern const dth_model_type dth_model_kepler;
+/** Coupled oscillators: N particles in 1-3 dimensions joined by springs (chain, ring, lattice or explicit). */
+DTH_API extern const dth_model_type dth_model_coupled;
 
 /** A set of named model types (and, see regularize.h, regularizers). No global state. */
 typedef struct dth_registry dth_registry;
