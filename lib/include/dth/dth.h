@@ -10,5 +10,6 @@
 #include "dth/models.h"
 #include "dth/integrator.h"
 #include "dth/scene.h"
+#include "dth/checkpoint.h"
 
 #endif
