@@ -9,6 +9,9 @@
  *   [regularize] method=none, then the regularizer's parameters
  *   [output]     file=, every=, dt=, diagnostics=yes|no
  * Unknown sections and keys are errors naming the file and line (or the -s override).
+ * steps= and t_end= exclude each other, except that an override of one replaces the other
+ * when that one comes from a file.
+ * Lines are limited to 197 characters (inih's default buffer); longer lines are an error.
  */
 #ifndef DTH_SCENE_H
 #define DTH_SCENE_H
@@ -30,15 +33,29 @@ DTH_API int dth_scene_new(const dth_allocator *alloc, dth_scene **out);
 /** Free; NULL is a no-op. */
 DTH_API void dth_scene_free(dth_scene *s);
 /**
- * Read an INI file into the scene (later values for the same key replace earlier ones).
+ * Read an INI file into the scene (later values for the same key replace earlier ones, also
+ * across files and overrides). On failure the scene is unchanged.
  * @return DTH_OK, DTH_EIO (cannot read; message names the file), DTH_EPARSE (message names
  * file and line), DTH_ENOMEM.
  */
 DTH_API int dth_scene_load(dth_scene *s, const char *path, char *err, size_t errlen);
-/** Apply an override "section.key=value". @return DTH_OK, DTH_EPARSE, DTH_ENOMEM. */
+/**
+ * Apply an override "section.key=value" (spaces around the parts are trimmed; the value may
+ * be empty). @return DTH_OK, DTH_EPARSE (message names the override), DTH_ENOMEM.
+ */
 DTH_API int dth_scene_set(dth_scene *s, const char *assignment, char *err, size_t errlen);
 /** Value of section.key, or NULL. */
 DTH_API const char *dth_scene_get(const dth_scene *s, const char *section, const char *key);
+/** Where section.key was set: "FILE:LINE" or "-s section.key=value"; NULL if absent. */
+DTH_API const char *dth_scene_origin(const dth_scene *s, const char *section, const char *key);
+/** Number of stored keys (for validating a section's keys, e.g. a regularizer's). */
+DTH_API size_t dth_scene_count(const dth_scene *s);
+/**
+ * Entry i (0 <= i < count, in order of first appearance): any output pointer may be NULL.
+ * @return DTH_OK, DTH_EINVAL (i out of range).
+ */
+DTH_API int dth_scene_entry(const dth_scene *s, size_t i, const char **section, const char **key,
+                            const char **value, const char **origin);
 
 /** Everything needed to run a scene, validated. Free with dth_run_setup_clear(). */
 typedef struct dth_run_setup {
@@ -48,19 +65,23 @@ typedef struct dth_run_setup {
     double t0;          /**< initial time */
     dth_options opt;    /**< integrator options (h, start, wp, max_iter, K) */
     char method[32];    /**< integrator method name ("dth") */
-    long steps;         /**< number of steps, or 0 when t_end is used */
-    double t_end;       /**< end time (when steps == 0) */
+    int has_t_end;      /**< 1: run until t_end; 0: run `steps` steps */
+    long steps;         /**< number of steps (when !has_t_end; may be 0) */
+    double t_end;       /**< end time (when has_t_end) */
     char regularize[32];/**< regularizer name ("none") */
     char *out_file;     /**< output path or NULL for stdout (owned) */
     long every;         /**< write every k-th vertex (>= 1) */
     double dt;          /**< resample at uniform times (0: write vertices) */
     int diagnostics;    /**< write psi, dpsi, region, iters */
+    const dth_allocator *alloc; /**< what the owned members were allocated with */
 } dth_run_setup;
 
 /**
  * Validate the scene against the registry and build a run setup: unknown model or key,
  * malformed number, wrong number of q/p values, h == 0, NaN... each give DTH_EINVAL with a
- * one-line message naming the file and line (or the override) and the key.
+ * one-line message naming the file and line (or the override) and the key. The first error
+ * in the order the keys were first set is reported. On failure *out is left untouched;
+ * on success it must be released with dth_run_setup_clear(). Uses the scene's allocator.
  */
 DTH_API int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *out,
                             char *err, size_t errlen);

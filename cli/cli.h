@@ -1,0 +1,74 @@
+/* SPDX-License-Identifier: MIT */
+/* The dth command-line tool: the subcommand table, exit codes and helpers shared by subcommands. */
+#ifndef DTH_CLI_H
+#define DTH_CLI_H
+
+#include <stddef.h>
+#include "dth/dth.h"
+
+/* Exit codes (docs/user-guide.md). */
+enum {
+    CLI_OK = 0,       /* success */
+    CLI_FAIL = 1,     /* hard error: a negative dth status, an I/O failure while writing */
+    CLI_USAGE = 2,    /* bad command line or bad input (scene, override, unwritable output) */
+    CLI_STOPPED = 3   /* the trajectory could not continue; the rows computed so far are kept */
+};
+
+/*
+ * The subcommands: X(name, usage, summary). Adding one is one line here, a file
+ * cli/cmd_<name>.c defining `int cli_cmd_<name>(int argc, char **argv)` (argv[0] is the
+ * subcommand's name), and that file in cli/meson.build.
+ */
+#define CLI_COMMANDS(X)                                                                           \
+    X(run, "SCENE.ini [-s section.key=value]... [-o FILE]",                                       \
+      "integrate a scene and write its trajectory as CSV")                                        \
+    X(models, "", "list the registered models, their parameters and defaults")
+
+#define CLI__DECL(name, usage, summary) int cli_cmd_##name(int argc, char **argv);
+CLI_COMMANDS(CLI__DECL)
+#undef CLI__DECL
+
+/* "dth: " + message + newline on stderr. */
+void cli_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+
+/* Print the usage of every subcommand to stdout or stderr. */
+void cli_usage(int to_stderr);
+
+/* A registry with every built-in model (NULL after printing an error). */
+dth_registry *cli_registry(void);
+
+/*
+ * Output of whole lines, written crash-safely. A file is written to FILE.tmp.PID in the same
+ * directory and renamed onto FILE by cli_out_finish; lines are buffered and written whole
+ * (at most every 0.5 s, or when the buffer fills), so the temporary file always ends at a
+ * line boundary. NULL path: standard output.
+ */
+typedef struct cli_out {
+    int fd;
+    char *path, *tmp;     /* NULL for stdout */
+    char *buf;
+    size_t len, cap;
+    double last_flush;    /* monotonic seconds */
+    int failed;           /* a write failed (errno in err) */
+    int err;
+} cli_out;
+
+/* Open; on failure prints "dth: cannot write 'FILE': reason" and returns -1. */
+int cli_out_open(cli_out *o, const char *path);
+/* Append one line (without its newline; it is added). Returns -1 after a write failure. */
+int cli_out_line(cli_out *o, const char *line, size_t len);
+/* Write out buffered lines if the last flush is older than 0.5 s. */
+void cli_out_maybe_flush(cli_out *o);
+/* Flush, close and rename into place. Prints an error and returns -1 on failure. */
+int cli_out_finish(cli_out *o);
+/* Close and remove the temporary file (nothing is left behind). */
+void cli_out_abort(cli_out *o);
+
+/* Seconds on a monotonic clock. */
+double cli_now(void);
+
+/* Stop requests from SIGINT/SIGTERM: install the handlers; the signal number or 0. */
+void cli_catch_signals(void);
+int cli_signal_received(void);
+
+#endif

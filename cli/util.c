@@ -1,0 +1,199 @@
+/* SPDX-License-Identifier: MIT */
+/* Helpers shared by the dth subcommands: error lines, the model registry, crash-safe output. */
+#include <errno.h>
+#include <fcntl.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+#include "cli.h"
+
+void cli_error(const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    fputs("dth: ", stderr);
+    vfprintf(stderr, fmt, ap);
+    fputc('\n', stderr);
+    va_end(ap);
+}
+
+dth_registry *cli_registry(void)
+{
+    dth_registry *r = NULL;
+    int rc = dth_registry_new(NULL, &r);
+    if (!rc) rc = dth_registry_add_builtin(r);
+    if (rc) {
+        cli_error("cannot build the model registry: %s", dth_strerror(rc));
+        dth_registry_free(r);
+        return NULL;
+    }
+    return r;
+}
+
+double cli_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* The one piece of process state: which stop signal arrived (async-signal-safe by type). */
+static volatile sig_atomic_t stop_signal;
+
+static void on_signal(int sig) { stop_signal = sig; }
+
+void cli_catch_signals(void)
+{
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+}
+
+int cli_signal_received(void) { return (int)stop_signal; }
+
+/* ---------------------------------------------------------------- crash-safe output */
+
+enum { OUT_CAP = 1 << 16 };
+
+static int write_all(int fd, const char *p, size_t n)
+{
+    while (n) {
+        ssize_t w = write(fd, p, n);
+        if (w < 0) {
+            if (errno == EINTR) continue;
+            return -1;
+        }
+        p += w;
+        n -= (size_t)w;
+    }
+    return 0;
+}
+
+static int flush(cli_out *o)
+{
+    if (o->failed) return -1;
+    if (o->len && write_all(o->fd, o->buf, o->len)) {
+        o->failed = 1;
+        o->err = errno;
+        return -1;
+    }
+    o->len = 0;
+    o->last_flush = cli_now();
+    return 0;
+}
+
+int cli_out_open(cli_out *o, const char *path)
+{
+    memset(o, 0, sizeof *o);
+    o->fd = STDOUT_FILENO;
+    o->cap = OUT_CAP;
+    o->buf = malloc(o->cap);
+    if (!o->buf) {
+        cli_error("out of memory");
+        return -1;
+    }
+    o->last_flush = cli_now();
+    if (!path) return 0;
+    struct stat st;
+    if (stat(path, &st) == 0 && S_ISDIR(st.st_mode)) {
+        cli_error("cannot write '%s': %s", path, strerror(EISDIR));
+        cli_out_abort(o);
+        return -1;
+    }
+    size_t len = strlen(path) + 32;
+    o->path = malloc(strlen(path) + 1);
+    o->tmp = malloc(len);
+    if (!o->path || !o->tmp) {
+        cli_error("out of memory");
+        cli_out_abort(o);
+        return -1;
+    }
+    strcpy(o->path, path);
+    snprintf(o->tmp, len, "%s.tmp.%ld", path, (long)getpid());
+    o->fd = open(o->tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (o->fd < 0) {
+        cli_error("cannot write '%s': %s", path, strerror(errno));
+        free(o->tmp);
+        o->tmp = NULL; /* nothing was created: nothing to remove */
+        cli_out_abort(o);
+        return -1;
+    }
+    return 0;
+}
+
+int cli_out_line(cli_out *o, const char *line, size_t len)
+{
+    if (o->failed) return -1;
+    if (o->len + len + 1 > o->cap && flush(o)) return -1;
+    if (len + 1 > o->cap) { /* a line longer than the buffer: write it whole, directly */
+        if (write_all(o->fd, line, len) || write_all(o->fd, "\n", 1)) {
+            o->failed = 1;
+            o->err = errno;
+            return -1;
+        }
+        return 0;
+    }
+    memcpy(o->buf + o->len, line, len);
+    o->buf[o->len + len] = '\n';
+    o->len += len + 1;
+    return 0;
+}
+
+void cli_out_maybe_flush(cli_out *o)
+{
+    if (o->len && cli_now() - o->last_flush >= 0.5) flush(o);
+}
+
+int cli_out_finish(cli_out *o)
+{
+    int rc = flush(o);
+    const char *what = o->path ? o->path : "standard output";
+    if (!rc && o->path) {
+        /* the data reach the disk before the name does, so FILE is never a torn file */
+        if (fsync(o->fd) && errno != EINVAL) {
+            rc = -1;
+            o->err = errno;
+        }
+        if (close(o->fd) && !rc) {
+            rc = -1;
+            o->err = errno;
+        }
+        o->fd = -1;
+        if (!rc && rename(o->tmp, o->path)) {
+            rc = -1;
+            o->err = errno;
+        }
+    }
+    if (rc) {
+        cli_error("cannot write '%s': %s", what, strerror(o->err));
+        cli_out_abort(o);
+        return -1;
+    }
+    free(o->path);
+    free(o->tmp);
+    free(o->buf);
+    memset(o, 0, sizeof *o);
+    o->fd = -1;
+    return 0;
+}
+
+void cli_out_abort(cli_out *o)
+{
+    if (o->tmp) {
+        if (o->fd >= 0) close(o->fd);
+        unlink(o->tmp);
+    }
+    free(o->path);
+    free(o->tmp);
+    free(o->buf);
+    memset(o, 0, sizeof *o);
+    o->fd = -1;
+}
