@@ -10,6 +10,7 @@
 #include "dth/models.h"
 #include "dth/integrator.h"
 #include "dth/scene.h"
+#include "dth/methods.h"
 #include "dth/checkpoint.h"
 
 #endif
