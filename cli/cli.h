@@ -41,7 +41,8 @@ dth_registry *cli_registry(void);
  * Output of whole lines, written crash-safely. A file is written to FILE.tmp.PID in the same
  * directory and renamed onto FILE by cli_out_finish; lines are buffered and written whole
  * (at most every 0.5 s, or when the buffer fills), so the temporary file always ends at a
- * line boundary. NULL path: standard output.
+ * line boundary. NULL path: standard output. An existing non-regular FILE (a device such as
+ * /dev/null, a FIFO) is written in place.
  */
 typedef struct cli_out {
     int fd;
@@ -49,6 +50,7 @@ typedef struct cli_out {
     char *buf;
     size_t len, cap;
     double last_flush;    /* monotonic seconds */
+    int direct;           /* path is a device or pipe: written in place, no rename */
     int failed;           /* a write failed (errno in err) */
     int err;
 } cli_out;

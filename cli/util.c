@@ -103,20 +103,37 @@ int cli_out_open(cli_out *o, const char *path)
     o->last_flush = cli_now();
     if (!path) return 0;
     struct stat st;
-    if (stat(path, &st) == 0 && S_ISDIR(st.st_mode)) {
+    int exists = stat(path, &st) == 0;
+    if (exists && S_ISDIR(st.st_mode)) {
         cli_error("cannot write '%s': %s", path, strerror(EISDIR));
         cli_out_abort(o);
         return -1;
     }
-    size_t len = strlen(path) + 32;
     o->path = malloc(strlen(path) + 1);
-    o->tmp = malloc(len);
-    if (!o->path || !o->tmp) {
+    if (!o->path) {
         cli_error("out of memory");
         cli_out_abort(o);
         return -1;
     }
     strcpy(o->path, path);
+    if (exists && !S_ISREG(st.st_mode)) {
+        /* a device or pipe: write to it directly; renaming onto it would replace the node */
+        o->fd = open(path, O_WRONLY | O_CLOEXEC);
+        if (o->fd < 0) {
+            cli_error("cannot write '%s': %s", path, strerror(errno));
+            cli_out_abort(o);
+            return -1;
+        }
+        o->direct = 1;
+        return 0;
+    }
+    size_t len = strlen(path) + 32;
+    o->tmp = malloc(len);
+    if (!o->tmp) {
+        cli_error("out of memory");
+        cli_out_abort(o);
+        return -1;
+    }
     snprintf(o->tmp, len, "%s.tmp.%ld", path, (long)getpid());
     o->fd = open(o->tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
     if (o->fd < 0) {
@@ -156,7 +173,13 @@ int cli_out_finish(cli_out *o)
 {
     int rc = flush(o);
     const char *what = o->path ? o->path : "standard output";
-    if (!rc && o->path) {
+    if (o->direct) {
+        if (close(o->fd) && !rc) {
+            rc = -1;
+            o->err = errno;
+        }
+        o->fd = -1;
+    } else if (!rc && o->path) {
         /* the data reach the disk before the name does, so FILE is never a torn file */
         if (fsync(o->fd) && errno != EINVAL) {
             rc = -1;
@@ -187,9 +210,9 @@ int cli_out_finish(cli_out *o)
 
 void cli_out_abort(cli_out *o)
 {
-    if (o->tmp) {
+    if (o->tmp || o->direct) {
         if (o->fd >= 0) close(o->fd);
-        unlink(o->tmp);
+        if (o->tmp) unlink(o->tmp);
     }
     free(o->path);
     free(o->tmp);

@@ -1,0 +1,159 @@
+#!/bin/sh
+# SPDX-License-Identifier: MIT
+# End-to-end checks of the dth CLI: CSV shape and content, exit codes, one-line error messages,
+# crash-safe output files (no partial file on bad input, whole lines after a kill).
+# usage: check_cli.sh PATH/TO/dth SOURCE_ROOT
+set -u
+DTH=$1
+ROOT=$2
+SC=$ROOT/scenes
+BAD=$ROOT/tests/cli
+T=$(mktemp -d /tmp/dth_cli_test.XXXXXX)
+trap 'rm -rf "$T"' EXIT
+fails=0
+fail() { echo "FAIL: $*" >&2; fails=$((fails + 1)); }
+ok() { echo "ok: $*"; }
+
+# ---- smoke: header, row count, k, t increasing, wp identical on every row, H column present
+"$DTH" run "$SC/pendulum.ini" -s integrator.steps=100 >"$T/smoke.csv" 2>"$T/smoke.err"
+rc=$?
+[ $rc -eq 0 ] || fail "smoke run exit $rc"
+[ -s "$T/smoke.err" ] && fail "smoke run wrote to stderr: $(cat "$T/smoke.err")"
+[ "$(head -1 "$T/smoke.csv")" = "k,t,lambda,q1,p1,wp,H" ] || fail "header: $(head -1 "$T/smoke.csv")"
+[ "$(wc -l <"$T/smoke.csv")" -eq 102 ] || fail "smoke rows: $(wc -l <"$T/smoke.csv") lines, want 102"
+awk -F, 'NR == 1 { next }
+    NF != 7 { print "row " NR ": " NF " fields"; bad = 1 }
+    $1 != NR - 2 { print "row " NR ": k = " $1; bad = 1 }
+    NR == 2 { wp = $6; if ($3 != 0) { print "lambda at k=0 is " $3; bad = 1 } }
+    NR > 2 && $6 != wp { print "row " NR ": wp " $6 " != " wp; bad = 1 }
+    NR > 2 && !($2 + 0 > t + 0) { print "row " NR ": t not increasing"; bad = 1 }
+    NR > 2 && !($3 + 0 > 0) { print "row " NR ": lambda " $3; bad = 1 }
+    { t = $2 }
+    END { exit bad }' "$T/smoke.csv" || fail "smoke CSV content"
+# midpoint start: z_0 lies half a step before t = 0, and the first step is exactly h
+[ "$(sed -n 2p "$T/smoke.csv" | cut -d, -f2)" = "-0.025000000000000001" ] || fail "t at k=0: $(sed -n 2p "$T/smoke.csv")"
+[ "$(sed -n 3p "$T/smoke.csv" | cut -d, -f3)" = "0.050000000000000003" ] || fail "first lambda"
+ok "smoke run"
+
+# ---- -o FILE: same bytes as stdout, no temporary left behind
+"$DTH" run "$SC/pendulum.ini" -s integrator.steps=100 -o "$T/out.csv" || fail "-o run"
+cmp -s "$T/out.csv" "$T/smoke.csv" || fail "-o output differs from stdout output"
+[ -z "$(ls "$T" | grep '\.tmp\.')" ] || fail "temporary file left: $(ls "$T")"
+# [output] file= is used when there is no -o, and -o wins over it
+"$DTH" run "$SC/pendulum.ini" -s integrator.steps=3 -s "output.file=$T/fromscene.csv" >"$T/stdout.txt" || fail "file= run"
+[ -s "$T/fromscene.csv" ] && [ ! -s "$T/stdout.txt" ] || fail "[output] file= not used"
+"$DTH" run "$SC/pendulum.ini" -s integrator.steps=3 -s "output.file=$T/never.csv" -o - >"$T/dash.csv" || fail "-o - run"
+[ ! -e "$T/never.csv" ] && [ "$(wc -l <"$T/dash.csv")" -eq 5 ] || fail "-o - does not win over file="
+ok "output files"
+
+# ---- every= and dense output
+"$DTH" run "$SC/pendulum.ini" -s integrator.steps=10 -s output.every=3 >"$T/every.csv" || fail "every run"
+[ "$(cut -d, -f1 "$T/every.csv" | tr '\n' ' ')" = "k 0 3 6 9 10 " ] || fail "every=3 rows: $(cut -d, -f1 "$T/every.csv" | tr '\n' ' ')"
+"$DTH" run "$SC/pendulum.ini" -s output.dt=0.5 >"$T/dense.csv" || fail "dt run"
+[ "$(wc -l <"$T/dense.csv")" -eq 42 ] || fail "dt=0.5 to t_end=20: $(wc -l <"$T/dense.csv") lines, want 42"
+awk -F, 'NR > 1 && ($1 != NR - 2 || $2 != (NR - 2) * 0.5) { print "dense row " NR ": " $1 ", t=" $2; bad = 1 }
+    END { exit bad }' "$T/dense.csv" || fail "dense output times"
+# the row at t = 0 of a midpoint start is the given state (q = 1, p = 0, H = 0)
+[ "$(sed -n 2p "$T/dense.csv" | cut -d, -f2,4,5,7)" = "0,1,0,0" ] || fail "dense row at t=0: $(sed -n 2p "$T/dense.csv")"
+ok "every= and dt="
+
+# ---- diagnostics columns (with the model's invariants) on the harmonic scene
+"$DTH" run "$SC/harmonic.ini" -s integrator.steps=5 >"$T/harm.csv" || fail "harmonic run"
+[ "$(head -1 "$T/harm.csv")" = "k,t,lambda,q1,q2,p1,p2,wp,H,E1,E2,psi,dpsi,region,iters" ] ||
+    fail "harmonic header: $(head -1 "$T/harm.csv")"
+awk -F, 'NR > 1 && ($14 != "I" || NF != 15) { print "row " NR ": region " $14; bad = 1 } END { exit bad }' \
+    "$T/harm.csv" || fail "harmonic region column"
+ok "diagnostics columns"
+
+# ---- a terminating trajectory keeps its rows and exits 3
+"$DTH" run "$SC/pendulum-rotation.ini" -o "$T/rot.csv" 2>"$T/rot.err"
+rc=$?
+[ $rc -eq 3 ] || fail "rotation exit $rc, want 3"
+[ "$(wc -l <"$T/rot.err")" -eq 1 ] || fail "rotation stderr is not one line: $(cat "$T/rot.err")"
+grep -q '^dth: stopped at k=312, t=3\.17[0-9]*: ' "$T/rot.err" || fail "rotation message: $(cat "$T/rot.err")"
+[ "$(tail -1 "$T/rot.csv" | cut -d, -f1)" = "312" ] || fail "rotation last row: $(tail -1 "$T/rot.csv")"
+[ "$(wc -l <"$T/rot.csv")" -eq 314 ] || fail "rotation rows: $(wc -l <"$T/rot.csv")"
+[ -z "$(ls "$T" | grep '\.tmp\.')" ] || fail "temporary file left after exit 3"
+ok "terminating run (exit 3)"
+
+# ---- bad scene files: exit 2, one line "dth: FILE:LINE: ...", nothing on stdout, no output file
+for f in "$BAD"/bad_*.ini; do
+    want=$(sed -n '1s/^; expect: //p' "$f")
+    # -o would replace a bad [output] file=; elsewhere it checks that no output file appears
+    if grep -q '^file' "$f"; then o=; else o="-o $T/bad.csv"; fi
+    "$DTH" run "$f" $o >"$T/bad.out" 2>"$T/bad.err"
+    rc=$?
+    name=$(basename "$f")
+    [ $rc -eq 2 ] || fail "$name: exit $rc, want 2"
+    [ "$(wc -l <"$T/bad.err")" -eq 1 ] || fail "$name: stderr not one line: $(cat "$T/bad.err")"
+    grep -q '^dth: ' "$T/bad.err" || fail "$name: message lacks 'dth: '"
+    grep -qF "$want" "$T/bad.err" || fail "$name: message '$(cat "$T/bad.err")' lacks '$want'"
+    [ -s "$T/bad.out" ] && fail "$name: wrote to stdout"
+    [ -e "$T/bad.csv" ] && fail "$name: left an output file"
+    [ -z "$(ls "$T" | grep '\.tmp\.')" ] || fail "$name: left a temporary file"
+done
+ok "bad scene files"
+
+# ---- bad command lines and unwritable outputs
+expect2() {
+    what=$1
+    shift
+    "$@" >"$T/x.out" 2>"$T/x.err"
+    rc=$?
+    [ $rc -eq 2 ] || fail "$what: exit $rc, want 2"
+    [ "$(wc -l <"$T/x.err")" -eq 1 ] && grep -q '^dth: ' "$T/x.err" || fail "$what: stderr: $(cat "$T/x.err")"
+}
+expect2 "unknown option" "$DTH" run "$SC/pendulum.ini" --frobnicate
+expect2 "missing scene" "$DTH" run "$T/no-such-scene.ini"
+expect2 "malformed override" "$DTH" run "$SC/pendulum.ini" -s integratorh=1
+expect2 "override names itself" "$DTH" run "$SC/pendulum.ini" -s integrator.h=nan
+grep -qF -- "-s integrator.h=nan: integrator.h:" "$T/x.err" || fail "override message: $(cat "$T/x.err")"
+expect2 "unknown command" "$DTH" frobnicate
+expect2 "missing -o argument" "$DTH" run "$SC/pendulum.ini" -o
+expect2 "output dir missing" "$DTH" run "$SC/pendulum.ini" -o "$T/nodir/out.csv"
+[ -e "$T/nodir" ] && fail "created $T/nodir"
+expect2 "output is a directory" "$DTH" run "$SC/pendulum.ini" -o "$T"
+# a write failure during the run (a full device) is a hard error: exit 1, one line
+"$DTH" run "$SC/pendulum.ini" -o /dev/full 2>"$T/full.err"
+rc=$?
+[ $rc -eq 1 ] || fail "/dev/full: exit $rc, want 1"
+grep -q "^dth: cannot write '/dev/full'" "$T/full.err" || fail "/dev/full message: $(cat "$T/full.err")"
+ok "bad command lines"
+
+# ---- other subcommands
+"$DTH" --version | grep -qx 'dth [0-9][0-9.]*' || fail "--version"
+"$DTH" --help | grep -q 'dth run SCENE.ini' || fail "--help"
+"$DTH" models >"$T/models.txt" || fail "models exit"
+grep -q '^pendulum omega2=1 -- ' "$T/models.txt" || fail "models: pendulum line: $(cat "$T/models.txt")"
+grep -q '^harmonic .*omega=1' "$T/models.txt" || fail "models: harmonic line"
+ok "--version, --help, models"
+
+# ---- killed runs: SIGTERM finishes the file (exit 143); SIGKILL leaves a temporary of whole lines
+long="-s integrator.t_end=1e7"
+"$DTH" run "$SC/pendulum.ini" $long -o "$T/term.csv" 2>"$T/term.err" &
+pid=$!
+sleep 1
+kill -TERM $pid
+wait $pid
+rc=$?
+[ $rc -eq 143 ] || fail "SIGTERM: exit $rc, want 143"
+grep -q '^dth: interrupted at k=' "$T/term.err" || fail "SIGTERM message: $(cat "$T/term.err")"
+[ -s "$T/term.csv" ] || fail "SIGTERM: no file"
+"$DTH" run "$SC/pendulum.ini" $long -o "$T/kill.csv" 2>/dev/null &
+pid=$!
+sleep 1.3
+kill -KILL $pid
+wait $pid 2>/dev/null
+tmp=$(ls "$T" | grep "^kill\.csv\.tmp\.$pid\$")
+[ -n "$tmp" ] || fail "SIGKILL: no temporary file kill.csv.tmp.$pid ($(ls "$T"))"
+[ -e "$T/kill.csv" ] && fail "SIGKILL: the final name exists"
+for f in "$T/term.csv" "$T/$tmp"; do
+    [ -f "$f" ] || continue
+    [ "$(tail -c 1 "$f" | od -An -c | tr -d ' ')" = '\n' ] || fail "$f does not end with a newline"
+    awk -F, 'NR == 1 && $0 != "k,t,lambda,q1,p1,wp,H" { bad = 1 } NF != 7 { bad = 1 } END { exit bad || NR < 2 }' "$f" ||
+        fail "$f is not a clean CSV"
+done
+ok "killed runs"
+
+[ $fails -eq 0 ] || { echo "$fails failure(s)" >&2; exit 1; }
+echo "all CLI checks passed"

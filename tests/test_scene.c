@@ -1,0 +1,341 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Scene files: loading, overrides, validation into a run setup, and that every bad input gives
+ * the right status and a one-line message naming the file:line (or the override) and the key.
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+#include "cu_main.h"
+#include "dth/dth.h"
+
+/* A scene file with the given text; path receives its name (remove it with unlink). */
+static void write_scene(const char *text, char *path, size_t len)
+{
+    snprintf(path, len, "/tmp/dth_test_scene_XXXXXX");
+    int fd = mkstemp(path);
+    CU_ASSERT_FATAL(fd >= 0);
+    FILE *f = fdopen(fd, "w");
+    CU_ASSERT_FATAL(f != NULL);
+    fputs(text, f);
+    fclose(f);
+}
+
+static dth_registry *registry(void)
+{
+    dth_registry *r = NULL;
+    CU_ASSERT_FATAL(dth_registry_new(NULL, &r) == DTH_OK);
+    CU_ASSERT_FATAL(dth_registry_add_builtin(r) == DTH_OK);
+    return r;
+}
+
+static const char *good_pendulum =
+    "; a comment\n"
+    "[model]\n"
+    "name = pendulum\n"
+    "omega2 = 2\n"
+    "[initial]\n"
+    "q = 1\n"
+    "p = -0.5\n"
+    "t = 3\n"
+    "[integrator]\n"
+    "method = dth\n"
+    "start = vertex\n"
+    "h = -0.05\n"
+    "t_end = 1\n"
+    "max_iter = 12\n"
+    "K = 0.5\n"
+    "[regularize]\n"
+    "method = none\n"
+    "[output]\n"
+    "file = out.csv\n"
+    "every = 3\n"
+    "diagnostics = yes\n";
+
+static void test_good_scene(void)
+{
+    char path[64], err[512];
+    write_scene(good_pendulum, path, sizeof path);
+    dth_registry *reg = registry();
+    dth_scene *s;
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    CU_ASSERT_FATAL(dth_scene_load(s, path, err, sizeof err) == DTH_OK);
+    CU_ASSERT_STRING_EQUAL(dth_scene_get(s, "model", "omega2"), "2");
+    CU_ASSERT_PTR_NULL(dth_scene_get(s, "model", "nothing"));
+    char where[128];
+    snprintf(where, sizeof where, "%s:12", path);
+    CU_ASSERT_STRING_EQUAL(dth_scene_origin(s, "integrator", "h"), where);
+    CU_ASSERT_EQUAL(dth_scene_count(s), 15);
+
+    dth_run_setup rs;
+    int rc = dth_scene_setup(s, reg, &rs, err, sizeof err);
+    CU_ASSERT_EQUAL_FATAL(rc, DTH_OK);
+    CU_ASSERT_EQUAL(rs.n, 1);
+    CU_ASSERT_EQUAL(dth_model_dof(rs.model), 1);
+    CU_ASSERT_STRING_EQUAL(dth_model_get_type(rs.model)->name, "pendulum");
+    CU_ASSERT_EQUAL(rs.q0[0], 1.0);
+    CU_ASSERT_EQUAL(rs.p0[0], -0.5);
+    CU_ASSERT_EQUAL(rs.t0, 3.0);
+    CU_ASSERT_EQUAL(rs.opt.h, -0.05);
+    CU_ASSERT_EQUAL(rs.opt.start, DTH_START_VERTEX);
+    CU_ASSERT_EQUAL(rs.opt.max_iter, 12);
+    CU_ASSERT_EQUAL(rs.opt.K, 0.5);
+    CU_ASSERT_EQUAL(rs.opt.has_wp, 0);
+    CU_ASSERT_EQUAL(rs.has_t_end, 1);
+    CU_ASSERT_EQUAL(rs.t_end, 1.0);
+    CU_ASSERT_STRING_EQUAL(rs.method, "dth");
+    CU_ASSERT_STRING_EQUAL(rs.regularize, "none");
+    CU_ASSERT_STRING_EQUAL(rs.out_file, "out.csv");
+    CU_ASSERT_EQUAL(rs.every, 3);
+    CU_ASSERT_EQUAL(rs.dt, 0.0);
+    CU_ASSERT_EQUAL(rs.diagnostics, 1);
+    /* the model got omega2 = 2: H = p^2/2 - 2 cos q */
+    double y[3] = {0, 0, 1}, H;
+    CU_ASSERT_EQUAL(dth_model_eval(rs.model, y, DTH_EVAL_H, &H, NULL, NULL), DTH_OK);
+    CU_ASSERT_DOUBLE_EQUAL(H, 0.5 - 2.0, 1e-15);
+    dth_run_setup_clear(&rs);
+    dth_run_setup_clear(&rs); /* safe twice */
+    dth_scene_free(s);
+    dth_registry_free(reg);
+    unlink(path);
+}
+
+static void test_defaults_and_harmonic(void)
+{
+    char path[64], err[512];
+    write_scene("[model]\nname=harmonic\nomega=1,2\n[initial]\nq=1, 2\np=3,4\n[integrator]\nh=0.1\nsteps=7\n",
+                path, sizeof path);
+    dth_registry *reg = registry();
+    dth_scene *s;
+    dth_run_setup rs;
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    CU_ASSERT_FATAL(dth_scene_load(s, path, err, sizeof err) == DTH_OK);
+    CU_ASSERT_EQUAL_FATAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL(rs.n, 2);
+    CU_ASSERT_EQUAL(rs.q0[1], 2.0);
+    CU_ASSERT_EQUAL(rs.p0[0], 3.0);
+    CU_ASSERT_EQUAL(rs.p0[1], 4.0);
+    CU_ASSERT_EQUAL(rs.t0, 0.0);
+    CU_ASSERT_EQUAL(rs.opt.start, DTH_START_MIDPOINT);
+    CU_ASSERT_EQUAL(rs.opt.max_iter, 30);
+    CU_ASSERT_EQUAL(rs.has_t_end, 0);
+    CU_ASSERT_EQUAL(rs.steps, 7);
+    CU_ASSERT_EQUAL(rs.every, 1);
+    CU_ASSERT_EQUAL(rs.diagnostics, 0);
+    CU_ASSERT_PTR_NULL(rs.out_file);
+    dth_run_setup_clear(&rs);
+    dth_scene_free(s);
+    dth_registry_free(reg);
+    unlink(path);
+}
+
+static void test_overrides(void)
+{
+    char path[64], err[512];
+    write_scene(good_pendulum, path, sizeof path);
+    dth_registry *reg = registry();
+    dth_scene *s;
+    dth_run_setup rs;
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    CU_ASSERT_FATAL(dth_scene_load(s, path, err, sizeof err) == DTH_OK);
+    CU_ASSERT_EQUAL(dth_scene_set(s, " integrator . h = 0.25 ", err, sizeof err), DTH_OK);
+    CU_ASSERT_STRING_EQUAL(dth_scene_get(s, "integrator", "h"), "0.25");
+    CU_ASSERT_STRING_EQUAL(dth_scene_origin(s, "integrator", "h"), "-s  integrator . h = 0.25 ");
+    /* an override of steps replaces the file's t_end; q moves to the front of nothing */
+    CU_ASSERT_EQUAL(dth_scene_set(s, "integrator.steps=5", err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL(dth_scene_set(s, "initial.q=0.5", err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL(dth_scene_set(s, "output.file=", err, sizeof err), DTH_OK);
+    CU_ASSERT_STRING_EQUAL(dth_scene_get(s, "output", "file"), "");
+    CU_ASSERT_EQUAL(dth_scene_set(s, "output.file=x.csv", err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL_FATAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL(rs.opt.h, 0.25);
+    CU_ASSERT_EQUAL(rs.has_t_end, 0);
+    CU_ASSERT_EQUAL(rs.steps, 5);
+    CU_ASSERT_EQUAL(rs.q0[0], 0.5);
+    CU_ASSERT_STRING_EQUAL(rs.out_file, "x.csv");
+    dth_run_setup_clear(&rs);
+
+    /* both run lengths as overrides: an error naming the override */
+    CU_ASSERT_EQUAL(dth_scene_set(s, "integrator.t_end=9", err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "-s integrator."));
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "not both"));
+
+    /* malformed overrides */
+    static const char *badset[] = {"integratorh=1", "integrator.h", "=1", ".h=1", "integrator.=1", " .=", ""};
+    size_t before = dth_scene_count(s);
+    for (size_t i = 0; i < sizeof badset / sizeof badset[0]; i++) {
+        err[0] = '\0';
+        CU_ASSERT_EQUAL(dth_scene_set(s, badset[i], err, sizeof err), DTH_EPARSE);
+        char want[64];
+        snprintf(want, sizeof want, "-s %s:", badset[i]);
+        CU_ASSERT_PTR_NOT_NULL(strstr(err, want));
+        CU_ASSERT_PTR_NOT_NULL(strstr(err, "section.key=value"));
+    }
+    CU_ASSERT_EQUAL(dth_scene_count(s), before);
+    dth_scene_free(s);
+    dth_registry_free(reg);
+    unlink(path);
+}
+
+static void test_load_errors(void)
+{
+    char path[64], err[512], want[128];
+    dth_scene *s;
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    /* missing file: DTH_EIO naming the file */
+    CU_ASSERT_EQUAL(dth_scene_load(s, "/nonexistent/x.ini", err, sizeof err), DTH_EIO);
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "/nonexistent/x.ini"));
+    /* syntax error on line 3; the scene stays unchanged (no partial load) */
+    write_scene("[model]\nname = pendulum\nthis line has no equals sign\nomega2 = 1\n", path, sizeof path);
+    CU_ASSERT_EQUAL(dth_scene_load(s, path, err, sizeof err), DTH_EPARSE);
+    snprintf(want, sizeof want, "%s:3:", path);
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, want));
+    CU_ASSERT_EQUAL(dth_scene_count(s), 0);
+    unlink(path);
+    /* a line longer than inih's buffer is refused, not split */
+    char text[600];
+    snprintf(text, sizeof text, "[model]\nname = pendulum\n[initial]\nq = 1%0300d\n", 0);
+    write_scene(text, path, sizeof path);
+    CU_ASSERT_EQUAL(dth_scene_load(s, path, err, sizeof err), DTH_EPARSE);
+    snprintf(want, sizeof want, "%s:4:", path);
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, want));
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "too long") || strstr(err, "longer"));
+    CU_ASSERT_EQUAL(dth_scene_count(s), 0);
+    unlink(path);
+    /* later values replace earlier ones, with their line */
+    write_scene("[integrator]\nh = 1\nh = 2\n", path, sizeof path);
+    CU_ASSERT_EQUAL(dth_scene_load(s, path, err, sizeof err), DTH_OK);
+    CU_ASSERT_STRING_EQUAL(dth_scene_get(s, "integrator", "h"), "2");
+    snprintf(want, sizeof want, "%s:3", path);
+    CU_ASSERT_STRING_EQUAL(dth_scene_origin(s, "integrator", "h"), want);
+    CU_ASSERT_EQUAL(dth_scene_count(s), 1);
+    const char *sec, *key, *val, *org;
+    CU_ASSERT_EQUAL(dth_scene_entry(s, 0, &sec, &key, &val, &org), DTH_OK);
+    CU_ASSERT_STRING_EQUAL(sec, "integrator");
+    CU_ASSERT_STRING_EQUAL(key, "h");
+    CU_ASSERT_EQUAL(dth_scene_entry(s, 1, &sec, &key, &val, &org), DTH_EINVAL);
+    unlink(path);
+    dth_scene_free(s);
+}
+
+/* One bad scene: its text, the line to name (0: the file without a line), substrings. */
+typedef struct bad_case {
+    const char *text;
+    int line;
+    const char *want1, *want2;
+} bad_case;
+
+#define BASE_PEND "[model]\nname = pendulum\n[initial]\nq = 1\np = 0\n[integrator]\nh = 0.1\n"
+/*                 1       2               3         4     5     6            7  -> next line is 8 */
+
+static const bad_case bad_cases[] = {
+    {BASE_PEND "steps = 10\nhh = 1\n", 9, "integrator.hh", "unknown key"},
+    {BASE_PEND "steps = 10\n[model]\nfoo = 1\n", 10, "model.foo", "omega2"},
+    {BASE_PEND "steps = 10\n[model]\nomega2 = -1\n", 10, "model.omega2", "> 0"},
+    {"[model]\nname = pendulu\n[initial]\nq=1\np=0\n[integrator]\nh=1\nsteps=1\n", 2, "pendulu", "pendulum, harmonic"},
+    {BASE_PEND "steps = 10\n[initial]\nq = 0.0.5\n", 10, "initial.q", "0.0.5"},
+    {BASE_PEND "steps = 10\n[initial]\nt = nan\n", 10, "initial.t", "nan"},
+    {BASE_PEND "steps = 10\n[initial]\np = inf\n", 10, "initial.p", "inf"},
+    {BASE_PEND "steps = 10\n[initial]\np = 1, 2\n", 10, "initial.p", "2 values"},
+    {BASE_PEND "steps = 10\n[initial]\nq = 1, 2\np = 0, 0\n", 10, "initial.q", "pendulum"},
+    {"[model]\nname = harmonic\nomega = 1, 2, 3\n[initial]\nq = 1, 2\np = 0, 0\n[integrator]\nh=1\nsteps=1\n", 5, "initial.q", "3 degrees of freedom"},
+    {"[model]\nname = harmonic\nn = 2\nomega = 1, 2, 3\n[initial]\nq = 1, 2\np = 0, 0\n[integrator]\nh=1\nsteps=1\n", 4, "model.omega", "3 values"},
+    {BASE_PEND "steps = 10\n[integrator]\nh = 0\n", 10, "integrator.h", "nonzero"},
+    {BASE_PEND "steps = 10\n[integrator]\nh = 1e400\n", 10, "integrator.h", "1e400"},
+    {BASE_PEND "steps = 10\n[integrator]\nmethod = rk4\n", 10, "integrator.method", "rk4"},
+    {BASE_PEND "steps = 10\n[integrator]\nstart = middle\n", 10, "integrator.start", "middle"},
+    {BASE_PEND "steps = -1\n", 8, "integrator.steps", "-1"},
+    {BASE_PEND "steps = 1.5\n", 8, "integrator.steps", "1.5"},
+    {BASE_PEND "steps = 10\nt_end = 3\n", 9, "integrator.t_end", "not both"},
+    {BASE_PEND "t_end = -3\n", 8, "integrator.t_end", "behind"},
+    {BASE_PEND "steps = 10\nmax_iter = 0\n", 9, "integrator.max_iter", "0"},
+    {BASE_PEND "steps = 10\nK = -1\n", 9, "integrator.K", "-1"},
+    {BASE_PEND "steps = 10\n[initial]\nwp = 1\n", 10, "initial.wp", "start=vertex"},
+    {BASE_PEND "steps = 10\n[initial]\nx = 1\n", 10, "initial.x", "unknown key"},
+    {BASE_PEND "steps = 10\n[regularize]\nmethod = tunnel\n", 10, "regularize.method", "tunnel"},
+    {BASE_PEND "steps = 10\n[regularize]\neps = 1\n", 10, "regularize.eps", "no parameters"},
+    {BASE_PEND "steps = 10\n[output]\nevery = 0\n", 10, "output.every", "0"},
+    {BASE_PEND "steps = 10\n[output]\ndt = -1\n", 10, "output.dt", "-1"},
+    {BASE_PEND "steps = 10\n[output]\ndt = 0.5\nevery = 2\n", 10, "output.dt", "every"},
+    {BASE_PEND "steps = 10\n[output]\ndiagnostics = maybe\n", 10, "output.diagnostics", "maybe"},
+    {BASE_PEND "steps = 10\n[output]\nfile =\n", 10, "output.file", "empty"},
+    {BASE_PEND "steps = 10\n[outptu]\nfile = x\n", 10, "[outptu]", "unknown section"},
+    {"h = 1\n" BASE_PEND "steps = 10\n", 1, "'h'", "outside"},
+    {"[initial]\nq=1\np=0\n[integrator]\nh=1\nsteps=1\n", 0, "missing [model] name", "pendulum"},
+    {"[model]\nname=pendulum\n[initial]\np=0\n[integrator]\nh=1\nsteps=1\n", 0, "missing [initial] q", "q="},
+    {"[model]\nname=pendulum\n[initial]\nq=0\np=0\n[integrator]\nsteps=1\n", 0, "missing [integrator] h", "h="},
+    {BASE_PEND, 0, "steps= or t_end=", "missing"},
+};
+
+static void test_bad_inputs(void)
+{
+    dth_registry *reg = registry();
+    for (size_t i = 0; i < sizeof bad_cases / sizeof bad_cases[0]; i++) {
+        const bad_case *b = &bad_cases[i];
+        char path[64], err[512], want[128];
+        write_scene(b->text, path, sizeof path);
+        dth_scene *s;
+        CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+        CU_ASSERT_EQUAL_FATAL(dth_scene_load(s, path, err, sizeof err), DTH_OK);
+        /* a failed setup leaves the caller's struct untouched */
+        dth_run_setup rs, orig;
+        memset(&rs, 0xA5, sizeof rs);
+        orig = rs;
+        err[0] = '\0';
+        int rc = dth_scene_setup(s, reg, &rs, err, sizeof err);
+        CU_ASSERT_EQUAL(rc, DTH_EINVAL);
+        CU_ASSERT(memcmp(&rs, &orig, sizeof rs) == 0);
+        if (b->line) snprintf(want, sizeof want, "%s:%d: ", path, b->line);
+        else snprintf(want, sizeof want, "%s: ", path);
+        int ok = strncmp(err, want, strlen(want)) == 0 && strstr(err, b->want1) && strstr(err, b->want2) &&
+                 !strchr(err, '\n');
+        if (!ok) fprintf(stderr, "\ncase %zu: got \"%s\", want prefix \"%s\" and \"%s\", \"%s\"\n", i, err, want,
+                         b->want1, b->want2);
+        CU_ASSERT(ok);
+        if (rc == DTH_OK) dth_run_setup_clear(&rs);
+        dth_scene_free(s);
+        unlink(path);
+    }
+    dth_registry_free(reg);
+}
+
+/* Errors in overrides name the override instead of a line. */
+static void test_bad_override_values(void)
+{
+    char path[64], err[512];
+    write_scene(BASE_PEND "steps = 10\n", path, sizeof path);
+    dth_registry *reg = registry();
+    dth_scene *s;
+    dth_run_setup rs;
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    CU_ASSERT_FATAL(dth_scene_load(s, path, err, sizeof err) == DTH_OK);
+    CU_ASSERT_EQUAL_FATAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_OK);
+    dth_run_setup_clear(&rs);
+    CU_ASSERT_EQUAL(dth_scene_set(s, "integrator.h=abc", err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "-s integrator.h=abc: integrator.h: 'abc'"));
+    CU_ASSERT_EQUAL(dth_scene_set(s, "integrator.h=0.5", err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL(dth_scene_set(s, "model.name=nosuch", err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "-s model.name=nosuch: model.name: unknown model 'nosuch'"));
+    dth_scene_free(s);
+    dth_registry_free(reg);
+    unlink(path);
+}
+
+static CU_TestInfo scene_tests[] = {
+    {"good scene: every key reaches the run setup", test_good_scene},
+    {"defaults, a 2-D harmonic oscillator", test_defaults_and_harmonic},
+    {"overrides replace values and name themselves", test_overrides},
+    {"load errors: missing file, syntax, long line; no partial load", test_load_errors},
+    {"bad inputs: status, FILE:LINE, key; output untouched", test_bad_inputs},
+    {"bad override values name the override", test_bad_override_values},
+    CU_TEST_INFO_NULL,
+};
+
+CU_SuiteInfo dth_test_suites[] = {
+    {.pName = "scene", .pTests = scene_tests},
+    CU_SUITE_INFO_NULL,
+};
