@@ -1,0 +1,72 @@
+#!/bin/sh
+# SPDX-License-Identifier: MIT
+# Shared helpers of the scripts/ci-*.sh checks (sourced, not run): package installs and the
+# CLI smoke runs that the sanitizer and valgrind checks execute under their tools.
+
+# ci_need CMD PACKAGE...: install the Debian packages when CMD is missing (root, non-interactive).
+ci_need() {
+    cmd=$1
+    shift
+    command -v "$cmd" >/dev/null 2>&1 && return 0
+    sudo=""
+    [ "$(id -u)" -eq 0 ] || sudo="sudo"
+    echo "ci: installing $*" >&2
+    DEBIAN_FRONTEND=noninteractive $sudo apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "$@" >/dev/null
+}
+
+# ci_cli_smoke ROOT DTH [RUNNER...]: run the dth CLI over the shipped scenes and bad inputs, each
+# under RUNNER (e.g. valgrind ...). A tool error must exit with 86; any exit code outside the
+# expected set fails. Prints the number of runs; returns non-zero on the first failure.
+ci_cli_smoke() {
+    root=$1
+    dth=$2
+    shift 2
+    tmp=$(mktemp -d)
+    runs=0
+    fails=0
+    # expect CODES ARGS...: CODES is a '|'-separated list of allowed exit codes
+    expect() {
+        codes=$1
+        shift
+        runs=$((runs + 1))
+        set +e
+        "$@" >"$tmp/out" 2>"$tmp/err"
+        rc=$?
+        set -e
+        case "|$codes|" in
+        *"|$rc|"*) ;;
+        *)
+            fails=$((fails + 1))
+            echo "ci-smoke: exit $rc (expected $codes): $*" >&2
+            tail -n 40 "$tmp/err" >&2
+            ;;
+        esac
+    }
+    expect 0 "$@" "$dth" --help
+    expect 0 "$@" "$dth" --version
+    expect 0 "$@" "$dth" models
+    for s in "$root"/scenes/*.ini; do
+        # 3: the trajectory stopped early (e.g. the raw rotating pendulum): a clean, expected end
+        expect '0|3' "$@" "$dth" run "$s" -o "$tmp/run.csv"
+        expect '0|3' "$@" "$dth" run "$s" -s output.diagnostics=yes -s output.dt=0.05
+    done
+    p="$root/scenes/pendulum.ini"
+    expect 0 "$@" "$dth" run "$p" -s integrator.start=vertex -s integrator.steps=50
+    expect 2 "$@" "$dth" run "$root/scenes/no-such-scene.ini"
+    expect 2 "$@" "$dth" run "$p" -s model.nope=1
+    expect 2 "$@" "$dth" run "$p" -s integrator.h=0
+    expect 2 "$@" "$dth" run "$p" -s initial.q=nan
+    expect 2 "$@" "$dth" run "$p" -s model.omega2=-1
+    expect 2 "$@" "$dth" run "$p" -s bad
+    expect 2 "$@" "$dth" run "$p" -o /nonexistent-dir/x.csv
+    expect 2 "$@" "$dth" run
+    expect 2 "$@" "$dth" frobnicate
+    printf '[model]\nname = pendulum\n[initial]\nq = 1,\n' >"$tmp/bad.ini"
+    expect 2 "$@" "$dth" run "$tmp/bad.ini"
+    printf '[model\nname = \377\376\n' >"$tmp/garbage.ini"
+    expect 2 "$@" "$dth" run "$tmp/garbage.ini"
+    rm -rf "$tmp"
+    echo "ci-smoke: $runs CLI runs, $fails failed"
+    [ "$fails" -eq 0 ]
+}
