@@ -25,4 +25,28 @@ int dth__lu_factor(int m, double *a, int *piv);
 /** Solve with the factors for nrhs column-major right-hand sides in b (ldb = m). */
 int dth__lu_solve(int m, const double *a, const int *piv, int nrhs, double *b);
 
+/* ---- banded step solve (banded.c, which calls LAPACK's banded LU) ---- */
+
+/** 1 if the integrator and psi use the model's banded Hessian (DTH_HESS_BANDED with hess_band,
+ *  autonomous); the dense Hessian is then never evaluated by them. */
+int dth__model_banded(const dth_model *m);
+/** The model's banded Hessian at y (interleaved layout, model.h), checked for NaN/Inf.
+ *  @return DTH_OK, DTH_EDOMAIN, DTH_EMODEL. */
+int dth__model_hess_band(const dth_model *m, const double *y, double *band);
+/** Workspace and factors of the banded bordered solve. */
+typedef struct dth__band dth__band;
+/** Allocate for a banded model. @return DTH_OK, DTH_EINVAL, DTH_ENOMEM. */
+int dth__band_new(const dth_model *m, const dth_allocator *al, dth__band **out);
+/** Free; NULL is a no-op. */
+void dth__band_free(dth__band *b, const dth_allocator *al);
+/** Assemble and factor the step Jacobian at midpoint zb (gradient `grad` over y there) and lam.
+ *  @return DTH_OK, DTH_ESINGULAR, DTH_ELAPACK, or the model's status. */
+int dth__band_factor(dth__band *b, const dth_model *m, const double *zb, const double *grad, double lam);
+/** Solve the factored system in place; x (length 2n+1) is in the integrator's unknown order
+ *  (d_q, d_p, lambda), as the dense path's right-hand side. @return DTH_OK, DTH_ELAPACK. */
+int dth__band_solve(dth__band *b, double *x);
+/** Tangent map of the step with midpoint zbar and step lam ((2n+2)^2 row-major, as
+ *  dth_integrator_tangent). Overwrites the factors. */
+int dth__band_tangent(dth__band *b, const dth_model *m, const double *zbar, double lam, double *M);
+
 #endif

@@ -75,10 +75,10 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     it->auton = dth_model_get_info(model)->autonomous;
     it->m = (int)(it->auton ? 2 * it->n + 1 : 2 * it->n + 3);
     size_t N = it->N, d = it->d, m = (size_t)it->m;
-    size_t nd = 0;
+    size_t nd = 0, dense = !dth__model_banded(model); /* banded: no O(n^2) buffers */
     /* one block of doubles, carved below */
-    size_t sizes[] = {N, N, N, N, N, N, N, d, d * d, d, d, m * m, m * m, m, m, m, m,
-                      dth_model_work_size(model), N * N};
+    size_t sizes[] = {N, N, N, N, N, N, N, d, dense * d * d, d, d, dense * m * m, dense * m * m, m, m, m, m,
+                      dth_model_work_size(model), dense * N * N};
     for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) nd += sizes[i];
     it->block = dth_calloc(al, nd, sizeof(double));
     it->ipiv = dth_calloc(al, 2 * m + m, sizeof(int));
@@ -93,6 +93,14 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     for (size_t i = 0; i < sizeof slots / sizeof slots[0]; i++) {
         *slots[i] = p;
         p += sizes[i];
+    }
+    if (!dense) {
+        it->hess = it->A = it->Af = it->B = NULL;
+        int rc = dth__band_new(model, al, &it->band);
+        if (rc) {
+            dth_integrator_free(it);
+            return rc;
+        }
     }
     it->piv = it->ipiv;
     it->pivf = it->ipiv + m;
@@ -115,6 +123,7 @@ void dth_integrator_free(dth_integrator *it)
     if (!it) return;
     dth_free(it->alloc, it->block);
     dth_free(it->alloc, it->ipiv);
+    dth__band_free(it->band, it->alloc);
     dth_free(it->alloc, it);
 }
 
@@ -263,6 +272,7 @@ static void assemble(const dth_integrator *it, const double *x, const double *zb
     for (int a = 0; a < m - 1; a++) {
         int j = it->act[a];
         F[a] = x[a] - 0.5 * lam * u[j];
+        if (!A) continue; /* banded path: banded.c assembles the matrix */
         for (int b = 0; b < m - 1; b++) {
             int l = it->act[b];
             double dudz = 0; /* d u_j / d z_l: rows of J H_zz; the wp column is zero */
@@ -276,7 +286,7 @@ static void assemble(const dth_integrator *it, const double *x, const double *zb
         A[a + (m - 1) * m] = -0.5 * u[j];
         A[(m - 1) + a * m] = (j == (int)N - 1) ? 1.0 : g[j];
     }
-    A[(m - 1) + (m - 1) * m] = 0.0;
+    if (A) A[(m - 1) + (m - 1) * m] = 0.0;
     F[m - 1] = zb[N - 1] + Hphys;
 }
 
@@ -321,20 +331,20 @@ int dth__newton(dth_integrator *it, double lam0, const double *d0, dth__solution
     sol->residual = NAN;
     for (int iter = 1; iter <= it->opt.max_iter; iter++) {
         midpoint_from_x(it, x, zb);
-        rc = dth_model_eval(it->model, zb, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &Hphys,
-                            it->grad, it->hess);
+        rc = dth_model_eval(it->model, zb, DTH_EVAL_H | DTH_EVAL_GRAD | (it->band ? 0u : DTH_EVAL_HESS),
+                            &Hphys, it->grad, it->hess);
         if (rc) {
             seterr(it, "model evaluation failed at a trial midpoint (iteration %d): %s", iter, dth_strerror(rc));
             return rc;
         }
         assemble(it, x, zb, Hphys, F, A);
-        rc = dth__lu_factor(m, A, it->piv);
+        rc = it->band ? dth__band_factor(it->band, it->model, zb, it->grad, x[m - 1]) : dth__lu_factor(m, A, it->piv);
         if (rc) {
             seterr(it, "bordered Jacobian is singular at iteration %d (lambda = %.17g)", iter, x[m - 1]);
             return rc;
         }
         memcpy(it->dx, F, (size_t)m * sizeof *F);
-        rc = dth__lu_solve(m, A, it->piv, 1, it->dx);
+        rc = it->band ? dth__band_solve(it->band, it->dx) : dth__lu_solve(m, A, it->piv, 1, it->dx);
         if (rc) return rc;
         double r = 0;
         for (int a = 0; a < m; a++) {
@@ -409,7 +419,7 @@ static void commit(dth_integrator *it, double lam)
     int *tp = it->pivf;
     it->pivf = it->piv;
     it->piv = tp;
-    it->fact_valid = 1;
+    it->fact_valid = !it->band; /* Af holds dense factors; the banded tangent refactors at zbar */
     it->lam_fact = lam;
     it->lam = lam;
     it->have_prev = 1;
@@ -431,11 +441,11 @@ int dth_integrator_step(dth_integrator *it, dth_step_info *info)
         for (int a = 0; a < m - 1; a++) it->x[a] = it->dprev[it->act[a]];
         it->x[m - 1] = lam;
         memcpy(it->zb, it->zbar, N * sizeof *it->zb);
-        int rc = dth_model_eval(it->model, it->zb, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS,
+        int rc = dth_model_eval(it->model, it->zb, DTH_EVAL_H | DTH_EVAL_GRAD | (it->band ? 0u : DTH_EVAL_HESS),
                                 &Hphys, it->grad, it->hess);
         if (!rc) {
             assemble(it, it->x, it->zb, Hphys, it->F, it->A);
-            rc = dth__lu_factor(m, it->A, it->piv);
+            rc = it->band ? dth__band_factor(it->band, it->model, it->zb, it->grad, lam) : dth__lu_factor(m, it->A, it->piv);
         }
         if (rc) {
             seterr(it, "cannot factor the first (exact) step");
@@ -486,7 +496,9 @@ int dth_integrator_step(dth_integrator *it, dth_step_info *info)
 
 int dth_integrator_tangent(dth_integrator *it, double *M)
 {
-    if (!it || !M || !it->fact_valid) return DTH_EINVAL;
+    if (!it || !M) return DTH_EINVAL;
+    if (it->band) return it->have_mid ? dth__band_tangent(it->band, it->model, it->zbar, it->lam_fact, M) : DTH_EINVAL;
+    if (!it->fact_valid) return DTH_EINVAL;
     size_t n = it->n, N = it->N, d = it->d;
     int m = it->m;
     double Hphys, lam = it->lam_fact;

@@ -29,6 +29,7 @@ struct dth_integrator {
     int fact_valid;   /* Af/pivf hold the factors of the last step's Jacobian */
     double lam_fact;
     double *block;
+    struct dth__band *band; /* banded step solve (banded.c), NULL for the dense path */
     char errmsg[192];
 };
 

@@ -118,10 +118,30 @@ int dth_model_eval(const dth_model *m, const double *y, unsigned what, double *H
     return DTH_OK;
 }
 
+int dth__model_banded(const dth_model *m)
+{
+    return m->info.hess_kind == DTH_HESS_BANDED && m->type->hess_band && m->info.autonomous;
+}
+
+int dth__model_hess_band(const dth_model *m, const double *y, double *band)
+{
+    int rc = m->type->hess_band(m->self, y, band);
+    if (rc > 0) return DTH_EDOMAIN;
+    if (rc < 0) return DTH_EMODEL;
+    return all_finite(band, 2 * m->info.n * (2 * m->info.bandwidth + 1)) ? DTH_OK : DTH_EDOMAIN;
+}
+
+/* Doubles of the Hessian that psi evaluates: the band for banded models, else dense. */
+static size_t hess_size(const dth_model *m)
+{
+    size_t n = m->info.n, d = 2 * n + 1;
+    return dth__model_banded(m) ? 2 * n * (2 * m->info.bandwidth + 1) : d * d;
+}
+
 size_t dth_model_work_size(const dth_model *m)
 {
     size_t d = 2 * m->info.n + 1;
-    return d * d + 4 * d;
+    return hess_size(m) + 4 * d;
 }
 
 /* u = J grad H restricted to y = (q, t, p): (dH/dp, 1, -dH/dq). */
@@ -146,15 +166,40 @@ static double quad_form(size_t d, const double *A, const double *v)
     return s;
 }
 
+/* u^T H u with the Hessian the model was evaluated for (banded: the t row/column is zero). */
+static double hess_form(const dth_model *m, const double *hess, const double *u)
+{
+    size_t n = m->info.n, d = 2 * n + 1;
+    if (!dth__model_banded(m)) return quad_form(d, hess, u);
+    size_t w = m->info.bandwidth, bw = 2 * w + 1, nn = 2 * n;
+    double acc = 0;
+    for (size_t a = 0; a < nn; a++) {
+        size_t lo = a > w ? a - w : 0, hi = a + w < nn - 1 ? a + w : nn - 1;
+        double r = 0;
+        for (size_t b = lo; b <= hi; b++) r += hess[a * bw + b + w - a] * u[(b & 1) ? n + 1 + b / 2 : b / 2];
+        acc += u[(a & 1) ? n + 1 + a / 2 : a / 2] * r;
+    }
+    return acc;
+}
+
+/* The Hessian psi needs at y: banded or dense. */
+static int psi_hess(const dth_model *m, const double *y, double *hess)
+{
+    if (dth__model_banded(m)) return dth__model_hess_band(m, y, hess);
+    return dth_model_eval(m, y, DTH_EVAL_HESS, NULL, NULL, hess);
+}
+
 int dth_model_psi(const dth_model *m, const double *y, double *psi, double *dpsi, double *work)
 {
     size_t n = m->info.n, d = 2 * n + 1;
-    double *hess = work, *grad = work + d * d, *u = grad + d, *ys = u + d;
+    double *hess = work, *grad = work + hess_size(m), *u = grad + d, *ys = u + d;
     double H;
-    int rc = dth_model_eval(m, y, DTH_EVAL_GRAD | DTH_EVAL_HESS, &H, grad, hess);
+    int band = dth__model_banded(m);
+    int rc = dth_model_eval(m, y, DTH_EVAL_GRAD | (band ? 0u : DTH_EVAL_HESS), &H, grad, hess);
+    if (!rc && band) rc = dth__model_hess_band(m, y, hess);
     if (rc) return rc;
     dth__flow_y(n, grad, u);
-    if (psi) *psi = quad_form(d, hess, u);
+    if (psi) *psi = hess_form(m, hess, u);
     if (!dpsi) return DTH_OK;
     /* psi' = [psi, H] = D^3 H[u, u, u]: the term 2 (H_zz u)^T J (H_zz u) vanishes (J skew). */
     if (m->type->third) {
@@ -177,9 +222,9 @@ int dth_model_psi(const dth_model *m, const double *y, double *psi, double *dpsi
     for (int s = 0; s < 2; s++) {
         double sg = s ? -1.0 : 1.0;
         for (size_t i = 0; i < d; i++) ys[i] = y[i] + sg * e * u[i];
-        rc = dth_model_eval(m, ys, DTH_EVAL_HESS, NULL, NULL, hess);
+        rc = psi_hess(m, ys, hess);
         if (rc) return rc;
-        f[s] = quad_form(d, hess, u);
+        f[s] = hess_form(m, hess, u);
     }
     *dpsi = (f[0] - f[1]) / (2 * e);
     return DTH_OK;

@@ -277,7 +277,7 @@ static int add_q_hessian(const coupled *c, const double *q, double *out, size_t 
             if (geometry(c, &sp[s], anchor, q, r, &len, &f)) return 1;
             double g = sp[s].L == 0 ? 0 : sp[s].L / (len * len * len);
             for (size_t x = 0; x < dim; x++)
-                for (size_t y = 0; y < dim; y++) K[x * dim + y] = sp[s].k * ((x == y ? f : 0) + g * r[x] * r[y]);
+                for (size_t y = 0; y < dim; y++) K[x * dim + y] = sp[s].k * ((x == y ? f : 0) + g * (r[x] * r[y])); /* symmetric bit for bit */
             size_t bi = sp[s].i * dim, bj = second(c, &sp[s], anchor);
             for (size_t x = 0; x < dim; x++)
                 for (size_t y = 0; y < dim; y++) {

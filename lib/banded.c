@@ -1,0 +1,187 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Banded solve of the bordered Newton system of the DTH step (paper, Theorem "DTH Equations")
+ * for autonomous models with a banded Hessian: O(n w^2) per factorization instead of O(n^3).
+ *
+ * In the interleaved order x = (q_1, p_1, ..., q_n, p_n) the step Jacobian is
+ *     [ B    c ]    B = I - (lambda/2) D,  D = J H_xx (row q_i is H row p_i, row p_i is -H row q_i),
+ *     [ g^T  0 ]    c = -(1/2) u,  u = J grad H,  g = grad H,
+ * and B has half-bandwidth w + 1 when H_xx has w. B is factored by banded LU (LAPACK dgbtrf)
+ * and the border by block elimination: y2 = B^{-1} c, Schur complement s = -g^T y2, then
+ *     dlambda = (F_last - g^T B^{-1} F) / s,   dx = B^{-1} F - y2 dlambda.
+ * s is small (about lambda psi / 4) because g^T u = 0: it is computed without cancellation as
+ * y2 = c + e, B e = -(lambda/4) D u, s = -g^T e (g^T c = 0 exactly, pair by pair).
+ */
+#include <lapacke.h>
+#include <math.h>
+#include <string.h>
+#include "dth_internal.h"
+
+_Static_assert(sizeof(lapack_int) == sizeof(int), "pivots are stored as int");
+
+struct dth__band {
+    size_t n, w, bw;   /* dof, Hessian half-bandwidth, 2w+1 */
+    int nn, kb, ldab;  /* 2n, half-bandwidth of B (w+1), LAPACK leading dimension 3kb+1 */
+    double *hb;        /* model Hessian band, nn x bw */
+    double *ab;        /* LU factors of B in LAPACK band storage, ldab x nn */
+    double *g, *y2;    /* border row g and B^{-1} c (interleaved) */
+    double *r, *grad;  /* scratch: right-hand side (nn); gradient over y (2n+1), then nn+1 */
+    int *ipiv;         /* nn pivots */
+    double s;          /* Schur complement -g^T B^{-1} c */
+    double lam;        /* lambda of the factorization */
+};
+
+int dth__band_new(const dth_model *m, const dth_allocator *al, dth__band **out)
+{
+    *out = NULL;
+    const dth_model_info *info = dth_model_get_info(m);
+    size_t n = info->n, w = info->bandwidth;
+    if (w + 1 > (size_t)1 << 20 || n > ((size_t)1 << 29) / 3) return DTH_EINVAL;
+    dth__band *b = dth_calloc(al, 1, sizeof *b);
+    if (!b) return DTH_ENOMEM;
+    b->n = n;
+    b->w = w;
+    b->bw = 2 * w + 1;
+    b->nn = (int)(2 * n);
+    b->kb = (int)w + 1;
+    b->ldab = 3 * b->kb + 1;
+    size_t nn = 2 * n;
+    /* overflow of the products is caught by dth_calloc */
+    b->hb = dth_calloc(al, nn, b->bw * sizeof(double));
+    b->ab = dth_calloc(al, nn, (size_t)b->ldab * sizeof(double));
+    b->g = dth_calloc(al, 5 * nn + 2, sizeof(double));
+    b->ipiv = dth_calloc(al, nn, sizeof(int));
+    if (!b->hb || !b->ab || !b->g || !b->ipiv) {
+        dth__band_free(b, al);
+        return DTH_ENOMEM;
+    }
+    b->y2 = b->g + nn;
+    b->r = b->y2 + nn;
+    b->grad = b->r + nn;
+    *out = b;
+    return DTH_OK;
+}
+
+void dth__band_free(dth__band *b, const dth_allocator *al)
+{
+    if (!b) return;
+    dth_free(al, b->hb);
+    dth_free(al, b->ab);
+    dth_free(al, b->g);
+    dth_free(al, b->ipiv);
+    dth_free(al, b);
+}
+
+/* Interleaved index of y-index j (q_i -> 2i, p_i -> 2i+1); the t slot has none. */
+static inline size_t y_of_x(size_t n, size_t r) { return (r & 1) ? n + 1 + r / 2 : r / 2; }
+
+/* (D v)_r for interleaved v: D = J H_xx, row r reads H row r^1 with sign + (q rows) or - (p rows). */
+static double d_times(const dth__band *b, size_t r, const double *v)
+{
+    size_t s = r ^ 1, w = b->w, nn = (size_t)b->nn;
+    size_t lo = s > w ? s - w : 0, hi = s + w < nn - 1 ? s + w : nn - 1;
+    const double *row = b->hb + s * b->bw + w - s;
+    double acc = 0;
+    for (size_t l = lo; l <= hi; l++) acc += row[l] * v[l];
+    return (r & 1) ? -acc : acc;
+}
+
+int dth__band_factor(dth__band *b, const dth_model *m, const double *zb, const double *grad, double lam)
+{
+    size_t n = b->n, w = b->w, nn = (size_t)b->nn, ldab = (size_t)b->ldab, kb = (size_t)b->kb;
+    int rc = dth__model_hess_band(m, zb, b->hb);
+    if (rc) return rc;
+    /* B = I - (lambda/2) D into band storage: A(r, l) at ab[2kb + r - l + l ldab] */
+    memset(b->ab, 0, nn * ldab * sizeof *b->ab);
+    for (size_t r = 0; r < nn; r++) {
+        size_t s = r ^ 1;
+        double sg = (r & 1) ? 0.5 * lam : -0.5 * lam;
+        size_t lo = s > w ? s - w : 0, hi = s + w < nn - 1 ? s + w : nn - 1;
+        const double *row = b->hb + s * b->bw + w - s;
+        for (size_t l = lo; l <= hi; l++) b->ab[2 * kb + r - l + l * ldab] = sg * row[l];
+        b->ab[2 * kb + r * ldab] += 1.0;
+    }
+    /* u and g interleaved: u = (dH/dp_i, -dH/dq_i), g = (dH/dq_i, dH/dp_i) */
+    double *u = b->r, *e = b->y2;
+    for (size_t i = 0; i < n; i++) {
+        b->g[2 * i] = grad[i];
+        b->g[2 * i + 1] = grad[n + 1 + i];
+        u[2 * i] = grad[n + 1 + i];
+        u[2 * i + 1] = -grad[i];
+    }
+    for (size_t r = 0; r < nn; r++) e[r] = -0.25 * lam * d_times(b, r, u);
+    lapack_int info = LAPACKE_dgbtrf_work(LAPACK_COL_MAJOR, b->nn, b->nn, b->kb, b->kb, b->ab, b->ldab, b->ipiv);
+    if (info < 0) return DTH_ELAPACK;
+    if (info > 0) return DTH_ESINGULAR;
+    info = LAPACKE_dgbtrs_work(LAPACK_COL_MAJOR, 'N', b->nn, b->kb, b->kb, 1, b->ab, b->ldab, b->ipiv, e, b->nn);
+    if (info < 0) return DTH_ELAPACK;
+    double s = 0;
+    for (size_t r = 0; r < nn; r++) {
+        s -= b->g[r] * e[r];
+        b->y2[r] = -0.5 * u[r] + e[r];
+    }
+    if (!(s != 0) || !isfinite(s)) return DTH_ESINGULAR;
+    b->s = s;
+    b->lam = lam;
+    return DTH_OK;
+}
+
+int dth__band_solve(dth__band *b, double *x)
+{
+    size_t n = b->n, nn = (size_t)b->nn;
+    double *r = b->r;
+    for (size_t i = 0; i < n; i++) {
+        r[2 * i] = x[i];
+        r[2 * i + 1] = x[n + i];
+    }
+    lapack_int info = LAPACKE_dgbtrs_work(LAPACK_COL_MAJOR, 'N', b->nn, b->kb, b->kb, 1, b->ab, b->ldab, b->ipiv, r, b->nn);
+    if (info < 0) return DTH_ELAPACK;
+    double gr = 0;
+    for (size_t k = 0; k < nn; k++) gr += b->g[k] * r[k];
+    double dl = (x[nn] - gr) / b->s;
+    for (size_t i = 0; i < n; i++) {
+        x[i] = r[2 * i] - b->y2[2 * i] * dl;
+        x[n + i] = r[2 * i + 1] - b->y2[2 * i + 1] * dl;
+    }
+    x[nn] = dl;
+    return DTH_OK;
+}
+
+/*
+ * Tangent map M = dz_{k+1}/dz_k ((2n+2)^2, row-major) of the step with midpoint zbar and step
+ * lam, one column at a time: B is refactored at zbar (O(n w^2)), column l of -dF/dz_k is
+ * (lambda/2) D e_l over (q, p) with border entry -grad H_l (-1 for wp); the t column is zero
+ * (autonomous). O(n^2 w) time, O(n) extra memory; the dense path needs O(n^3) and O(n^2).
+ */
+int dth__band_tangent(dth__band *b, const dth_model *m, const double *zbar, double lam, double *M)
+{
+    size_t n = b->n, nn = (size_t)b->nn, N = 2 * n + 2, w = b->w;
+    double H, *t = b->grad + 2 * n + 1;
+    int rc = dth_model_eval(m, zbar, DTH_EVAL_H | DTH_EVAL_GRAD, &H, b->grad, NULL);
+    if (!rc) rc = dth__band_factor(b, m, zbar, b->grad, lam);
+    if (rc) return rc;
+    memset(M, 0, N * N * sizeof *M);
+    for (size_t i = 0; i < N; i++) M[i * N + i] = 1.0;
+    for (size_t l = 0; l < N; l++) {
+        if (l == n) continue;
+        memset(t, 0, (nn + 1) * sizeof *t);
+        if (l == N - 1) {
+            t[nn] = -1.0;
+        } else {
+            size_t c = l < n ? 2 * l : 2 * (l - n - 1) + 1;
+            t[nn] = -b->grad[l];
+            size_t lo = c > w + 1 ? c - w - 1 : 0, hi = c + w + 1 < nn - 1 ? c + w + 1 : nn - 1;
+            for (size_t r = lo; r <= hi; r++) {
+                size_t s = r ^ 1;
+                if ((s > c ? s - c : c - s) > w) continue;
+                double D = b->hb[s * b->bw + c + w - s];
+                t[(r & 1) ? n + r / 2 : r / 2] = 0.5 * lam * ((r & 1) ? -D : D);
+            }
+        }
+        rc = dth__band_solve(b, t);
+        if (rc) return rc;
+        for (size_t a = 0; a < nn; a++) M[(a < n ? a : a + 1) * N + l] += 2 * t[a];
+        M[n * N + l] += t[nn];
+    }
+    return DTH_OK;
+}
