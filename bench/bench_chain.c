@@ -1,0 +1,132 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Benchmark (not a test): cost per DTH step (paper, Theorem "DTH Equations") of a nonlinear 2-D
+ * chain of N particles (coupled model, L = 1) for the banded step solve (N = 10 .. 10^4) and the
+ * dense one (N <= 200), with the ratios between successive N: banded should grow ~linearly.
+ * Usage: OPENBLAS_NUM_THREADS=1 bench_chain [max_dense_N]   (default 200; median of 3 repeats)
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include "dth/dth.h"
+
+static double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static int cmp(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+enum { REPEATS = 3 };
+
+typedef struct result {
+    double us_step, iters; /* median microseconds per step, Newton iterations per step */
+    int ok;
+} result;
+
+/* Time `steps` steps of an N-particle chain (structure "auto" = banded, or "dense"). */
+static result run(size_t N, const char *structure, long steps)
+{
+    result res = {0, 0, 0};
+    char size[32];
+    snprintf(size, sizeof size, "%zu", N);
+    dth_kv kv[] = {{"preset", "chain"}, {"size", size}, {"dim", "2"}, {"L", "1"}, {"k", "1"}, {"structure", structure}};
+    dth_model *m;
+    char err[256];
+    if (dth_model_new(&dth_model_coupled, kv, 6, 0, NULL, &m, err, sizeof err)) {
+        fprintf(stderr, "%s\n", err);
+        return res;
+    }
+    size_t n = 2 * N;
+    double *q = calloc(n, sizeof *q), *p = calloc(n, sizeof *p);
+    unsigned long s = 12345;
+    for (size_t i = 0; i < n; i++) {
+        s = s * 6364136223846793005UL + 1442695040888963407UL;
+        double r1 = (double)(s >> 11) / 9007199254740992.0 - 0.5;
+        s = s * 6364136223846793005UL + 1442695040888963407UL;
+        double r2 = (double)(s >> 11) / 9007199254740992.0 - 0.5;
+        q[i] = (i % 2 == 0 ? (double)(i / 2) : 0.0) + 0.1 * r1;
+        p[i] = 0.3 * r2;
+    }
+    dth_options o;
+    dth_options_default(&o);
+    o.h = 0.05;
+    double t[REPEATS];
+    long iters = 0;
+    res.ok = 1;
+    for (int r = 0; r < REPEATS && res.ok; r++) {
+        dth_integrator *it;
+        if (dth_integrator_new(m, &o, &it) || dth_integrator_start(it, q, p, 0.0)) {
+            res.ok = 0;
+            break;
+        }
+        dth_integrator_step(it, NULL); /* the exact first step of a midpoint start */
+        iters = 0;
+        double t0 = now();
+        for (long k = 0; k < steps; k++) {
+            dth_step_info si;
+            int rc = dth_integrator_step(it, &si);
+            if (rc) {
+                fprintf(stderr, "N=%zu %s: step %ld: %s\n", N, structure, k, dth_strerror(rc));
+                res.ok = 0;
+                break;
+            }
+            iters += si.iters;
+        }
+        t[r] = (now() - t0) / (double)steps * 1e6;
+        dth_integrator_free(it);
+    }
+    qsort(t, REPEATS, sizeof t[0], cmp);
+    res.us_step = t[REPEATS / 2];
+    res.iters = (double)iters / (double)steps;
+    free(q);
+    free(p);
+    dth_model_free(m);
+    return res;
+}
+
+int main(int argc, char **argv)
+{
+    size_t max_dense = argc > 1 ? (size_t)atol(argv[1]) : 200;
+    const size_t Ns[] = {10, 100, 1000, 10000};
+    const size_t Nd[] = {10, 20, 50, 100, 200};
+    printf("# coupled chain, d = 2, L = 1, h = 0.05, midpoint start; microseconds per step (median of %d)\n", REPEATS);
+    printf("# path     N       n   steps   us/step  iters/step  us/iter  ratio(us/step to previous N)\n");
+    double prev = 0;
+    size_t prevN = 0;
+    double banded_at[5] = {0};
+    for (size_t i = 0; i < sizeof Ns / sizeof Ns[0]; i++) {
+        long steps = (long)(20000 / Ns[i]);
+        if (steps < 20) steps = 20;
+        result r = run(Ns[i], "auto", steps);
+        if (!r.ok) return 1;
+        printf("banded %6zu %7zu %7ld %9.1f %11.2f %8.2f", Ns[i], 2 * Ns[i], steps, r.us_step, r.iters, r.us_step / r.iters);
+        if (prev > 0) printf("  %.2f (N x%.0f)", r.us_step / prev, (double)Ns[i] / (double)prevN);
+        printf("\n");
+        prev = r.us_step;
+        prevN = Ns[i];
+        if (i < 2) banded_at[i] = r.us_step;
+    }
+    prev = 0;
+    for (size_t i = 0; i < sizeof Nd / sizeof Nd[0] && Nd[i] <= max_dense; i++) {
+        long steps = Nd[i] <= 50 ? 200 : Nd[i] <= 100 ? 20 : 5;
+        result r = run(Nd[i], "dense", steps);
+        if (!r.ok) return 1;
+        printf("dense  %6zu %7zu %7ld %9.1f %11.2f %8.2f", Nd[i], 2 * Nd[i], steps, r.us_step, r.iters, r.us_step / r.iters);
+        if (prev > 0) printf("  %.2f (N x%.1f)", r.us_step / prev, (double)Nd[i] / (double)prevN);
+        if (Nd[i] == 10) printf("  dense/banded %.1f", r.us_step / banded_at[0]);
+        if (Nd[i] == 100) printf("  dense/banded %.1f", r.us_step / banded_at[1]);
+        printf("\n");
+        prev = r.us_step;
+        prevN = Nd[i];
+    }
+    return 0;
+}
