@@ -35,6 +35,15 @@ awk -F, 'NR == 1 { next }
 [ "$(sed -n 3p "$T/smoke.csv" | cut -d, -f3)" = "0.050000000000000003" ] || fail "first lambda"
 ok "smoke run"
 
+# ---- t_end: the last row is the first vertex at or beyond t_end (here 20), forward and backward
+"$DTH" run "$SC/pendulum.ini" >"$T/tend.csv" || fail "t_end run"
+tail -2 "$T/tend.csv" | awk -F, 'NR == 1 && !($2 < 20) { bad = 1 } NR == 2 && !($2 >= 20) { bad = 1 } END { exit bad }' ||
+    fail "t_end rows: $(tail -2 "$T/tend.csv" | cut -d, -f1,2 | tr '\n' ' ')"
+"$DTH" run "$SC/pendulum.ini" -s integrator.h=-0.05 -s integrator.t_end=-3 >"$T/back.csv" || fail "backward run"
+tail -2 "$T/back.csv" | awk -F, 'NR == 1 && !($2 > -3) { bad = 1 } NR == 2 && !($2 <= -3) { bad = 1 } END { exit bad }' ||
+    fail "backward t_end rows: $(tail -2 "$T/back.csv" | cut -d, -f1,2 | tr '\n' ' ')"
+ok "t_end"
+
 # ---- -o FILE: same bytes as stdout, no temporary left behind
 "$DTH" run "$SC/pendulum.ini" -s integrator.steps=100 -o "$T/out.csv" || fail "-o run"
 cmp -s "$T/out.csv" "$T/smoke.csv" || fail "-o output differs from stdout output"
