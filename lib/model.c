@@ -98,6 +98,32 @@ const dth_model_type *dth_model_get_type(const dth_model *m) { return m ? m->typ
 size_t dth_model_dof(const dth_model *m) { return m ? m->info.n : 0; }
 const void *dth__model_self(const dth_model *m) { return m->self; }
 
+size_t dth_model_n_invariants(const dth_model *m)
+{
+    return (m && m->type->n_invariants && m->type->invariants) ? m->type->n_invariants(m->self) : 0;
+}
+
+const char *dth_model_invariant_name(const dth_model *m, size_t i)
+{
+    return i < dth_model_n_invariants(m) && m->type->invariant_name ? m->type->invariant_name(m->self, i) : NULL;
+}
+
+int dth_model_invariants(const dth_model *m, const double *y, double *out)
+{
+    if (!m || !y || !out) return DTH_EINVAL;
+    if (!dth_model_n_invariants(m)) return DTH_EUNSUPPORTED;
+    int rc = m->type->invariants(m->self, y, out);
+    return rc > 0 ? DTH_EDOMAIN : rc < 0 ? DTH_EMODEL : DTH_OK;
+}
+
+int dth_model_exact(const dth_model *m, const double *y0, double t, double *y)
+{
+    if (!m || !y0 || !y || !isfinite(t)) return DTH_EINVAL;
+    if (!m->type->exact) return DTH_EUNSUPPORTED;
+    int rc = m->type->exact(m->self, y0, t, y);
+    return rc > 0 ? DTH_EDOMAIN : rc < 0 ? DTH_EMODEL : DTH_OK;
+}
+
 static int all_finite(const double *v, size_t n)
 {
     for (size_t i = 0; i < n; i++)

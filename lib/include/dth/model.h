@@ -145,6 +145,21 @@ DTH_API size_t dth_model_dof(const dth_model *m);
 DTH_API int dth_model_eval(const dth_model *m, const double *y, unsigned what, double *H,
                            double *grad, double *hess);
 
+/** Number of invariants the model reports (0 if it reports none). */
+DTH_API size_t dth_model_n_invariants(const dth_model *m);
+/** Name of invariant i (a CSV column name), or NULL if out of range. */
+DTH_API const char *dth_model_invariant_name(const dth_model *m, size_t i);
+/**
+ * Evaluate the invariants at y into out[0 .. dth_model_n_invariants-1].
+ * @return DTH_OK, DTH_EUNSUPPORTED (none), DTH_EDOMAIN, DTH_EMODEL.
+ */
+DTH_API int dth_model_invariants(const dth_model *m, const double *y, double *out);
+/**
+ * Exact solution from y0 (time y0[n]) to time t, if the model has one.
+ * @return DTH_OK, DTH_EUNSUPPORTED (no exact solution), DTH_EDOMAIN (outside its scope).
+ */
+DTH_API int dth_model_exact(const dth_model *m, const double *y0, double t, double *y);
+
 /** Doubles of workspace that dth_model_psi needs. */
 DTH_API size_t dth_model_work_size(const dth_model *m);
 
