@@ -338,13 +338,16 @@ static int step_gauss(dth_fixed *f, int *iters)
         }
         rc = dth__lu_solve((int)M, f->A, f->piv, 1, f->F);
         if (rc) return rc;
-        double r = 0;
+        /* norm-wise relative correction: a componentwise one never reaches round-off on
+         * components that are themselves round-off (p = 0 at rest, say) */
+        double cmax = 0, smax = 0;
         for (size_t k = 0; k < M; k++) {
             f->Z[k] -= f->F[k];
-            double sc = fabs(f->y[k % d]) + fabs(f->Z[k]);
-            double rk = fabs(f->F[k]) / (sc > 0 ? sc : 1e-300);
-            if (!(rk <= r)) r = rk; /* NaN propagates */
+            double c = fabs(f->F[k]), sc = fabs(f->y[k % d]) + fabs(f->Z[k]);
+            if (!(c <= cmax)) cmax = c; /* NaN propagates */
+            if (sc > smax) smax = sc;
         }
+        double r = cmax / (smax > 0 ? smax : 1e-300);
         *iters = iter;
         if (!isfinite(r)) {
             seterr(f, "Newton diverged at iteration %d", iter);
