@@ -333,12 +333,64 @@ static void test_param_messages(void)
     dth_registry_free(r);
 }
 
+/* ---- regressions found by fuzz/fuzz_integrator: DTH_OK must never leave a non-finite state ---- */
+
+static int finite_vec(const double *x, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        if (!isfinite(x[i])) return 0;
+    return 1;
+}
+
+/* Midpoint start with h |J grad H| beyond DBL_MAX: z_0 = zbar_0 - (h/2) J grad H overflows. */
+static void test_fuzz_start_overflow(void)
+{
+    static const dth_kv kv[] = {{"n", "1"}, {"mass", "9.8931899965962e-309"}, {"omega", "3.6455616209129865e-304"}};
+    dth_model *m = new_model(&dth_model_harmonic, kv, 3, 1);
+    dth_integrator *it = new_integrator(m, -3.2007034655896856e+231, DTH_START_MIDPOINT, 30);
+    double q = 0.5, p = 0.5;
+    int rc = dth_integrator_start(it, &q, &p, 0.5);
+    if (rc == DTH_OK) CU_ASSERT(finite_vec(dth_integrator_vertex(it), 4));
+    if (rc == DTH_OK && dth_integrator_step(it, NULL) == DTH_OK) CU_ASSERT(finite_vec(dth_integrator_vertex(it), 4));
+    dth_integrator_free(it);
+    dth_model_free(m);
+}
+
+/* A step whose new vertex z + 2 (zbar - z) overflows although the midpoint is finite. */
+static void test_fuzz_step_overflow(void)
+{
+    static const dth_kv kv[] = {{"preset", "chain"}, {"size", "2"}, {"dim", "1"}, {"k", "3.43519951892224e-310"},
+                                {"L", "3.2194903e-317"}, {"mass", "1.836709924525607e-39"}};
+    dth_model *m = new_model(&dth_model_coupled, kv, 6, 2);
+    size_t N = 2 * dth_model_dof(m) + 2;
+    CU_ASSERT_FATAL(N == 6);
+    dth_options o;
+    dth_options_default(&o);
+    o.h = -1.0565892344930458e+270;
+    o.K = 3.919106652168698e+202;
+    o.max_iter = 1;
+    dth_integrator *it = NULL;
+    CU_ASSERT_FATAL(dth_integrator_new(m, &o, &it) == DTH_OK);
+    double q[2] = {6.507473426500481e-307, 0.5}, p[2] = {0.5, 0.5};
+    int rc = dth_integrator_start(it, q, p, -2.723462048819236e+154);
+    int ok = rc != DTH_OK || finite_vec(dth_integrator_vertex(it), N);
+    for (int k = 0; rc == DTH_OK && k < 5; k++) {
+        rc = dth_integrator_step(it, NULL);
+        if (rc == DTH_OK && !finite_vec(dth_integrator_vertex(it), N)) ok = 0;
+    }
+    CU_ASSERT(ok);
+    dth_integrator_free(it);
+    dth_model_free(m);
+}
+
 static CU_TestInfo failstate_tests[] = {
     {"DTH_ENOCONV (max_iter = 1) leaves the state untouched", test_enoconv},
     {"DTH_EDOMAIN (NaN / outside the domain) leaves the state untouched", test_edomain},
     {"DTH_ESINGULAR (H_phys = 0) leaves the state untouched", test_esingular},
     {"rotating pendulum termination: recoverable status, state untouched", test_rotating_pendulum_termination},
     {"bad model parameters: DTH_EINVAL naming the key", test_param_messages},
+    {"fuzz regression: midpoint start overflow gives no DTH_OK with a non-finite vertex", test_fuzz_start_overflow},
+    {"fuzz regression: a step whose vertex overflows is not DTH_OK", test_fuzz_step_overflow},
     CU_TEST_INFO_NULL,
 };
 
