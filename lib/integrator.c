@@ -319,6 +319,31 @@ static double cubic_predict(double Hk, double psi, double dpsi, double target)
     return (l * target > 0 && fabs(l) < 16 * fabs(target) && fabs(l) > fabs(target) / 16) ? l : target;
 }
 
+/* Block of a z-index: 0 positions q, 1 time t, 2 momenta p, 3 wp. */
+static int block_of(const dth_integrator *it, int j)
+{
+    size_t n = it->n;
+    return j < (int)n ? 0 : j == (int)n ? 1 : j < (int)(2 * n + 1) ? 2 : 3;
+}
+
+/*
+ * Convergence is judged per block (q, t, p, wp) in the max-norm of |z| + |zbar|, not per
+ * component: a component that is itself round-off sized (a particle at rest) has no relative
+ * precision to reach. An all-zero block falls back to the largest block scale.
+ */
+static void block_scales(const dth_integrator *it, const double *zb, double bs[4])
+{
+    double top = 0;
+    for (int b = 0; b < 4; b++) bs[b] = 0;
+    for (size_t j = 0; j < it->N; j++) {
+        int b = block_of(it, (int)j);
+        bs[b] = fmax(bs[b], fabs(it->z[j]) + fabs(zb[j]));
+    }
+    for (int b = 0; b < 4; b++) top = fmax(top, bs[b]);
+    for (int b = 0; b < 4; b++)
+        if (bs[b] == 0) bs[b] = top > 0 ? top : 1.0;
+}
+
 int dth__newton(dth_integrator *it, double lam0, const double *d0, dth__solution *sol)
 {
     size_t N = it->N;
@@ -346,10 +371,12 @@ int dth__newton(dth_integrator *it, double lam0, const double *d0, dth__solution
         memcpy(it->dx, F, (size_t)m * sizeof *F);
         rc = it->band ? dth__band_solve(it->band, it->dx) : dth__lu_solve(m, A, it->piv, 1, it->dx);
         if (rc) return rc;
+        double bs[4];
+        block_scales(it, zb, bs);
         double r = 0;
         for (int a = 0; a < m; a++) {
             x[a] -= it->dx[a];
-            double sc = a == m - 1 ? fabs(x[a]) : fabs(it->z[it->act[a]]) + fabs(zb[it->act[a]]) + fabs(x[a]);
+            double sc = a == m - 1 ? fabs(x[a]) : bs[block_of(it, it->act[a])];
             double ra = fabs(it->dx[a]) / (sc > 0 ? sc : 1e-300);
             if (!(ra <= r)) r = ra; /* NaN propagates */
         }
@@ -367,7 +394,7 @@ int dth__newton(dth_integrator *it, double lam0, const double *d0, dth__solution
             double fs = 0;
             for (int a = 0; a < m - 1; a++) {
                 int j = it->act[a];
-                fs = fmax(fs, fabs(F[a]) / (fabs(it->z[j]) + fabs(zb[j]) + 1e-300));
+                fs = fmax(fs, fabs(F[a]) / bs[block_of(it, j)]);
             }
             double hs = h_scale(it, zb, Hphys);
             if (fs <= 1e3 * DBL_EPSILON && fabs(F[m - 1]) <= 1e3 * DBL_EPSILON * hs) break;
