@@ -199,8 +199,9 @@ static int create(const dth_model_args *a, void **self, dth_model_info *info)
     rc = dth_args_list(a, "mass", c->minv, N, &nm);
     if (rc) return rc;
     if (nm > 1 && nm != N) return dth_args_error(a, "parameter 'mass' has %zu values, expected 1 or %zu", nm, N);
+    double m0 = nm == 0 ? 1.0 : c->minv[0]; /* minv[0] is overwritten below */
     for (size_t i = 0; i < N; i++) {
-        double m = nm == 0 ? 1.0 : nm == 1 ? c->minv[0] : c->minv[i];
+        double m = nm <= 1 ? m0 : c->minv[i];
         if (!(m > 0)) return dth_args_error(a, "parameter 'mass': value %zu must be > 0 (got %g)", nm == 1 ? 1 : i + 1, m);
         c->minv[i] = 1 / m;
     }

@@ -163,6 +163,14 @@ static void test_spring_values(void)
     CU_ASSERT_EQUAL(t->n_invariants(dth__model_self(m)), 6);
     CU_ASSERT_STRING_EQUAL(t->invariant_name(dth__model_self(m), 3), "Lx");
     dth_model_free(m);
+    /* one mass value applies to every particle: dH/dp = p/m for each */
+    dth_kv km[] = {{"particles", "3"}, {"dim", "1"}, {"mass", "25"}};
+    m = make(km, 3);
+    double y1[7] = {0, 1, 2, 0, 5, 10, 15}, g1[7];
+    CU_ASSERT_EQUAL(dth_model_eval(m, y1, DTH_EVAL_H | DTH_EVAL_GRAD, &H, g1, NULL), DTH_OK);
+    for (int i = 0; i < 3; i++) CU_ASSERT_DOUBLE_EQUAL(g1[4 + i], y1[4 + i] / 25, 1e-15);
+    CU_ASSERT_DOUBLE_EQUAL(H, (25 + 100 + 225) / 50.0, 1e-14);
+    dth_model_free(m);
 }
 
 /* ------------------------------------------------------------ validation */
