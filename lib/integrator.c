@@ -179,13 +179,22 @@ int dth_integrator_start(dth_integrator *it, const double *q0, const double *p0,
             seterr(it, "model evaluation failed at the initial state");
             return rc;
         }
-        reset_history(it);
-        memcpy(it->zbar, y, (N - 1) * sizeof *y);
-        it->zbar[N - 1] = -H;
+        memcpy(it->zb, y, (N - 1) * sizeof *y);
+        it->zb[N - 1] = -H;
         flow_z(n, it->grad, it->u);
         /* z_0 = zbar_0 - (h/2) u, kept in double-double so the first step returns to zbar_0 */
         for (size_t j = 0; j < N; j++) {
-            it->dprev[j] = 0.5 * h * it->u[j];
+            it->znewlo[j] = 0.5 * h * it->u[j];
+            it->znew[j] = it->zb[j] - it->znewlo[j];
+            if (!isfinite(it->znew[j]) || !isfinite(it->zb[j] + it->znewlo[j])) {
+                seterr(it, "the first vertex overflows (component %zu): h is too large", j);
+                return DTH_EDOMAIN;
+            }
+        }
+        reset_history(it);
+        memcpy(it->zbar, it->zb, N * sizeof *it->zb);
+        for (size_t j = 0; j < N; j++) {
+            it->dprev[j] = it->znewlo[j];
             it->z[j] = two_sum(it->zbar[j], -it->dprev[j], &it->zlo[j]);
         }
         it->lam = 0;
@@ -422,7 +431,7 @@ int dth__newton(dth_integrator *it, double lam0, const double *d0, dth__solution
 }
 
 /* Commit the solution in it->x / it->zb: new vertex z + 2 d in double-double. */
-static void commit(dth_integrator *it, double lam)
+static int commit(dth_integrator *it, double lam)
 {
     size_t N = it->N;
     int m = it->m;
@@ -430,6 +439,12 @@ static void commit(dth_integrator *it, double lam)
     for (size_t j = 0; j < N; j++) d[j] = 0;
     for (int a = 0; a < m - 1; a++) d[it->act[a]] = it->x[a];
     if (it->auton) d[it->n] = 0.5 * lam;
+    /* a finite midpoint can still give an overflowing vertex z + 2 d: refuse, state untouched */
+    for (size_t j = 0; j < N; j++)
+        if (!isfinite(it->z[j] + (2 * d[j] + it->zlo[j]))) {
+            seterr(it, "the new vertex overflows (component %zu)", j);
+            return DTH_EDOMAIN;
+        }
     for (size_t j = 0; j < N; j++) {
         double e, s = two_sum(it->z[j], 2 * d[j] + it->zlo[j], &e);
         if (it->auton && j == N - 1) continue; /* wp carried bit for bit */
@@ -452,6 +467,7 @@ static void commit(dth_integrator *it, double lam)
     it->have_prev = 1;
     it->have_mid = 1;
     it->steps++;
+    return DTH_OK;
 }
 
 int dth_integrator_step(dth_integrator *it, dth_step_info *info)
@@ -478,7 +494,8 @@ int dth_integrator_step(dth_integrator *it, dth_step_info *info)
             seterr(it, "cannot factor the first (exact) step");
             return rc;
         }
-        commit(it, lam);
+        rc = commit(it, lam);
+        if (rc) return rc;
         it->pending_exact = 0;
         info->lambda = lam;
         info->iters = 0;
@@ -515,7 +532,8 @@ int dth_integrator_step(dth_integrator *it, dth_step_info *info)
         info->lambda = sol.lambda;
         return DTH_ENOROOT;
     }
-    commit(it, sol.lambda);
+    rc = commit(it, sol.lambda);
+    if (rc) return rc;
     info->lambda = sol.lambda;
     info->branch = sol.lambda > 0 ? DTH_BRANCH_PLUS : DTH_BRANCH_MINUS;
     return DTH_OK;
