@@ -12,6 +12,7 @@
  * s is small (about lambda psi / 4) because g^T u = 0: it is computed without cancellation as
  * y2 = c + e, B e = -(lambda/4) D u, s = -g^T e (g^T c = 0 exactly, pair by pair).
  */
+#include <limits.h>
 #include <lapacke.h>
 #include <math.h>
 #include <string.h>
@@ -36,7 +37,8 @@ int dth__band_new(const dth_model *m, const dth_allocator *al, dth__band **out)
     *out = NULL;
     const dth_model_info *info = dth_model_get_info(m);
     size_t n = info->n, w = info->bandwidth;
-    if (w + 1 > (size_t)1 << 20 || n > ((size_t)1 << 29) / 3) return DTH_EINVAL;
+    /* LAPACK indexes the band storage with int: (3(w+1)+1) * 2n must fit */
+    if (w >= 2 * n || n > INT_MAX / 2 || (3 * (w + 1) + 1) > INT_MAX / (2 * n)) return DTH_EINVAL;
     dth__band *b = dth_calloc(al, 1, sizeof *b);
     if (!b) return DTH_ENOMEM;
     b->n = n;
