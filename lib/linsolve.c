@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: MIT */
-/* Linear solves for the bordered Newton system of the DTH step: the only file that calls LAPACK. */
+/* Dense LU for the bordered Newton system of the DTH step (LAPACKE); banded.c has the banded solve. */
 #include <lapacke.h>
 #include "dth_internal.h"
 
