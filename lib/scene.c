@@ -132,15 +132,17 @@ typedef struct load_ctx {
     const char *path;
     int lineno;     /* lines read so far: the line the handler is called for */
     int too_long;   /* a line did not fit inih's buffer */
+    int indented;   /* the current line starts with blank space: inih's continuation line */
     int nomem;
 } load_ctx;
 
-/* fgets that counts lines and refuses lines inih would split (it has no line continuation). */
+/* fgets that counts lines, notes indented (continuation) lines, and refuses lines inih would split. */
 static char *reader(char *str, int num, void *stream)
 {
     load_ctx *c = stream;
     if (!fgets(str, num, c->f)) return NULL;
     c->lineno++;
+    c->indented = str[0] == ' ' || str[0] == '\t';
     size_t len = strlen(str);
     if (len + 1 == (size_t)num && str[len - 1] != '\n') {
         int ch = fgetc(c->f);
@@ -155,6 +157,25 @@ static char *reader(char *str, int num, void *stream)
 static int handler(void *user, const char *section, const char *name, const char *value)
 {
     load_ctx *c = user;
+    long i = c->indented ? find(c->tmp, section, name) : -1;
+    if (i >= 0) {
+        /* A continuation line extends the key's value as more list items (long q= and p=
+         * lists), keeping the origin of the key's first line. */
+        entry *e = &c->tmp->e[i];
+        size_t ol = strlen(e->value), vl = strlen(value);
+        while (ol && (e->value[ol - 1] == ',' || e->value[ol - 1] == ' ')) ol--;
+        char *v = dth_calloc(c->tmp->alloc, ol + vl + 2, 1);
+        if (!v) {
+            c->nomem = 1;
+            return 0;
+        }
+        memcpy(v, e->value, ol);
+        v[ol] = ',';
+        memcpy(v + ol + 1, value, vl);
+        dth_free(c->tmp->alloc, e->value);
+        e->value = v;
+        return 1;
+    }
     char origin[4096 + 32];
     snprintf(origin, sizeof origin, "%s:%d", c->path, c->lineno);
     entry x;

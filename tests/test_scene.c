@@ -325,7 +325,32 @@ static void test_bad_override_values(void)
     unlink(path);
 }
 
+/* Indented lines continue a key's list (long q= and p= lists for many degrees of freedom). */
+static void test_continuation(void)
+{
+    char path[64], err[512];
+    write_scene("[model]\nname=harmonic\nomega=1,\n  2, 3\n[initial]\nq=1, 2,\n  3\np=4,\n\t5,\n\t6\n"
+                "[integrator]\nh=0.1\nsteps=1\n", path, sizeof path);
+    dth_registry *reg = registry();
+    dth_scene *s;
+    dth_run_setup rs;
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    CU_ASSERT_FATAL(dth_scene_load(s, path, err, sizeof err) == DTH_OK);
+    CU_ASSERT_STRING_EQUAL(dth_scene_get(s, "initial", "q"), "1, 2,3");
+    CU_ASSERT_EQUAL_FATAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL(rs.n, 3);
+    CU_ASSERT_EQUAL(rs.q0[2], 3.0);
+    CU_ASSERT_EQUAL(rs.p0[0], 4.0);
+    CU_ASSERT_EQUAL(rs.p0[2], 6.0);
+    CU_ASSERT_EQUAL(dth_model_dof(rs.model), 3);
+    dth_run_setup_clear(&rs);
+    dth_scene_free(s);
+    dth_registry_free(reg);
+    unlink(path);
+}
+
 static CU_TestInfo scene_tests[] = {
+    {"indented lines continue a list", test_continuation},
     {"good scene: every key reaches the run setup", test_good_scene},
     {"defaults, a 2-D harmonic oscillator", test_defaults_and_harmonic},
     {"overrides replace values and name themselves", test_overrides},

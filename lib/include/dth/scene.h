@@ -12,6 +12,7 @@
  * steps= and t_end= exclude each other, except that an override of one replaces the other
  * when that one comes from a file.
  * Lines are limited to 197 characters (inih's default buffer); longer lines are an error.
+ * An indented line continues the previous key's value as more comma-separated list items.
  */
 #ifndef DTH_SCENE_H
 #define DTH_SCENE_H
