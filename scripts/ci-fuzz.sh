@@ -44,7 +44,7 @@ for t in $targets; do
     rc=$?
     set -e
     execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -n 1)
-    echo "ci-fuzz: $t: ${execs:-?} executions in ${secs} s, exit $rc"
+    echo "ci-fuzz: $t: ${execs:-?} executions (time budget ${secs} s), exit $rc"
     if [ "$rc" -ne 0 ]; then
         status=1
         grep -E 'ERROR|invariant|SUMMARY|Test unit written' "$log" | head -n 20 >&2
