@@ -46,7 +46,8 @@ static int create(const dth_model_args *a, void **self, dth_model_info *info)
     if (!rc) rc = dth_args_list(a, "mass", ml, MAXN, &nm);
     if (!rc) rc = dth_args_list(a, "omega", wl, MAXN, &nw);
     size_t n = (size_t)nn;
-    if (!rc && !n) n = nm > 1 ? nm : nw > 1 ? nw : a->n_hint ? a->n_hint : 1;
+    /* n: explicit, else the caller's number of q values, else the lists' length */
+    if (!rc && !n) n = a->n_hint ? a->n_hint : nm > 1 ? nm : nw > 1 ? nw : 1;
     if (!rc && nm > 1 && nm != n) rc = dth_args_error(a, "parameter 'mass' has %zu values, expected 1 or %zu", nm, n);
     if (!rc && nw > 1 && nw != n) rc = dth_args_error(a, "parameter 'omega' has %zu values, expected 1 or %zu", nw, n);
     if (!rc) {

@@ -284,7 +284,10 @@ static void test_param_messages(void)
     expect_rejected(Hm, "mass", "-1", 2, "mass");
     expect_rejected(Hm, "mass", "1,0", 2, "mass");
     expect_rejected2(Hm, "n", "3", "mass", "1,2", 3, "mass");
-    expect_rejected2(Hm, "mass", "1,2", "omega", "1,2,3", 3, "omega");
+    /* with 3 q values n = 3, so the 2-value mass list is the odd one out; without a hint the
+     * mass list sets n = 2 and the omega list is */
+    expect_rejected2(Hm, "mass", "1,2", "omega", "1,2,3", 3, "mass");
+    expect_rejected2(Hm, "mass", "1,2", "omega", "1,2,3", 0, "omega");
     expect_rejected(Hm, "mass", "1,,2", 3, "mass");
     expect_rejected(Hm, "mass", "1,nan", 2, "mass");
     expect_rejected(Hm, "omega", "0", 1, "omega");
