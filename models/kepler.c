@@ -79,7 +79,8 @@ static int eval(const void *self, const double *y, unsigned what, double *H, dou
         /* V_ij = mu (delta_ij / r^3 - 3 q_i q_j / r^5); the p block is the identity */
         for (size_t i = 0; i < d * d; i++) hs[i] = 0;
         for (size_t i = 0; i < n; i++) {
-            for (size_t j = 0; j < n; j++) hs[i * d + j] = -3 * mr3 * q[i] * q[j] / r2;
+            for (size_t j = 0; j <= i; j++) /* mirrored: exactly symmetric */
+                hs[i * d + j] = hs[j * d + i] = -3 * mr3 * q[i] * q[j] / r2;
             hs[i * d + i] += mr3;
             hs[(n + 1 + i) * d + (n + 1 + i)] = 1;
         }
