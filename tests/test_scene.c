@@ -240,7 +240,7 @@ static const bad_case bad_cases[] = {
     {BASE_PEND "steps = 10\n[initial]\np = inf\n", 10, "initial.p", "inf"},
     {BASE_PEND "steps = 10\n[initial]\np = 1, 2\n", 10, "initial.p", "2 values"},
     {BASE_PEND "steps = 10\n[initial]\nq = 1, 2\np = 0, 0\n", 10, "initial.q", "pendulum"},
-    {"[model]\nname = harmonic\nomega = 1, 2, 3\n[initial]\nq = 1, 2\np = 0, 0\n[integrator]\nh=1\nsteps=1\n", 5, "initial.q", "3 degrees of freedom"},
+    {"[model]\nname = harmonic\nomega = 1, 2, 3\n[initial]\nq = 1, 2\np = 0, 0\n[integrator]\nh=1\nsteps=1\n", 3, "model.omega", "3 values, expected 1 or 2"}, /* q sets n = 2 */
     {"[model]\nname = harmonic\nn = 2\nomega = 1, 2, 3\n[initial]\nq = 1, 2\np = 0, 0\n[integrator]\nh=1\nsteps=1\n", 4, "model.omega", "3 values"},
     {BASE_PEND "steps = 10\n[integrator]\nh = 0\n", 10, "integrator.h", "nonzero"},
     {BASE_PEND "steps = 10\n[integrator]\nh = 1e400\n", 10, "integrator.h", "1e400"},
