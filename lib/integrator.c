@@ -395,9 +395,23 @@ int dth__newton(dth_integrator *it, double lam0, const double *d0, dth__solution
             return DTH_ENOCONV;
         }
         if (r <= 4 * DBL_EPSILON) break;
-        /* Quadratic rate r_(k+1) ~ r_k^3 / r_(k-1)^2: stop when the next correction is below
-         * round-off, rather than paying one more factorization to see it. */
-        if (iter >= 2 && r < 1e-6 && r * (r / r_prev) * (r / r_prev) <= DBL_EPSILON) break;
+        /* Quadratic rate r_(k+1) ~ r_k^3 / r_(k-1)^2: when the next correction is predicted below
+         * round-off, finish with one chord step (the factors at hand, no new Jacobian) instead of
+         * a full iteration. Without it the last residual keeps one sign from step to step and
+         * quadratic invariants drift like N instead of Brouwer's sqrt(N). */
+        if (iter >= 2 && r < 1e-6 && r * (r / r_prev) * (r / r_prev) <= DBL_EPSILON) {
+            midpoint_from_x(it, x, zb);
+            rc = dth_model_eval(it->model, zb, DTH_EVAL_H | DTH_EVAL_GRAD, &Hphys, it->grad, NULL);
+            if (rc) {
+                seterr(it, "model evaluation failed at a trial midpoint (chord step): %s", dth_strerror(rc));
+                return rc;
+            }
+            assemble(it, x, zb, Hphys, it->dx, NULL); /* residual only: the factors stay */
+            rc = it->band ? dth__band_solve(it->band, it->dx) : dth__lu_solve(m, A, it->piv, 1, it->dx);
+            if (rc) return rc;
+            for (int a = 0; a < m; a++) x[a] -= it->dx[a];
+            break;
+        }
         if (r >= 0.5 * r_prev) {
             /* The correction stopped decreasing: accept only if the residual is at round-off. */
             double fs = 0;
