@@ -263,7 +263,7 @@ int dth_model_check(const dth_model *m, const double *y, dth_model_check_report 
     if (!m || !y || !rep) return DTH_EINVAL;
     memset(rep, 0, sizeof *rep);
     size_t n = m->info.n, d = 2 * n + 1;
-    double *buf = malloc(sizeof(double) * (3 * d * d + 6 * d));
+    double *buf = dth_calloc(m->alloc, 3 * d * d + 6 * d, sizeof(double));
     if (!buf) return DTH_ENOMEM;
     double *hess = buf, *hp = hess + d * d, *hm = hp + d * d;
     double *grad = hm + d * d, *gp = grad + d, *gm = gp + d, *yy = gm + d, *u = yy + d;
@@ -325,7 +325,7 @@ int dth_model_check(const dth_model *m, const double *y, dth_model_check_report 
     }
     if (!rc && m->info.hess_kind == DTH_HESS_BANDED && m->type->hess_band) {
         size_t w = m->info.bandwidth, bw = 2 * w + 1, nn = 2 * n;
-        double *band = malloc(sizeof(double) * nn * bw);
+        double *band = dth_calloc(m->alloc, nn * bw, sizeof(double));
         if (!band) rc = DTH_ENOMEM;
         else if (m->type->hess_band(m->self, y, band) != 0) rc = DTH_EMODEL;
         else {
@@ -339,9 +339,9 @@ int dth_model_check(const dth_model *m, const double *y, dth_model_check_report 
                     rep->band_err = fmax(rep->band_err, fabs(bv - dense) / hscale);
                 }
         }
-        free(band);
+        dth_free(m->alloc, band);
     }
-    free(buf);
+    dth_free(m->alloc, buf);
     return rc;
 }
 
