@@ -16,14 +16,14 @@ static const char base[] = "[model]\nname = pendulum\n[initial]\nq = 1\np = 0\n"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    char path[512], err[512];
-    if (size > 4096 || !fuzz_scratch((const uint8_t *)base, sizeof base - 1, path, sizeof path)) return 0;
+    char err[512];
+    if (size > 4096) return 0;
     dth_scene *s = NULL;
     dth_registry *reg = NULL;
     FUZZ_CHECK(dth_scene_new(NULL, &s) == DTH_OK);
     FUZZ_CHECK(dth_registry_new(NULL, &reg) == DTH_OK);
     FUZZ_CHECK(dth_registry_add_builtin(reg) == DTH_OK);
-    FUZZ_CHECK(dth_scene_load(s, path, err, sizeof err) == DTH_OK);
+    FUZZ_CHECK(dth_scene_load_mem(s, "base.ini", base, sizeof base - 1, err, sizeof err) == DTH_OK);
     char *buf = malloc(size + 1);
     FUZZ_CHECK(buf != NULL);
     memcpy(buf, data, size);

@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * libFuzzer target: scene files. Arbitrary bytes go through dth_scene_load and, when they parse,
+ * libFuzzer target: scene files. Arbitrary bytes go through dth_scene_load_mem and, when they parse,
  * dth_scene_setup (validation into a run setup). Must never crash; a failure must leave the
  * scene unchanged and give a message; a success must give a consistent setup.
  */
@@ -13,15 +13,14 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    char path[512], err[512];
-    if (!fuzz_scratch(data, size, path, sizeof path)) return 0;
+    char err[512];
     dth_scene *s = NULL;
     dth_registry *reg = NULL;
     FUZZ_CHECK(dth_scene_new(NULL, &s) == DTH_OK);
     FUZZ_CHECK(dth_registry_new(NULL, &reg) == DTH_OK);
     FUZZ_CHECK(dth_registry_add_builtin(reg) == DTH_OK);
     err[0] = '\0';
-    int rc = dth_scene_load(s, path, err, sizeof err);
+    int rc = dth_scene_load_mem(s, "fuzz.ini", (const char *)data, size, err, sizeof err);
     FUZZ_CHECK(rc == DTH_OK || rc == DTH_EPARSE || rc == DTH_EIO);
     if (rc != DTH_OK) {
         FUZZ_CHECK(err[0] != '\0');

@@ -188,6 +188,8 @@ static int handler(void *user, const char *section, const char *name, const char
     return 1;
 }
 
+static int load_stream(dth_scene *s, FILE *f, const char *path, char *err, size_t errlen);
+
 int dth_scene_load(dth_scene *s, const char *path, char *err, size_t errlen)
 {
     if (!s || !path) {
@@ -199,6 +201,28 @@ int dth_scene_load(dth_scene *s, const char *path, char *err, size_t errlen)
         set_err(err, errlen, "%s: cannot read: %s", path, strerror(errno));
         return DTH_EIO;
     }
+    return load_stream(s, f, path, err, errlen);
+}
+
+int dth_scene_load_mem(dth_scene *s, const char *name, const char *text, size_t len, char *err,
+                       size_t errlen)
+{
+    if (!s || !name || (!text && len)) {
+        set_err(err, errlen, "invalid arguments to dth_scene_load_mem");
+        return DTH_EINVAL;
+    }
+    static const char empty[1] = "";
+    FILE *f = fmemopen((void *)(len ? text : empty), len ? len : 1, "r");
+    if (!f) {
+        set_err(err, errlen, "%s: cannot read: %s", name, strerror(errno));
+        return errno == ENOMEM ? DTH_ENOMEM : DTH_EIO;
+    }
+    return load_stream(s, f, name, err, errlen);
+}
+
+/* Parse an open stream (closed here) into the scene; on failure the scene is unchanged. */
+static int load_stream(dth_scene *s, FILE *f, const char *path, char *err, size_t errlen)
+{
     load_ctx c = {.f = f, .path = path};
     int rc = dth_scene_new(s->alloc, &c.tmp);
     if (rc) {

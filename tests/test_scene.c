@@ -349,7 +349,32 @@ static void test_continuation(void)
     unlink(path);
 }
 
+/* Loading from memory is loading from a file: same entries, same FILE:LINE messages. */
+static void test_load_mem(void)
+{
+    char err[512];
+    static const char text[] = "[model]\nname=pendulum\n[initial]\nq=0.5\np=0\n[integrator]\nh=0.1\nsteps=3\n";
+    dth_registry *reg = registry();
+    dth_scene *s;
+    dth_run_setup rs;
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    CU_ASSERT_EQUAL_FATAL(dth_scene_load_mem(s, "mem.ini", text, sizeof text - 1, err, sizeof err), DTH_OK);
+    CU_ASSERT_STRING_EQUAL(dth_scene_origin(s, "integrator", "steps"), "mem.ini:8");
+    CU_ASSERT_EQUAL_FATAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL(rs.q0[0], 0.5);
+    CU_ASSERT_EQUAL(rs.steps, 3);
+    dth_run_setup_clear(&rs);
+    static const char bad[] = "[model]\nname=pendulum\nthis is not ini\n";
+    CU_ASSERT_EQUAL(dth_scene_load_mem(s, "bad.ini", bad, sizeof bad - 1, err, sizeof err), DTH_EPARSE);
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "bad.ini:3"));
+    CU_ASSERT_EQUAL(dth_scene_load_mem(s, "empty.ini", NULL, 0, err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL(dth_scene_load_mem(s, "x", NULL, 5, err, sizeof err), DTH_EINVAL);
+    dth_scene_free(s);
+    dth_registry_free(reg);
+}
+
 static CU_TestInfo scene_tests[] = {
+    {"scene text from memory", test_load_mem},
     {"indented lines continue a list", test_continuation},
     {"good scene: every key reaches the run setup", test_good_scene},
     {"defaults, a 2-D harmonic oscillator", test_defaults_and_harmonic},

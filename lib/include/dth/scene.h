@@ -41,6 +41,12 @@ DTH_API void dth_scene_free(dth_scene *s);
  */
 DTH_API int dth_scene_load(dth_scene *s, const char *path, char *err, size_t errlen);
 /**
+ * Read scene text from memory (`len` bytes; `name` stands for the file in messages), exactly
+ * as dth_scene_load reads a file. @return as dth_scene_load.
+ */
+DTH_API int dth_scene_load_mem(dth_scene *s, const char *name, const char *text, size_t len,
+                               char *err, size_t errlen);
+/**
  * Apply an override "section.key=value" (spaces around the parts are trimmed; the value may
  * be empty). @return DTH_OK, DTH_EPARSE (message names the override), DTH_ENOMEM.
  */
