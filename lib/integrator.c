@@ -16,6 +16,7 @@ void dth_options_default(dth_options *o)
     o->h = 0.01;
     o->start = DTH_START_MIDPOINT;
     o->max_iter = 30;
+    o->branch_check = 1;
 }
 
 const char *dth_region_name(dth_region r)
@@ -113,6 +114,11 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     }
     it->dir = opt->h > 0 ? 1.0 : -1.0;
     it->lam_hint = opt->h;
+    int brc = dth__branch_create(it);
+    if (brc) {
+        dth_integrator_free(it);
+        return brc;
+    }
     snprintf(it->errmsg, sizeof it->errmsg, "no error");
     *out = it;
     return DTH_OK;
@@ -124,6 +130,7 @@ void dth_integrator_free(dth_integrator *it)
     dth_free(it->alloc, it->block);
     dth_free(it->alloc, it->ipiv);
     dth__band_free(it->band, it->alloc);
+    dth__branch_free(it);
     dth_free(it->alloc, it);
 }
 
@@ -536,20 +543,23 @@ int dth_integrator_step(dth_integrator *it, dth_step_info *info)
         for (size_t j = 0; j < N; j++) it->znewlo[j] = 0.5 * lam0 * it->u[j];
         d0 = it->znewlo;
     }
-    dth__solution sol;
+    dth__solution sol = {NAN, NAN, 0};
     int rc = dth__newton(it, lam0, d0, &sol);
     info->iters = sol.iters;
     info->residual = sol.residual;
-    if (rc) return rc;
-    if (!(sol.lambda * it->dir > 0)) {
-        seterr(it, "Newton found lambda = %.17g, against the direction of travel", sol.lambda);
-        info->lambda = sol.lambda;
-        return DTH_ENOROOT;
+    /* which root (branch.c): Newton's if physical, else the physical root ahead, else a status */
+    dth_branch br;
+    rc = dth__branch_select(it, rc, &sol, &br);
+    if (rc) {
+        if (rc == DTH_ENOROOT && isfinite(sol.lambda)) info->lambda = sol.lambda;
+        return rc;
     }
+    info->iters = sol.iters;
+    info->residual = sol.residual;
     rc = commit(it, sol.lambda);
     if (rc) return rc;
     info->lambda = sol.lambda;
-    info->branch = sol.lambda > 0 ? DTH_BRANCH_PLUS : DTH_BRANCH_MINUS;
+    info->branch = br;
     return DTH_OK;
 }
 

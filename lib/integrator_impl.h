@@ -30,6 +30,7 @@ struct dth_integrator {
     double lam_fact;
     double *block;
     struct dth__band *band; /* banded step solve (banded.c), NULL for the dense path */
+    struct dth_rootfinder *rf; /* branch selection (branch.c), NULL when opt.branch_check is off */
     char errmsg[192];
 };
 
@@ -46,5 +47,18 @@ typedef struct dth__solution {
  * the last iteration are in it->A / it->piv. Does not change the vertex.
  */
 int dth__newton(dth_integrator *it, double lam0, const double *d0, dth__solution *sol);
+
+/* ---- branch selection (branch.c) ---- */
+/** Allocate it->rf if opt.branch_check is on (dense models only). */
+int dth__branch_create(dth_integrator *it);
+/** Free it->rf. */
+void dth__branch_free(dth_integrator *it);
+/**
+ * Decide the step's root after Newton returned `rc` / `sol` from the predictor: keep Newton's
+ * root if the cheap test shows it physical, else search all roots and take the physical one ahead
+ * (it->x / it->zb then hold its solution, *sol updated). Otherwise DTH_ENEGOFFSET, DTH_EGHOST,
+ * DTH_EFOLD or DTH_ENOROOT (the vertex is untouched).
+ */
+int dth__branch_select(dth_integrator *it, int rc, dth__solution *sol, dth_branch *branch);
 
 #endif

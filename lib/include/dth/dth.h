@@ -9,6 +9,7 @@
 #include "dth/model.h"
 #include "dth/models.h"
 #include "dth/integrator.h"
+#include "dth/branch.h"
 #include "dth/scene.h"
 #include "dth/methods.h"
 #include "dth/checkpoint.h"

@@ -39,9 +39,11 @@ typedef struct dth_options {
     int max_iter;               /**< Newton iteration limit per step (default 30) */
     double K;                   /**< the paper's constant K for regions; <= 0: local estimate */
     const dth_allocator *alloc; /**< allocation functions, NULL for malloc */
+    int branch_check;           /**< classify each step's root and refuse non-physical ones (branch.h);
+                                     default 1 (dense models; banded models skip the check) */
 } dth_options;
 
-/** Fill `o` with defaults: h = 0.01, midpoint start, max_iter = 30, K = 0. */
+/** Fill `o` with defaults: h = 0.01, midpoint start, max_iter = 30, K = 0, branch_check = 1. */
 DTH_API void dth_options_default(dth_options *o);
 
 /** Which root a step took (filled by the branch logic; see branch.h). */

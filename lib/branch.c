@@ -1,0 +1,782 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Branch selection: every real root of the decoupled constraint g(lambda) = H(zbar(lambda, z_k))
+ * (paper, Theorem "Decoupling", Lemmas "g_taylor" and "Monotonicity", Theorems EU_1-EU_3 and
+ * "ghost"), their classes (minus, plus, ghost, double) and the integrator's root policy.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+#include <gsl/gsl_poly.h>
+#include "dth/branch.h"
+#include "dth_internal.h"
+#include "integrator_impl.h"
+
+/* Growth of the safety margin: the cheap test accepts a Newton root only with s <= S_CHEAP,
+ * safely below the paper's 6/5 (Theorem EU_2 (vi)); between the two the full search decides. */
+#define S_GHOST 1.2
+#define S_CHEAP 1.0
+
+struct dth_rootfinder {
+    const dth_model *model;
+    const dth_allocator *alloc;
+    dth_root_options opt;
+    size_t n, N, d;
+    int auton, M;         /* M: unknowns of the decoupled solve (q, p; wp if non-autonomous) */
+    int *act, *piv;       /* z-index of each unknown; LU pivots */
+    dth_integrator *host; /* polish with this integrator's Newton (its current vertex) */
+    dth_integrator *own;  /* or with our own integrator (standalone finder) */
+    double *z, *grad, *hess, *u, *A, *F, *v, *work, *seed, *ze, *zf, *rz, *rb1, *rb2, *rb3;
+    double blo[DTH_MAX_ROOTS], bhi[DTH_MAX_ROOTS]; /* bracket of each root (for polishing) */
+    size_t cap;           /* grid capacity (both sides and 0) */
+    double *gl, *gg, *gd, *gz, *tmp; /* grid: lambda, g, g', zbar (cap x N); sort keys */
+    long evals;
+    /* the integrator's policy: psi at the vertex of the last successful step */
+    double psi_prev;
+    long psi_step;
+    double *block;
+    int *iblock;
+};
+
+void dth_root_options_default(dth_root_options *o)
+{
+    memset(o, 0, sizeof *o);
+    o->n_uniform = 64;
+    o->n_geom = 40;
+    o->max_iter = 30;
+    o->polish = 1;
+}
+
+const char *dth_root_class_name(const dth_root *r)
+{
+    if (r->flags & DTH_ROOT_ZERO) return "zero";
+    if (r->flags & DTH_ROOT_DOUBLE) return "double";
+    return dth_branch_name(r->cls);
+}
+
+static int rf_create(const dth_model *model, const dth_root_options *opt, const dth_allocator *alloc,
+                     dth_integrator *host, dth_rootfinder **out)
+{
+    dth_root_options o;
+    if (opt) o = *opt;
+    else dth_root_options_default(&o);
+    if (o.n_uniform < 1 || o.n_geom < 0 || o.max_iter < 1 || !isfinite(o.K) || o.n_uniform > 1000000 ||
+        o.n_geom > 1000000)
+        return DTH_EINVAL;
+    dth_rootfinder *rf = dth_calloc(alloc, 1, sizeof *rf);
+    if (!rf) return DTH_ENOMEM;
+    rf->model = model;
+    rf->alloc = alloc;
+    rf->opt = o;
+    rf->n = dth_model_dof(model);
+    rf->N = 2 * rf->n + 2;
+    rf->d = 2 * rf->n + 1;
+    rf->auton = dth_model_get_info(model)->autonomous;
+    rf->M = (int)(rf->auton ? 2 * rf->n : 2 * rf->n + 1);
+    rf->host = host;
+    rf->psi_step = -2;
+    size_t N = rf->N, d = rf->d, M = (size_t)rf->M;
+    rf->cap = 2 * ((size_t)o.n_uniform + (size_t)o.n_geom + 8) + 1;
+    size_t sizes[] = {N, d, d * d, N, M * M, M, N, dth_model_work_size(model), N, N, N, N, N, N,
+                      DTH_MAX_ROOTS * N, rf->cap, rf->cap, rf->cap, rf->cap * N, rf->cap};
+    double **slots[] = {&rf->z, &rf->grad, &rf->hess, &rf->u, &rf->A, &rf->F, &rf->v, &rf->work,
+                        &rf->seed, &rf->ze, &rf->zf, &rf->rb1, &rf->rb2, &rf->rb3, &rf->rz,
+                        &rf->gl, &rf->gg, &rf->gd, &rf->gz, &rf->tmp};
+    size_t nd = 0;
+    for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) nd += sizes[i];
+    rf->block = dth_calloc(alloc, nd, sizeof(double));
+    rf->iblock = dth_calloc(alloc, 2 * M + 1, sizeof(int));
+    int rc = rf->block && rf->iblock ? DTH_OK : DTH_ENOMEM;
+    if (!rc) {
+        double *p = rf->block;
+        for (size_t i = 0; i < sizeof slots / sizeof slots[0]; i++) {
+            *slots[i] = p;
+            p += sizes[i];
+        }
+        rf->act = rf->iblock;
+        rf->piv = rf->iblock + M;
+        int a = 0;
+        for (size_t j = 0; j < N; j++) {
+            if (j == rf->n || (rf->auton && j == N - 1)) continue; /* t (and wp) in closed form */
+            rf->act[a++] = (int)j;
+        }
+    }
+    if (!rc && !host) {
+        dth_options io;
+        dth_options_default(&io);
+        io.h = 1.0;
+        io.max_iter = o.max_iter;
+        io.alloc = alloc;
+        io.branch_check = 0; /* the polishing integrator takes Newton's root as it is */
+        rc = dth_integrator_new(model, &io, &rf->own);
+    }
+    if (rc) {
+        dth_rootfinder_free(rf);
+        return rc;
+    }
+    *out = rf;
+    return DTH_OK;
+}
+
+int dth_rootfinder_new(const dth_model *model, const dth_root_options *opt, const dth_allocator *alloc,
+                       dth_rootfinder **out)
+{
+    if (!out) return DTH_EINVAL;
+    *out = NULL;
+    if (!model) return DTH_EINVAL;
+    return rf_create(model, opt, alloc, NULL, out);
+}
+
+void dth_rootfinder_free(dth_rootfinder *rf)
+{
+    if (!rf) return;
+    dth_integrator_free(rf->own);
+    dth_free(rf->alloc, rf->block);
+    dth_free(rf->alloc, rf->iblock);
+    dth_free(rf->alloc, rf);
+}
+
+/* u = J grad H over z = (q, t, p, wp). */
+static void flow_z(size_t n, const double *grad, double *u)
+{
+    dth__flow_y(n, grad, u);
+    u[2 * n + 1] = -grad[n];
+}
+
+/* d u_j / d z_l from the Hessian of H_phys (rows of J H_zz; the wp column is zero). */
+static double dudz(const dth_rootfinder *rf, int j, size_t l)
+{
+    size_t n = rf->n, d = rf->d, N = rf->N;
+    if (l >= d) return 0;
+    if (j < (int)n) return rf->hess[(n + 1 + (size_t)j) * d + l];
+    if (j >= (int)n + 1 && j < (int)d) return -rf->hess[((size_t)j - n - 1) * d + l];
+    if (j == (int)N - 1) return -rf->hess[n * d + l];
+    return 0;
+}
+
+/*
+ * H, psi, psi' at the vertex with one evaluation (psi' from the model's third derivative, else by
+ * dth_model_psi's difference). *pabs gets sum |u_i H_ij u_j|, the scale of psi's round-off.
+ */
+static int vertex_quantities(dth_rootfinder *rf, const double *z, double *H, double *psi, double *dpsi,
+                             double *pabs)
+{
+    size_t n = rf->n, d = rf->d, N = rf->N;
+    double Hp;
+    int rc = dth_model_eval(rf->model, z, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &Hp, rf->grad, rf->hess);
+    if (rc) return rc;
+    *H = z[N - 1] + Hp;
+    dth__flow_y(n, rf->grad, rf->u);
+    double s = 0, sa = 0;
+    for (size_t i = 0; i < d; i++) {
+        double r = 0, ra = 0;
+        for (size_t j = 0; j < d; j++) {
+            r += rf->hess[i * d + j] * rf->u[j];
+            ra += fabs(rf->hess[i * d + j] * rf->u[j]);
+        }
+        s += rf->u[i] * r;
+        sa += fabs(rf->u[i]) * ra;
+    }
+    *psi = s;
+    *pabs = sa;
+    const dth_model_type *t = dth_model_get_type(rf->model);
+    if (t->third) {
+        int r3 = t->third(dth__model_self(rf->model), z, rf->u, dpsi);
+        if (r3) return r3 > 0 ? DTH_EDOMAIN : DTH_EMODEL;
+        return isfinite(*dpsi) ? DTH_OK : DTH_EDOMAIN;
+    }
+    return dth_model_psi(rf->model, z, NULL, dpsi, rf->work);
+}
+
+/*
+ * The decoupled solve at lambda (Theorem "Decoupling"): zb (in: seed, out: solution) solves
+ * zb - z - (lambda/2) u(zb) = 0 with t and (autonomous) wp in closed form; then g = H(zb),
+ * dg = grad H . dzb/dlambda from (I - (lambda/2) Du) dzb/dlambda = u/2, and *scale the size of the
+ * terms of H (round-off of g is about eps * scale).
+ */
+static int solve_at(dth_rootfinder *rf, const double *z, double lam, double *zb, double *g, double *dg,
+                    double *scale)
+{
+    size_t n = rf->n, N = rf->N, d = rf->d;
+    int M = rf->M, rc;
+    double Hp = 0, r_prev = INFINITY;
+    rf->evals++;
+    zb[n] = z[n] + 0.5 * lam;
+    if (rf->auton) zb[N - 1] = z[N - 1];
+    for (int iter = 1;; iter++) {
+        rc = dth_model_eval(rf->model, zb, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &Hp, rf->grad, rf->hess);
+        if (rc) return rc;
+        flow_z(n, rf->grad, rf->u);
+        for (int a = 0; a < M; a++) {
+            int j = rf->act[a];
+            rf->F[a] = zb[j] - z[j] - 0.5 * lam * rf->u[j];
+            for (int b = 0; b < M; b++)
+                rf->A[a + b * M] = (a == b ? 1.0 : 0.0) - 0.5 * lam * dudz(rf, j, (size_t)rf->act[b]);
+        }
+        rc = dth__lu_factor(M, rf->A, rf->piv);
+        if (rc) return rc == DTH_ESINGULAR ? DTH_ENOCONV : rc;
+        if (iter > 1 && r_prev <= 4 * DBL_EPSILON) break; /* converged: A and grad belong to zb */
+        if (iter > rf->opt.max_iter) return DTH_ENOCONV;
+        rc = dth__lu_solve(M, rf->A, rf->piv, 1, rf->F);
+        if (rc) return rc;
+        double r = 0;
+        for (int a = 0; a < M; a++) {
+            int j = rf->act[a];
+            zb[j] -= rf->F[a];
+            double sc = fabs(z[j]) + fabs(zb[j]);
+            double ra = fabs(rf->F[a]) / (sc > 0 ? sc : 1e-300);
+            if (!(ra <= r)) r = ra;
+        }
+        if (!isfinite(r) || r > 1e3) return DTH_ENOCONV;
+        /* a stalled correction at round-off is converged; a stalled larger one is not */
+        if (iter >= 6 && r >= 0.5 * r_prev) {
+            if (r <= 1e3 * DBL_EPSILON) r = 0;
+            else return DTH_ENOCONV;
+        }
+        r_prev = r;
+    }
+    /* dzb/dlambda: the t column of Du enters through d t_bar / d lambda = 1/2 */
+    for (int a = 0; a < M; a++) {
+        int j = rf->act[a];
+        rf->F[a] = 0.5 * rf->u[j] + 0.25 * lam * dudz(rf, j, n);
+    }
+    rc = dth__lu_solve(M, rf->A, rf->piv, 1, rf->F);
+    if (rc) return rc;
+    memset(rf->v, 0, N * sizeof *rf->v);
+    rf->v[n] = 0.5;
+    for (int a = 0; a < M; a++) rf->v[rf->act[a]] = rf->F[a];
+    if (!rf->auton) {
+        /* wp is an unknown then; nothing else to add */
+    }
+    double s = 0, sc = fabs(zb[N - 1]) + fabs(Hp);
+    for (size_t l = 0; l < d; l++) {
+        s += rf->grad[l] * rf->v[l];
+        sc += fabs(rf->grad[l] * zb[l]);
+    }
+    s += rf->v[N - 1];
+    *g = zb[N - 1] + Hp;
+    *dg = s;
+    *scale = sc;
+    return isfinite(*g) && isfinite(*dg) ? DTH_OK : DTH_EDOMAIN;
+}
+
+/* Seed zb for lambda from a solved point (lam0, z0) with slope v0 (the last solve's dzb/dlambda). */
+static void predict(const dth_rootfinder *rf, const double *z0, const double *v0, double lam0, double lam, double *zb)
+{
+    for (size_t j = 0; j < rf->N; j++) zb[j] = z0[j] + (lam - lam0) * v0[j];
+}
+
+int dth_decoupled(dth_rootfinder *rf, const double *z, double lambda, int steps, double *g, double *dg,
+                  double *zbar)
+{
+    if (!rf || !z || !g || !dg || !isfinite(lambda) || steps < 1) return DTH_EINVAL;
+    size_t N = rf->N;
+    double *zb = rf->seed, sc;
+    memcpy(zb, z, N * sizeof *zb);
+    double lam0 = 0;
+    int rc = DTH_OK;
+    /* at lambda = 0, zbar = z and dzbar/dlambda = u(z)/2 */
+    double gg, dd;
+    rc = solve_at(rf, z, 0.0, zb, &gg, &dd, &sc);
+    for (int k = 1; !rc && k <= steps; k++) {
+        double lam = lambda * k / steps;
+        predict(rf, zb, rf->v, lam0, lam, rf->ze);
+        memcpy(zb, rf->ze, N * sizeof *zb);
+        rc = solve_at(rf, z, lam, zb, &gg, &dd, &sc);
+        lam0 = lam;
+    }
+    if (rc) return rc;
+    *g = gg;
+    *dg = dd;
+    if (zbar) memcpy(zbar, zb, N * sizeof *zb);
+    return DTH_OK;
+}
+
+/* ------------------------------------------------------------------------ the search */
+
+/* The grid point i: solve from the nearest solved point toward 0 (index `from`), halving on failure. */
+static int grid_solve(dth_rootfinder *rf, const double *z, size_t i, size_t from, double *tolsc)
+{
+    size_t N = rf->N;
+    double *zi = rf->gz + i * N, *zp = rf->gz + from * N, lp = rf->gl[from], lt = rf->gl[i];
+    double sc;
+    /* slope at the start point: re-solve it to restore rf->v (cheap: converges at once) */
+    memcpy(rf->ze, zp, N * sizeof *zp);
+    int rc = solve_at(rf, z, lp, rf->ze, &rf->gg[from], &rf->gd[from], &sc);
+    if (rc) return rc;
+    double lcur = lp;
+    for (int sub = 0; sub < 12; sub++) {
+        double lnext = lt;
+        for (int h = 0; h < 8; h++) {
+            predict(rf, rf->ze, rf->v, lcur, lnext, zi);
+            rc = solve_at(rf, z, lnext, zi, &rf->gg[i], &rf->gd[i], &sc);
+            if (!rc) break;
+            if (rc < 0 && rc != DTH_EMODEL) return rc;
+            lnext = 0.5 * (lcur + lnext);
+        }
+        if (rc) return rc;
+        if (lnext == lt) {
+            *tolsc = fmax(*tolsc, sc);
+            return DTH_OK;
+        }
+        memcpy(rf->ze, zi, N * sizeof *zi);
+        lcur = lnext;
+    }
+    return DTH_ENOCONV;
+}
+
+/* g at lambda from the solved point (l0, z0): into zb; returns status. */
+static int eval_from(dth_rootfinder *rf, const double *z, const double *z0, double l0, double lam, double *zb,
+                     double *g, double *dg, double *sc)
+{
+    size_t N = rf->N;
+    /* restore the slope at z0 */
+    memcpy(zb, z0, N * sizeof *zb);
+    double g0, d0;
+    int rc = solve_at(rf, z, l0, zb, &g0, &d0, sc);
+    if (rc) return rc;
+    memcpy(rf->zf, zb, N * sizeof *zb);
+    predict(rf, rf->zf, rf->v, l0, lam, zb);
+    rc = solve_at(rf, z, lam, zb, g, dg, sc);
+    if (rc) {
+        /* two half steps */
+        double lm = 0.5 * (l0 + lam);
+        predict(rf, rf->zf, rf->v, l0, lm, zb);
+        rc = solve_at(rf, z, lm, zb, g, dg, sc);
+        if (rc) return rc;
+        memcpy(rf->zf, zb, N * sizeof *zb);
+        predict(rf, rf->zf, rf->v, lm, lam, zb);
+        rc = solve_at(rf, z, lam, zb, g, dg, sc);
+    }
+    return rc;
+}
+
+typedef struct pt {
+    double l, g, dg;
+    const double *zb;
+} pt;
+
+/* Root of g in the bracket (a, b) with g(a) g(b) < 0: safeguarded Newton on g (its slope is exact)
+ * with bisection. *lam, the midpoint there in out_zb, and g' there. */
+static int refine(dth_rootfinder *rf, const double *z, pt a, pt b, double *lam, double *out_zb, double *slope)
+{
+    size_t N = rf->N;
+    double *zl = rf->rb1, *zh = rf->rb2, sc;
+    memcpy(zl, a.zb, N * sizeof *zl);
+    memcpy(zh, b.zb, N * sizeof *zh);
+    double lo = a.l, hi = b.l, glo = a.g, ghi = b.g, dlo = a.dg, dhi = b.dg;
+    double x = fabs(a.g) < fabs(b.g) ? a.l : b.l;
+    x = a.l - a.g * (b.l - a.l) / (b.g - a.g); /* secant start */
+    if (!(x > fmin(lo, hi) && x < fmax(lo, hi))) x = 0.5 * (lo + hi);
+    for (int it = 0; it < 100; it++) {
+        int from_lo = fabs(x - lo) <= fabs(hi - x);
+        double g, dg;
+        int rc = eval_from(rf, z, from_lo ? zl : zh, from_lo ? lo : hi, x, out_zb, &g, &dg, &sc);
+        if (rc) return rc;
+        if (g == 0) {
+            *lam = x;
+            *slope = dg;
+            return DTH_OK;
+        }
+        if ((g < 0) == (glo < 0)) {
+            lo = x, glo = g, dlo = dg;
+            memcpy(zl, out_zb, N * sizeof *zl);
+        } else {
+            hi = x, ghi = g, dhi = dg;
+            memcpy(zh, out_zb, N * sizeof *zh);
+        }
+        if (fabs(hi - lo) <= 4 * DBL_EPSILON * fmax(fabs(lo), fabs(hi))) break;
+        double xn = dg != 0 ? x - g / dg : NAN;
+        if (!(xn > fmin(lo, hi) && xn < fmax(lo, hi)) || fabs(xn - x) > 0.5 * fabs(hi - lo))
+            xn = 0.5 * (lo + hi);
+        if (xn == x || xn == lo || xn == hi) break;
+        x = xn;
+    }
+    int use_lo = fabs(glo) <= fabs(ghi);
+    *lam = use_lo ? lo : hi;
+    *slope = use_lo ? dlo : dhi;
+    memcpy(out_zb, use_lo ? zl : zh, N * sizeof *zl);
+    return DTH_OK;
+}
+
+/* Extremum of g in (a, b) with g'(a) g'(b) < 0: Illinois on g'. lambda, g there, midpoint in out_zb. */
+static int extremum(dth_rootfinder *rf, const double *z, pt a, pt b, double *lam, double *gout, double *out_zb)
+{
+    double la = a.l, fa = a.dg, lb = b.l, fb = b.dg, sc, g = a.g, dg = a.dg, x = la;
+    int side = 0;
+    for (int it = 0; it < 80; it++) {
+        x = (la * fb - lb * fa) / (fb - fa);
+        if (!(x > fmin(la, lb) && x < fmax(la, lb))) x = 0.5 * (la + lb);
+        int rc = eval_from(rf, z, a.zb, a.l, x, out_zb, &g, &dg, &sc);
+        if (rc) return rc;
+        if (dg == 0) break;
+        if ((dg < 0) == (fa < 0)) {
+            la = x;
+            fa = dg;
+            if (side == -1) fb *= 0.5;
+            side = -1;
+        } else {
+            lb = x;
+            fb = dg;
+            if (side == 1) fa *= 0.5;
+            side = 1;
+        }
+        if (fabs(lb - la) <= 8 * DBL_EPSILON * fmax(fabs(la), fabs(lb))) break;
+    }
+    *lam = x;
+    *gout = g;
+    return DTH_OK;
+}
+
+/* Polish a simple root with the bordered Newton of the step; 1 if confirmed. */
+static int polish(dth_rootfinder *rf, const double *z, double lam, const double *zb, double lo, double hi,
+                  double *lam_out, double *res)
+{
+    dth_integrator *it = rf->host ? rf->host : rf->own;
+    size_t N = rf->N;
+    if (!rf->host && dth_integrator_set_vertex(it, z, 1.0) != DTH_OK) return 0;
+    for (size_t j = 0; j < N; j++) rf->ze[j] = zb[j] - z[j];
+    dth__solution sol;
+    if (dth__newton(it, lam, rf->ze, &sol) != DTH_OK) return 0;
+    double w = 1e-6 * fabs(hi - lo);
+    if (!(sol.lambda >= fmin(lo, hi) - w && sol.lambda <= fmax(lo, hi) + w)) return 0;
+    *lam_out = sol.lambda;
+    *res = sol.residual;
+    return 1;
+}
+
+static void add_root(dth_rootfinder *rf, dth_root_set *out, double lam, unsigned flags, double res, double slope,
+                     const double *zb, double blo, double bhi)
+{
+    size_t N = rf->N;
+    if (out->count >= DTH_MAX_ROOTS) {
+        out->truncated = 1;
+        return;
+    }
+    rf->blo[out->count] = blo;
+    rf->bhi[out->count] = bhi;
+    dth_root *r = &out->root[out->count];
+    memset(r, 0, sizeof *r);
+    r->lambda = lam;
+    r->flags = flags;
+    r->residual = res;
+    r->slope = slope;
+    memcpy(rf->rz + out->count * N, zb, N * sizeof *zb);
+    out->count++;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* Classify the roots (sorted by lambda) in place (see branch.h). */
+static void classify(dth_root_set *out)
+{
+    double psi = out->vertex.psi, dpsi = out->vertex.dpsi;
+    int pz = out->psi_zero;
+    for (size_t i = 0; i < out->count; i++) {
+        dth_root *r = &out->root[i];
+        r->s = pz ? NAN : -(dpsi / psi) * r->lambda;
+        r->cls = DTH_BRANCH_GHOST;
+    }
+    for (int side = -1; side <= 1; side += 2) {
+        /* nearest root to 0 on this side */
+        dth_root *first = NULL;
+        for (size_t i = 0; i < out->count; i++) {
+            dth_root *r = &out->root[i];
+            if (r->flags & DTH_ROOT_ZERO || r->lambda * side <= 0) continue;
+            if (!first || fabs(r->lambda) < fabs(first->lambda)) first = r;
+        }
+        if (!first) continue;
+        int physical;
+        if (pz) physical = dpsi == 0 || out->sign_H_dpsi == side || out->sign_H_dpsi == 0;
+        else physical = first->s <= S_GHOST;
+        if (physical) first->cls = side > 0 ? DTH_BRANCH_PLUS : DTH_BRANCH_MINUS;
+    }
+    for (size_t i = 0; i < out->count; i++)
+        if (out->root[i].flags & DTH_ROOT_ZERO) out->root[i].cls = DTH_BRANCH_NONE;
+}
+
+static int sgn(double x) { return (x > 0) - (x < 0); }
+
+int dth_find_roots(dth_rootfinder *rf, const double *z, double L, dth_root_set *out)
+{
+    if (!rf || !z || !out || !(L > 0) || !isfinite(L)) return DTH_EINVAL;
+    size_t N = rf->N;
+    for (size_t j = 0; j < N; j++)
+        if (!isfinite(z[j])) return DTH_EINVAL;
+    memset(out, 0, sizeof *out);
+    if (z != rf->z) memcpy(rf->z, z, N * sizeof *z);
+    z = rf->z;
+    rf->evals = 0;
+    double H, psi, dpsi, pabs;
+    int rc = vertex_quantities(rf, z, &H, &psi, &dpsi, &pabs);
+    if (rc) return rc;
+    out->vertex.H = H;
+    out->vertex.psi = psi;
+    out->vertex.dpsi = dpsi;
+    out->psi_zero = fabs(psi) <= 32 * DBL_EPSILON * pabs;
+    out->sign_H_psi = out->psi_zero ? 0 : sgn(H) * sgn(psi);
+    out->sign_H_dpsi = sgn(H) * sgn(dpsi);
+
+    /* ---- the grid: 0, geometric and uniform points, and the cubic's landmarks (Lemma
+     * g_taylor: its real roots and the extremum s = 2; Lemma Monotonicity: s = 6/5, s = 6) */
+    size_t m = 0, cap = rf->cap;
+    double *x = rf->tmp; /* |lambda| candidates */
+    for (int i = 1; i <= rf->opt.n_uniform; i++) x[m++] = L * i / rf->opt.n_uniform;
+    for (int i = 0; i < rf->opt.n_geom; i++)
+        x[m++] = L * pow(1e-6, (double)i / (rf->opt.n_geom > 1 ? rf->opt.n_geom - 1 : 1));
+    double marks[8];
+    int nm = 0;
+    if (!out->psi_zero && dpsi != 0) {
+        double r = fabs(psi / dpsi);
+        marks[nm++] = 1.2 * r;
+        marks[nm++] = 2 * r;
+        marks[nm++] = 6 * r;
+    }
+    double c0, c1, c2;
+    int nc = 0;
+    if (dpsi != 0 && (out->psi_zero || fabs(dpsi) * L > 1e-8 * fabs(psi)))
+        nc = gsl_poly_solve_cubic(3 * (out->psi_zero ? 0 : psi) / dpsi, 0, -24 * H / dpsi, &c0, &c1, &c2);
+    else if (!out->psi_zero && psi != 0)
+        nc = gsl_poly_solve_quadratic(-psi / 8, 0, H, &c0, &c1);
+    double cr[3] = {c0, c1, c2};
+    for (int i = 0; i < nc && i < 3; i++) marks[nm++] = fabs(cr[i]);
+    /* each side gets the same |lambda| set except landmarks, which belong to their sign only;
+     * keep it simple: add landmarks to both sides (harmless extra points) */
+    for (int i = 0; i < nm; i++)
+        if (isfinite(marks[i]) && marks[i] > 0 && marks[i] < L) x[m++] = marks[i];
+    qsort(x, m, sizeof *x, cmp_double);
+    size_t u = 0;
+    for (size_t i = 0; i < m; i++)
+        if (u == 0 || x[i] > x[u - 1] * (1 + 1e-9)) x[u++] = x[i];
+    m = u;
+    if (2 * m + 1 > cap) m = (cap - 1) / 2;
+    /* layout: index c = m is lambda 0; c + i is +x[i-1], c - i is -x[i-1] */
+    size_t c = m;
+    for (size_t i = 0; i < m; i++) {
+        rf->gl[c + 1 + i] = x[i];
+        rf->gl[c - 1 - i] = -x[i];
+    }
+    rf->gl[c] = 0;
+    double tolsc = 0, sc;
+    memcpy(rf->gz + c * N, z, N * sizeof *z);
+    rc = solve_at(rf, z, 0.0, rf->gz + c * N, &rf->gg[c], &rf->gd[c], &sc);
+    if (rc) return rc;
+    rf->gd[c] = 0; /* exactly: g'(0) = -psi * 0 / 4 */
+    tolsc = sc;
+    size_t ilo = c, ihi = c;
+    for (size_t i = c + 1; i < 2 * m + 1; i++) {
+        if (grid_solve(rf, z, i, i - 1, &tolsc)) break;
+        ihi = i;
+    }
+    for (size_t i = c; i-- > 0;) {
+        if (grid_solve(rf, z, i, i + 1, &tolsc)) break;
+        ilo = i;
+    }
+    out->lo = rf->gl[ilo];
+    out->hi = rf->gl[ihi];
+    double tol = 32 * DBL_EPSILON * tolsc;
+    out->tol = tol;
+
+    /* ---- roots */
+    double lam, slope, res, ge;
+    if (fabs(H) <= tol) add_root(rf, out, 0.0, DTH_ROOT_ZERO | DTH_ROOT_DOUBLE, fabs(H), 0.0, z, 0, 0);
+    for (size_t i = ilo; i < ihi; i++) {
+        pt a = {rf->gl[i], rf->gg[i], rf->gd[i], rf->gz + i * N};
+        pt b = {rf->gl[i + 1], rf->gg[i + 1], rf->gd[i + 1], rf->gz + (i + 1) * N};
+        if ((i == c || i + 1 == c) && fabs(H) <= tol) continue; /* g(0) is round-off: the zero root */
+        if (b.g == 0 && i + 1 < ihi) {
+            add_root(rf, out, b.l, 0, 0.0, b.dg, b.zb, a.l, rf->gl[i + 2]);
+            continue;
+        }
+        if (a.g * b.g < 0) {
+            if (!refine(rf, z, a, b, &lam, rf->ze, &slope)) add_root(rf, out, lam, 0, NAN, slope, rf->ze, a.l, b.l);
+        } else if (a.dg * b.dg < 0 && a.g != 0) {
+            /* an extremum between grid points: a double root, a hidden pair, or nothing */
+            if (extremum(rf, z, a, b, &lam, &ge, rf->rb3)) continue;
+            if (fabs(ge) <= tol) {
+                add_root(rf, out, lam, DTH_ROOT_DOUBLE, fabs(ge), 0.0, rf->rb3, lam, lam);
+            } else if (sgn(ge) != sgn(a.g)) {
+                pt e = {lam, ge, 0.0, rf->rb3};
+                double l1, l2;
+                if (!refine(rf, z, a, e, &l1, rf->ze, &slope)) add_root(rf, out, l1, 0, NAN, slope, rf->ze, a.l, e.l);
+                if (!refine(rf, z, e, b, &l2, rf->ze, &slope)) add_root(rf, out, l2, 0, NAN, slope, rf->ze, e.l, b.l);
+            }
+        }
+    }
+    /* ---- polish simple roots with the bordered Newton of the step */
+    for (size_t k = 0; k < out->count; k++) {
+        dth_root *r = &out->root[k];
+        if (r->flags & DTH_ROOT_DOUBLE) continue;
+        const double *zk = rf->rz + k * N;
+        double lp;
+        if (rf->opt.polish && polish(rf, z, r->lambda, zk, rf->blo[k], rf->bhi[k], &lp, &res)) {
+            dth_integrator *it = rf->host ? rf->host : rf->own;
+            r->lambda = lp;
+            r->residual = res;
+            memcpy(rf->rz + k * N, it->zb, N * sizeof *it->zb);
+        } else {
+            double g, dg;
+            if (rf->opt.polish) r->flags |= DTH_ROOT_UNPOLISHED;
+            r->residual = eval_from(rf, z, zk, r->lambda, r->lambda, rf->ze, &g, &dg, &sc) ? NAN : fabs(g);
+        }
+    }
+    /* ---- sort; merge two roots closer than the resolution (g at their middle is round-off) */
+    for (size_t i = 1; i < out->count; i++)
+        for (size_t j = i; j > 0 && out->root[j - 1].lambda > out->root[j].lambda; j--) {
+            dth_root t = out->root[j];
+            out->root[j] = out->root[j - 1];
+            out->root[j - 1] = t;
+            memcpy(rf->ze, rf->rz + j * N, N * sizeof(double));
+            memcpy(rf->rz + j * N, rf->rz + (j - 1) * N, N * sizeof(double));
+            memcpy(rf->rz + (j - 1) * N, rf->ze, N * sizeof(double));
+        }
+    for (size_t i = 0; i + 1 < out->count;) {
+        dth_root *r1 = &out->root[i], *r2 = &out->root[i + 1];
+        double g, dg, mid = 0.5 * (r1->lambda + r2->lambda);
+        int merge = 0;
+        if (r1->lambda == r2->lambda) merge = 1;
+        else if (!eval_from(rf, z, rf->rz + i * N, r1->lambda, mid, rf->ze, &g, &dg, &sc) && fabs(g) <= tol)
+            merge = 1;
+        if (!merge) {
+            i++;
+            continue;
+        }
+        /* one root within the resolution; the zero root (H_k = 0) absorbs its neighbours */
+        unsigned zf = (r1->flags | r2->flags) & DTH_ROOT_ZERO;
+        r1->lambda = zf ? 0.0 : r1->lambda == r2->lambda ? r1->lambda : mid;
+        r1->flags |= DTH_ROOT_DOUBLE | zf;
+        r1->slope = 0;
+        for (size_t k = i + 1; k + 1 < out->count; k++) {
+            out->root[k] = out->root[k + 1];
+            memcpy(rf->rz + k * N, rf->rz + (k + 1) * N, N * sizeof(double));
+        }
+        out->count--;
+    }
+    /* ---- the vertex's K and region */
+    double K = rf->opt.K > 0 ? rf->opt.K : dth_model_get_info(rf->model)->K;
+    if (!(K > 0)) {
+        K = 0;
+        for (size_t i = ilo; i <= ihi; i++) {
+            double l = rf->gl[i], l2 = l * l;
+            if (fabs(l) < L / 8) continue;
+            double cub = H - psi * l2 / 8 - dpsi * l2 * l / 24;
+            K = fmax(K, fabs(rf->gg[i] - cub) / (l2 * l2));
+        }
+    }
+    out->vertex.K = K;
+    out->vertex.region = out->psi_zero ? (dpsi != 0 ? DTH_REGION_III : DTH_REGION_NONE) : dth_region_of(psi, dpsi, K);
+    classify(out);
+    out->evals = rf->evals;
+    return DTH_OK;
+}
+
+/* ------------------------------------------------------------------------ integrator policy */
+
+int dth__branch_create(dth_integrator *it)
+{
+    if (!it->opt.branch_check || dth__model_banded(it->model)) return DTH_OK;
+    dth_root_options o;
+    dth_root_options_default(&o);
+    o.K = it->opt.K;
+    o.max_iter = it->opt.max_iter > 30 ? it->opt.max_iter : 30;
+    return rf_create(it->model, &o, it->alloc, it, &it->rf);
+}
+
+void dth__branch_free(dth_integrator *it)
+{
+    if (!it) return;
+    dth_rootfinder_free(it->rf);
+    it->rf = NULL;
+}
+
+int dth__branch_select(dth_integrator *it, int rc, dth__solution *sol, dth_branch *branch)
+{
+    dth_rootfinder *rf = it->rf;
+    *branch = DTH_BRANCH_NONE;
+    if (!rf) {
+        /* no branch check: Newton's root as it is, if it goes the right way */
+        if (rc) return rc;
+        if (!(sol->lambda * it->dir > 0)) {
+            snprintf(it->errmsg, sizeof it->errmsg, "Newton found lambda = %.17g, against the direction of travel", sol->lambda);
+            return DTH_ENOROOT;
+        }
+        *branch = sol->lambda > 0 ? DTH_BRANCH_PLUS : DTH_BRANCH_MINUS;
+        return DTH_OK;
+    }
+    if (rc < 0) return rc;
+    size_t N = it->N;
+    for (size_t j = 0; j < N; j++) rf->z[j] = it->z[j] + it->zlo[j];
+    double H, psi, dpsi, pabs;
+    int vr = vertex_quantities(rf, rf->z, &H, &psi, &dpsi, &pabs);
+    if (vr) return rc ? rc : vr;
+    int pz = fabs(psi) <= 32 * DBL_EPSILON * pabs;
+    long prev_ok = rf->psi_step == it->steps - 1 && it->have_prev;
+    /* cheap test: a root ahead, safely physical (Theorem EU_2: s well below 6/5, H/psi > 0), no
+     * sign change of psi since the last vertex, and a step that continues the last one */
+    if (!rc && sol->lambda * it->dir > 0 && !pz && H * psi > 0) {
+        double s = -(dpsi / psi) * sol->lambda;
+        double ratio = it->have_prev && it->lam != 0 ? sol->lambda / it->lam : 1.0;
+        int same_sign = !prev_ok || (rf->psi_prev > 0) == (psi > 0);
+        if (s <= S_CHEAP && same_sign && ratio >= 0.5 && ratio <= 2.0) {
+            *branch = sol->lambda > 0 ? DTH_BRANCH_PLUS : DTH_BRANCH_MINUS;
+            rf->psi_prev = psi;
+            rf->psi_step = it->steps;
+            return DTH_OK;
+        }
+    }
+    /* the full search on [-L, L] around the expected step */
+    double lref = fmax(fabs(it->lam), fabs(it->lam_hint));
+    if (!rc && isfinite(sol->lambda)) lref = fmax(lref, 0.5 * fabs(sol->lambda));
+    dth_root_set set;
+    double L = 8 * lref;
+    int fr = dth_find_roots(rf, rf->z, L, &set);
+    if (fr) return rc ? rc : fr;
+    const dth_root *phys = NULL, *dbl = NULL, *ghost = NULL;
+    for (size_t i = 0; i < set.count; i++) {
+        const dth_root *r = &set.root[i];
+        if (!(r->lambda * it->dir > 0)) continue;
+        if (r->flags & DTH_ROOT_DOUBLE) {
+            if (!dbl || fabs(r->lambda) < fabs(dbl->lambda)) dbl = r;
+        } else if (r->cls == DTH_BRANCH_GHOST) {
+            if (!ghost || fabs(r->lambda) < fabs(ghost->lambda)) ghost = r;
+        } else if (r->cls == DTH_BRANCH_PLUS || r->cls == DTH_BRANCH_MINUS) {
+            phys = r;
+        }
+    }
+    if (phys && (!dbl || fabs(phys->lambda) < fabs(dbl->lambda))) {
+        /* take it: the step's own Newton from the root's midpoint (refactors for the tangent map) */
+        size_t k = (size_t)(phys - set.root);
+        for (size_t j = 0; j < N; j++) rf->ze[j] = rf->rz[k * N + j] - it->z[j];
+        int nr = dth__newton(it, phys->lambda, rf->ze, sol);
+        if (nr) return nr;
+        if (fabs(sol->lambda - phys->lambda) > 1e-6 * fabs(phys->lambda)) {
+            snprintf(it->errmsg, sizeof it->errmsg, "the physical root %.17g did not polish (Newton went to %.17g)",
+                     phys->lambda, sol->lambda);
+            return DTH_ENOCONV;
+        }
+        *branch = phys->cls;
+        rf->psi_prev = psi;
+        rf->psi_step = it->steps;
+        return DTH_OK;
+    }
+    int st;
+    double rho = pz ? 0 : H / psi;
+    int toward_fold = !pz && -(dpsi / psi) * it->dir > 0; /* travelling toward positive s */
+    if (dbl) st = DTH_EFOLD;
+    else if (!pz && rho < 0) st = ghost ? DTH_EGHOST : DTH_ENEGOFFSET;
+    else if (!pz && rho > 0 && toward_fold) st = DTH_EFOLD;
+    else if (ghost) st = DTH_EGHOST;
+    else st = DTH_ENOROOT;
+    /* After a failed Newton, claim "no physical root" only from a complete scan ahead; else (or
+     * for a bare DTH_ENOROOT) Newton's own status says more. */
+    int complete = it->dir > 0 ? set.hi >= L * (1 - 1e-12) : set.lo <= -L * (1 - 1e-12);
+    if (rc > 0 && (st == DTH_ENOROOT || !complete)) return rc;
+    snprintf(it->errmsg, sizeof it->errmsg,
+             "no physical root ahead of the vertex (H = %.3g, psi = %.3g, psi' = %.3g, %zu roots in [%.3g, %.3g])",
+             H, psi, dpsi, set.count, set.lo, set.hi);
+    return st;
+}
