@@ -22,7 +22,9 @@ enum {
 #define CLI_COMMANDS(X)                                                                           \
     X(run, "SCENE.ini [-s section.key=value]... [-o FILE]",                                       \
       "integrate a scene and write its trajectory as CSV")                                        \
-    X(models, "", "list the registered models, their parameters and defaults")
+    X(models, "", "list the registered models, their parameters and defaults")                  \
+    X(roots, "SCENE.ini [-s section.key=value]... [--range L]",                                  \
+      "every root of the step constraint at the initial vertex, classified (CSV)")
 
 #define CLI__DECL(name, usage, summary) int cli_cmd_##name(int argc, char **argv);
 CLI_COMMANDS(CLI__DECL)

@@ -478,7 +478,7 @@ static void classify(dth_root_set *out)
     int pz = out->psi_zero;
     for (size_t i = 0; i < out->count; i++) {
         dth_root *r = &out->root[i];
-        r->s = pz ? NAN : -(dpsi / psi) * r->lambda;
+        r->s = pz ? NAN : -(dpsi / psi) * r->lambda + 0.0; /* no -0 */
         r->cls = DTH_BRANCH_GHOST;
     }
     for (int side = -1; side <= 1; side += 2) {
