@@ -494,8 +494,13 @@ static int check_integrator(setup_ctx *c, dth_run_setup *rs, const entry *e)
     } else if (strcmp(k, "K") == 0) {
         if (dth_parse_double(v, &rs->opt.K) || rs->opt.K < 0)
             return bad(c->err, c->errlen, e, "'%s' is not a finite number >= 0 (0: estimate K locally)", v);
+    } else if (strcmp(k, "branch_check") == 0) {
+        /* no: take whatever root Newton converges to, as raw DTH does (for comparison only) */
+        if (!strcmp(v, "yes") || !strcmp(v, "true") || !strcmp(v, "1")) rs->opt.branch_check = 1;
+        else if (!strcmp(v, "no") || !strcmp(v, "false") || !strcmp(v, "0")) rs->opt.branch_check = 0;
+        else return bad(c->err, c->errlen, e, "'%s' is not one of yes, no", v);
     } else {
-        return bad(c->err, c->errlen, e, "unknown key (known in [integrator]: method, start, h, steps, t_end, max_iter, K)");
+        return bad(c->err, c->errlen, e, "unknown key (known in [integrator]: method, start, h, steps, t_end, max_iter, K, branch_check)");
     }
     return DTH_OK;
 }
