@@ -114,7 +114,9 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     }
     it->dir = opt->h > 0 ? 1.0 : -1.0;
     it->lam_hint = opt->h;
-    int brc = dth__branch_create(it);
+    it->reg = opt->regularizer;
+    it->rbuf = dth_calloc(al, (4 + DTH_REG_MAX_SEG) * N, sizeof(double));
+    int brc = it->rbuf ? dth__branch_create(it) : DTH_ENOMEM;
     if (brc) {
         dth_integrator_free(it);
         return brc;
@@ -131,6 +133,7 @@ void dth_integrator_free(dth_integrator *it)
     dth_free(it->alloc, it->ipiv);
     dth__band_free(it->band, it->alloc);
     dth__branch_free(it);
+    dth_free(it->alloc, it->rbuf);
     dth_free(it->alloc, it);
 }
 
@@ -164,6 +167,7 @@ static void reset_history(dth_integrator *it)
     it->fact_valid = 0;
     it->pending_exact = 0;
     it->steps = 0;
+    it->psi_known = 0;
 }
 
 int dth_integrator_start(dth_integrator *it, const double *q0, const double *p0, double t0)
@@ -491,6 +495,8 @@ static int commit(dth_integrator *it, double lam)
     return DTH_OK;
 }
 
+int dth__integrator_commit(dth_integrator *it, double lam) { return commit(it, lam); }
+
 int dth_integrator_step(dth_integrator *it, dth_step_info *info)
 {
     dth_step_info tmp;
@@ -550,6 +556,7 @@ int dth_integrator_step(dth_integrator *it, dth_step_info *info)
     /* which root (branch.c): Newton's if physical, else the physical root ahead, else a status */
     dth_branch br;
     rc = dth__branch_select(it, rc, &sol, &br);
+    if (it->reg) return dth__reg_step(it, rc, &sol, br, info); /* psi = 0 crossings (regularize.c) */
     if (rc) {
         if (rc == DTH_ENOROOT && isfinite(sol.lambda)) info->lambda = sol.lambda;
         return rc;

@@ -31,6 +31,11 @@ struct dth_integrator {
     double *block;
     struct dth__band *band; /* banded step solve (banded.c), NULL for the dense path */
     struct dth_rootfinder *rf; /* branch selection (branch.c), NULL when opt.branch_check is off */
+    /* regularization (regularize.c): the hook, and one flag of state: the sign of psi at the
+     * current vertex (psi_known = 0 until computed; reset with the history). */
+    dth_regularizer *reg;
+    int psi_sign, psi_known;
+    double *rbuf;     /* (4 + DTH_REG_MAX_SEG) N doubles of hook workspace */
     char errmsg[192];
 };
 
@@ -60,5 +65,14 @@ void dth__branch_free(dth_integrator *it);
  * DTH_EFOLD or DTH_ENOROOT (the vertex is untouched).
  */
 int dth__branch_select(dth_integrator *it, int rc, dth__solution *sol, dth_branch *branch);
+
+/* ---- regularization (regularize.c) ---- */
+/** Commit the solution in it->x / it->zb as the next vertex (integrator.c). */
+int dth__integrator_commit(dth_integrator *it, double lam);
+/**
+ * With a regularizer attached: take the ordinary step `rc` / `sol` (root `br`) if it succeeded
+ * without changing the sign of psi, else call the hook and commit what it decides.
+ */
+int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_branch br, dth_step_info *info);
 
 #endif

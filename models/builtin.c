@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /* The list of built-in models: the only place that names them all. */
 #include "dth/models.h"
+#include "dth/regularize.h"
 
 int dth_registry_add_builtin(dth_registry *r)
 {
@@ -12,6 +13,11 @@ int dth_registry_add_builtin(dth_registry *r)
     };
     for (size_t i = 0; i < sizeof builtin / sizeof builtin[0]; i++) {
         int rc = dth_registry_add_model(r, builtin[i]);
+        if (rc) return rc;
+    }
+    static const dth_regularizer_type *const regs[] = {&dth_reg_none, &dth_reg_reseed, &dth_reg_symkick};
+    for (size_t i = 0; i < sizeof regs / sizeof regs[0]; i++) {
+        int rc = dth_registry_add_regularizer(r, regs[i]);
         if (rc) return rc;
     }
     return DTH_OK;

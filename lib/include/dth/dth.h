@@ -9,9 +9,10 @@
 #include "dth/model.h"
 #include "dth/models.h"
 #include "dth/integrator.h"
+#include "dth/regularize.h"
 #include "dth/branch.h"
 #include "dth/scene.h"
-#include "dth/methods.h"
 #include "dth/checkpoint.h"
+#include "dth/methods.h"
 
 #endif

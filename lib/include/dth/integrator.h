@@ -17,6 +17,7 @@
 
 #include <stddef.h>
 #include "dth/model.h"
+#include "dth/regularize.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -41,6 +42,8 @@ typedef struct dth_options {
     const dth_allocator *alloc; /**< allocation functions, NULL for malloc */
     int branch_check;           /**< classify each step's root and refuse non-physical ones (branch.h);
                                      default 1 (dense models; banded models skip the check) */
+    dth_regularizer *regularizer; /**< called where the ordinary step fails or crosses psi = 0
+                                       (regularize.h); borrowed; NULL: raw DTH */
 } dth_options;
 
 /** Fill `o` with defaults: h = 0.01, midpoint start, max_iter = 30, K = 0, branch_check = 1. */

@@ -33,6 +33,16 @@ DTH_API const dth_model_type *dth_registry_find_model(const dth_registry *r, con
 DTH_API size_t dth_registry_model_count(const dth_registry *r);
 /** Model type i (0 <= i < count), in registration order. */
 DTH_API const dth_model_type *dth_registry_model_at(const dth_registry *r, size_t i);
+struct dth_regularizer_type; /* regularize.h */
+/** Register a regularizer type (regularize.h). @return DTH_OK, DTH_EINVAL (NULL, no name, no apply,
+ *  duplicate name), DTH_ENOMEM. */
+DTH_API int dth_registry_add_regularizer(dth_registry *r, const struct dth_regularizer_type *type);
+/** Regularizer type by name, or NULL. */
+DTH_API const struct dth_regularizer_type *dth_registry_find_regularizer(const dth_registry *r, const char *name);
+/** Number of registered regularizer types. */
+DTH_API size_t dth_registry_regularizer_count(const dth_registry *r);
+/** Regularizer type i (0 <= i < count), in registration order. */
+DTH_API const struct dth_regularizer_type *dth_registry_regularizer_at(const dth_registry *r, size_t i);
 /** Register every built-in model type (and built-in regularizer). */
 DTH_API int dth_registry_add_builtin(dth_registry *r);
 

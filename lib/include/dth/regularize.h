@@ -1,0 +1,157 @@
+/* SPDX-License-Identifier: MIT */
+/**
+ * @file regularize.h  Regularizers: what the integrator does where psi = 0 (paper, section 7,
+ * "DTH dynamics needs to be regularized").
+ *
+ * Where psi = (J grad H)^T H_zz (J grad H) changes sign along a trajectory, the physical root of
+ * the step constraint merges with the ghost root and raw DTH either jumps to a much shorter step
+ * or ends (H/psi < 0). A regularizer is a static table of callbacks (like dth_model_type) that the
+ * integrator calls, and only calls, when the ordinary step from the vertex z_k
+ *   - failed with a recoverable status (no root, no convergence, singular, branch statuses), or
+ *   - succeeded but psi has a different sign at z_k and at z_(k+1) (the step crossed psi = 0).
+ * The hook sees the vertex, the incoming step and the ordinary candidate, and answers with an
+ * action: keep the ordinary step, replace it by its own segment (a midpoint offset d = zbar - z_k
+ * and a time step lambda; the integrator sets z_(k+1) = z_k + 2 d), and/or add a fix-up to the new
+ * vertex. Returning a nonzero status (typically DTH_EREFUSED) ends the step with that status and
+ * leaves the integrator's state untouched.
+ *
+ * Attach an instance through dth_options.regularizer. A user's regularizer is just another table;
+ * dth_kicked_segment() is the building block the shipped ones use.
+ */
+#ifndef DTH_REGULARIZE_H
+#define DTH_REGULARIZE_H
+
+#include <stddef.h>
+#include "dth/model.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/** What a regularizer's `create` receives. */
+typedef struct dth_reg_args {
+    const dth_kv *kv;           /**< parameters (keys already checked against the spec) */
+    size_t nkv;                 /**< number of parameters */
+    const dth_model *model;     /**< the model it will serve (borrowed) */
+    const dth_allocator *alloc; /**< allocate all state and workspace with this (may be NULL) */
+    char *err;                  /**< one-line error naming the key */
+    size_t errlen;              /**< size of err (may be 0) */
+} dth_reg_args;
+
+/** What the integrator tells the hook (all pointers borrowed for the duration of the call). */
+typedef struct dth_reg_event {
+    const dth_model *model; /**< the model */
+    size_t N;               /**< extended dimension 2n+2 */
+    const double *z;        /**< vertex z_k (high part) */
+    const double *zlo;      /**< its low part: z_k = z + zlo exactly (compensated sums) */
+    double lam_in;          /**< incoming step (signed), 0 if none */
+    double dir;             /**< direction of travel, +1 or -1 */
+    int psi_sign;           /**< sign of psi at z_k (-1, 0, +1) */
+    int plain_status;       /**< status of the ordinary DTH step from z_k */
+    const double *plain_d;  /**< its midpoint offset zbar - z_k (N), NULL unless plain_status == 0 */
+    double plain_lambda;    /**< its lambda (0 unless plain_status == 0) */
+    int plain_psi_sign;     /**< sign of psi at the vertex it reaches (0 unless plain_status == 0) */
+} dth_reg_event;
+
+/** dth_reg_action.what (bit flags). */
+enum {
+    DTH_REG_KEEP = 0u,    /**< keep the ordinary step (its status is returned if it failed) */
+    DTH_REG_REPLACE = 1u, /**< replace it by the segment (d, lambda) */
+    DTH_REG_FIXUP = 2u    /**< add `fix` to the new vertex after the step */
+};
+
+/** Most segments one replacement may chain (recorded as one step). */
+#define DTH_REG_MAX_SEG 5
+
+/**
+ * The hook's answer. The integrator owns `d` (DTH_REG_MAX_SEG * N doubles) and `fix` (N doubles),
+ * zeroed before the call. A replacement is a chain of nseg segments committed in order as one
+ * step: segment j has midpoint offset d + j N relative to its own start vertex and time step
+ * lambda[j]. The step record then reports the total time advanced.
+ */
+typedef struct dth_reg_action {
+    unsigned what;   /**< DTH_REG_* flags */
+    int nseg;        /**< segments in the replacement (1 .. DTH_REG_MAX_SEG; 0 reads as 1) */
+    double lambda[DTH_REG_MAX_SEG]; /**< their time steps (sign = direction of travel) */
+    double *d;       /**< midpoint offsets zbar - z of the replacing segments (nseg * N) */
+    double *fix;     /**< change added to the new vertex (N), with DTH_REG_FIXUP */
+    double residual; /**< |H(zbar)| at the replacing segment's midpoint */
+    int iters;       /**< iterations spent (for the step record) */
+} dth_reg_action;
+
+/** A regularizer type: a static table of callbacks. */
+typedef struct dth_regularizer_type {
+    const char *name;             /**< selects it in scene files ([regularize] method=) */
+    const char *doc;              /**< one-line description (what it preserves, what it gives up) */
+    const dth_param_spec *params; /**< accepted parameters */
+    size_t n_params;              /**< length of params */
+    /** Build an instance (allocate all workspace here); may be NULL if it needs no state. */
+    int (*create)(const dth_reg_args *args, void **self);
+    /** Release an instance (self may be NULL). */
+    void (*destroy)(void *self, const dth_allocator *alloc);
+    /** Decide what to do at an event. Must not allocate. Return 0 or a status (ends the step). */
+    int (*apply)(void *self, const dth_reg_event *ev, dth_reg_action *act);
+    /**
+     * Optional screen of an ordinary step za -> zb (time step lambda) that did not change the
+     * sign of psi: return 1 to take it, 0 to treat it as an event (apply is then called), < 0 on
+     * error. NULL takes every such step. For a reversible regularizer the answer must depend on
+     * the unordered pair {za, zb} and |lambda| only.
+     */
+    int (*admit)(void *self, const double *za, const double *zb, double lambda);
+} dth_regularizer_type;
+
+/** An instance: a type plus its state. Opaque. Not shared between integrators running at once. */
+typedef struct dth_regularizer dth_regularizer;
+
+/**
+ * Create an instance for `model`. Keys are checked against type->params.
+ * @return DTH_OK, DTH_EINVAL (bad parameter; message in err), DTH_ENOMEM.
+ */
+DTH_API int dth_regularizer_new(const dth_regularizer_type *type, const dth_kv *kv, size_t nkv,
+                                const dth_model *model, const dth_allocator *alloc,
+                                dth_regularizer **out, char *err, size_t errlen);
+/** Free; NULL is a no-op. */
+DTH_API void dth_regularizer_free(dth_regularizer *r);
+/** The instance's type. */
+DTH_API const dth_regularizer_type *dth_regularizer_get_type(const dth_regularizer *r);
+/** Call the hook (what the integrator does). */
+DTH_API int dth_regularizer_apply(dth_regularizer *r, const dth_reg_event *ev, dth_reg_action *act);
+
+/** Raw DTH: never changes anything (the run ends with the ordinary step's status). */
+DTH_API extern const dth_regularizer_type dth_reg_none;
+/** Kicked segment of the incoming length, then re-seed the new vertex's offset (not reversible). */
+DTH_API extern const dth_regularizer_type dth_reg_reseed;
+/** Symmetric kicked segment: energy-exact, time-reversible, momentum-exact (not symplectic). */
+DTH_API extern const dth_regularizer_type dth_reg_symkick;
+
+/* ---- building blocks for writing regularizers ---- */
+
+/** Doubles of workspace dth_kicked_segment needs for `model`. */
+DTH_API size_t dth_kicked_segment_work_size(const dth_model *model);
+
+/**
+ * A kicked segment from the vertex z (+ zlo, may be NULL) with a given time step lambda: solve
+ *     zbar = z + (1/2) (lambda J grad H(zbar) + mu n(zbar)),   H(zbar) = 0
+ * for the midpoint offset d = zbar - z (N values) and the kick mu, where n is the (q, p) part of
+ * grad H with the gradients of the model's invariants projected out (so quadratic invariants
+ * are kept exactly, by the midpoint identity). t advances by exactly lambda; wp is untouched.
+ * The map is symmetric under reversal: (z_b, -lambda, -mu) has the same midpoint.
+ * On entry d and *mu hold a seed (zeros are fine). Autonomous models only.
+ * @return DTH_OK, DTH_ENOCONV, DTH_ESINGULAR, DTH_EDOMAIN, DTH_EUNSUPPORTED (non-autonomous).
+ */
+DTH_API int dth_kicked_segment(const dth_model *model, const double *z, const double *zlo,
+                               double lambda, double *d, double *mu, double *residual, int *iters,
+                               double *work);
+
+/**
+ * Root of the cubic model of the step constraint at a vertex (paper, Lemma g_taylor),
+ *     c(lambda) = H - psi lambda^2/8 - dpsi lambda^3/24,
+ * nearest to 0 on the side `side` (+1 / -1). A function of (H, psi, dpsi) only.
+ * @return the root (signed), or 0 if c has no root on that side.
+ */
+DTH_API double dth_cubic_root(double H, double psi, double dpsi, double side);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

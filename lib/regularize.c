@@ -1,0 +1,484 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Regularizer instances, the integrator's hook where psi = 0 (paper, section 7), and the building
+ * blocks of the shipped regularizers: the kicked segment and the roots of the cubic model of the
+ * step constraint (Lemma g_taylor).
+ */
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+#include "dth/regularize.h"
+#include "dth_internal.h"
+#include "integrator_impl.h"
+
+struct dth_regularizer {
+    const dth_regularizer_type *type;
+    void *self;
+    const dth_allocator *alloc;
+};
+
+static int spec_accepts(const dth_regularizer_type *t, const char *key)
+{
+    for (size_t i = 0; i < t->n_params; i++) {
+        const char *k = t->params[i].key;
+        size_t len = strlen(k);
+        if (len && k[len - 1] == '*' ? strncmp(k, key, len - 1) == 0 : strcmp(k, key) == 0) return 1;
+    }
+    return 0;
+}
+
+int dth_regularizer_new(const dth_regularizer_type *type, const dth_kv *kv, size_t nkv,
+                        const dth_model *model, const dth_allocator *alloc, dth_regularizer **out,
+                        char *err, size_t errlen)
+{
+    if (out) *out = NULL;
+    if (err && errlen) err[0] = '\0';
+    if (!type || !out || !model || (nkv && !kv) || !type->apply) {
+        if (err && errlen) snprintf(err, errlen, "invalid arguments to dth_regularizer_new");
+        return DTH_EINVAL;
+    }
+    for (size_t i = 0; i < nkv; i++) {
+        if (!kv[i].key || !kv[i].value || !spec_accepts(type, kv[i].key)) {
+            if (err && errlen)
+                snprintf(err, errlen, "regularizer '%s' has no parameter '%s'", type->name,
+                         kv[i].key ? kv[i].key : "(null)");
+            return DTH_EINVAL;
+        }
+    }
+    dth_regularizer *r = dth_calloc(alloc, 1, sizeof *r);
+    if (!r) return DTH_ENOMEM;
+    r->type = type;
+    r->alloc = alloc;
+    if (type->create) {
+        dth_reg_args a = {kv, nkv, model, alloc, err, errlen};
+        int rc = type->create(&a, &r->self);
+        if (rc) {
+            if (r->self && type->destroy) type->destroy(r->self, alloc);
+            dth_free(alloc, r);
+            if (err && errlen && !err[0]) snprintf(err, errlen, "regularizer '%s': %s", type->name, dth_strerror(rc));
+            return rc < 0 ? rc : DTH_EINVAL;
+        }
+    }
+    *out = r;
+    return DTH_OK;
+}
+
+void dth_regularizer_free(dth_regularizer *r)
+{
+    if (!r) return;
+    if (r->type->destroy) r->type->destroy(r->self, r->alloc);
+    dth_free(r->alloc, r);
+}
+
+const dth_regularizer_type *dth_regularizer_get_type(const dth_regularizer *r) { return r ? r->type : NULL; }
+
+int dth_regularizer_apply(dth_regularizer *r, const dth_reg_event *ev, dth_reg_action *act)
+{
+    if (!r || !ev || !act) return DTH_EINVAL;
+    return r->type->apply(r->self, ev, act);
+}
+
+/* ------------------------------------------------------------------ cubic model roots */
+
+double dth_cubic_root(double H, double psi, double dpsi, double side)
+{
+    /* c(s x) = H - psi x^2/8 - s dpsi x^3/24 for x > 0: p(x) = a x^3 + b x^2 + H. */
+    double s = side >= 0 ? 1.0 : -1.0, a = -s * dpsi / 24, b = -psi / 8;
+    if (!isfinite(H) || !isfinite(psi) || !isfinite(dpsi)) return 0;
+    if (H == 0) return 0;
+    /* Bracket the smallest positive root: p(0) = H; p has at most two positive turning points
+     * (x = 0 and x = -2b/(3a)), so scan [0, inf) in pieces where p is monotone. */
+    double xs[1];
+    int nx = 0;
+    double xt = (a != 0) ? -2 * b / (3 * a) : INFINITY;
+    if (xt > 0 && isfinite(xt)) xs[nx++] = xt;
+    double lo = 0, plo = H;
+    for (int piece = 0; piece <= nx; piece++) {
+        double hi;
+        if (piece < nx) hi = xs[piece];
+        else {
+            /* last monotone piece: p -> sign(a) inf (or sign(b) inf if a == 0) */
+            double lead = a != 0 ? a : b;
+            if (lead == 0 || (lead > 0) == (plo > 0)) return 0;
+            hi = lo > 0 ? 2 * lo : 1.0;
+            for (int k = 0; k < 2200; k++) {
+                double ph = (a * hi + b) * hi * hi + H;
+                if ((ph > 0) != (plo > 0) || ph == 0) break;
+                hi *= 2;
+                if (!isfinite(hi)) return 0;
+            }
+        }
+        double phi = (a * hi + b) * hi * hi + H;
+        if (phi == 0) return s * hi;
+        if ((phi > 0) != (plo > 0)) {
+            /* bisection to a tight bracket, then Newton polish: a pure function of (H, psi, dpsi) */
+            double l = lo, h = hi;
+            for (int k = 0; k < 200 && h - l > 4 * DBL_EPSILON * h; k++) {
+                double mid = 0.5 * (l + h), pm = (a * mid + b) * mid * mid + H;
+                if (pm == 0) return s * mid;
+                if ((pm > 0) == (plo > 0)) l = mid;
+                else h = mid;
+            }
+            /* Newton polish: smooth in (H, psi, dpsi) down to round-off */
+            double x = 0.5 * (l + h);
+            for (int k = 0; k < 3; k++) {
+                double px = (a * x + b) * x * x + H, dp = (3 * a * x + 2 * b) * x;
+                if (dp == 0) break;
+                double xn = x - px / dp;
+                if (!(xn >= l && xn <= h)) break;
+                x = xn;
+            }
+            return s * x;
+        }
+        lo = hi;
+        plo = phi;
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------------------ kicked segment */
+
+/* Workspace layout of dth_kicked_segment (doubles). */
+static size_t ks_layout(size_t n, size_t ninv, size_t *off)
+{
+    size_t d = 2 * n + 1, m = 2 * n + 1, q = 2 * n;
+    size_t sz[] = {d, d, d * d, m * m, m, m, q, ninv * q, 2 * ninv + 8, d, (m + 1) / 2 + 1, ninv};
+    size_t tot = 0;
+    for (size_t i = 0; i < sizeof sz / sizeof sz[0]; i++) {
+        off[i] = tot;
+        tot += sz[i];
+    }
+    return tot;
+}
+
+static size_t model_ninv(const dth_model *model)
+{
+    const dth_model_type *t = dth_model_get_type(model);
+    return (t->n_invariants && t->invariants) ? t->n_invariants(dth__model_self(model)) : 0;
+}
+
+size_t dth_kicked_segment_work_size(const dth_model *model)
+{
+    size_t off[12];
+    return ks_layout(dth_model_dof(model), model_ninv(model), off);
+}
+
+/*
+ * Gradients over (q, p) of the invariants that are at most quadratic, by central differences
+ * (exact up to round-off for such invariants), orthonormalized into G (rows). Invariants of
+ * higher degree are detected by a third difference along a fixed direction and skipped: the
+ * midpoint identity only keeps quadratic ones, and projecting out e.g. the Runge-Lenz vector
+ * would remove the whole kick. Returns the number of rows kept.
+ */
+static size_t quad_invariant_basis(const dth_model *model, const double *y, double *G, double *ys,
+                                   double *tmp, double *Ik)
+{
+    const dth_model_type *t = dth_model_get_type(model);
+    const void *self = dth__model_self(model);
+    size_t n = dth_model_dof(model), q = 2 * n, ni = model_ninv(model), kept = 0;
+    if (!ni) return 0;
+    double *Ip = tmp, *Im = tmp + ni, *I4 = tmp + 2 * ni; /* I4: 4 samples, reused */
+    int keep[64];
+    if (ni > 64) return 0;
+    /* third difference along v = (1, .., 1) (t untouched): zero for quadratics up to round-off */
+    double ynorm = 1;
+    for (size_t i = 0; i < 2 * n + 1; i++) ynorm = fmax(ynorm, fabs(y[i]));
+    double e = 1e-2 * ynorm / sqrt((double)q);
+    for (size_t j = 0; j < ni; j++) keep[j] = 1;
+    double c4[4] = {-1.5, -0.5, 0.5, 1.5}, w4[4] = {-1, 3, -3, 1};
+    for (size_t j = 0; j < ni; j++) Ik[j] = 0;
+    double mag[64] = {0};
+    for (int k = 0; k < 4; k++) {
+        memcpy(ys, y, (2 * n + 1) * sizeof *ys);
+        for (size_t i = 0; i < 2 * n + 1; i++)
+            if (i != n) ys[i] += c4[k] * e;
+        if (t->invariants(self, ys, I4) != 0) return 0;
+        for (size_t j = 0; j < ni; j++) {
+            Ik[j] += w4[k] * I4[j];
+            mag[j] += fabs(I4[j]);
+        }
+    }
+    for (size_t j = 0; j < ni; j++)
+        if (!(fabs(Ik[j]) <= 1e3 * DBL_EPSILON * mag[j] + 1e-300)) keep[j] = 0;
+    /* gradients by central differences */
+    for (size_t j = 0; j < ni; j++)
+        if (keep[j])
+            for (size_t i = 0; i < q; i++) G[j * q + i] = 0;
+    for (size_t i = 0; i < q; i++) {
+        size_t yi = i < n ? i : i + 1;
+        double h = 1e-3 * fmax(1.0, fabs(y[yi]));
+        memcpy(ys, y, (2 * n + 1) * sizeof *ys);
+        ys[yi] = y[yi] + h;
+        if (t->invariants(self, ys, Ip) != 0) return 0;
+        ys[yi] = y[yi] - h;
+        if (t->invariants(self, ys, Im) != 0) return 0;
+        for (size_t j = 0; j < ni; j++) G[j * q + i] = (Ip[j] - Im[j]) / (2 * h);
+    }
+    /* modified Gram-Schmidt over the kept rows, dropping dependent ones */
+    for (size_t j = 0; j < ni; j++) {
+        if (!keep[j]) continue;
+        double *g = G + j * q, g0 = 0;
+        for (size_t i = 0; i < q; i++) g0 = fmax(g0, fabs(g[i]));
+        for (size_t r = 0; r < kept; r++) {
+            double *b = G + r * q, dot = 0;
+            for (size_t i = 0; i < q; i++) dot += g[i] * b[i];
+            for (size_t i = 0; i < q; i++) g[i] -= dot * b[i];
+        }
+        double nn = 0;
+        for (size_t i = 0; i < q; i++) nn += g[i] * g[i];
+        nn = sqrt(nn);
+        if (!(nn > 1e-8 * g0) || g0 == 0) continue;
+        double *dst = G + kept * q;
+        for (size_t i = 0; i < q; i++) dst[i] = g[i] / nn;
+        kept++;
+    }
+    return kept;
+}
+
+int dth_kicked_segment(const dth_model *model, const double *z, const double *zlo, double lambda,
+                       double *dz, double *mu, double *residual, int *iters, double *work)
+{
+    if (!model || !z || !dz || !mu || !work || !isfinite(lambda)) return DTH_EINVAL;
+    if (!dth_model_get_info(model)->autonomous) return DTH_EUNSUPPORTED;
+    size_t n = dth_model_dof(model), N = 2 * n + 2, d = 2 * n + 1, q = 2 * n, ni = model_ninv(model);
+    int m = (int)(2 * n + 1);
+    size_t off[12];
+    ks_layout(n, ni, off);
+    double *y = work + off[0], *g = work + off[1], *hs = work + off[2], *A = work + off[3];
+    double *F = work + off[4], *x = work + off[5], *nv = work + off[6], *G = work + off[7];
+    double *tmp = work + off[8], *ys = work + off[9], *Ik = work + off[11];
+    int *piv = (int *)(work + off[10]);
+    double wp = z[N - 1] + (zlo ? zlo[N - 1] : 0);
+    for (size_t i = 0; i < n; i++) {
+        x[i] = dz[i];
+        x[n + i] = dz[n + 1 + i];
+    }
+    x[q] = *mu;
+    double r_prev = INFINITY, H = 0;
+    int it;
+    for (it = 1; it <= 40; it++) {
+        /* midpoint y = z + d over (q, p); t advances by lambda/2 */
+        for (size_t j = 0; j < d; j++) {
+            double lo = zlo ? zlo[j] : 0;
+            double dj = j < n ? x[j] : (j == n ? 0.5 * lambda : x[j - 1]);
+            y[j] = z[j] + (lo + dj);
+        }
+        int rc = dth_model_eval(model, y, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &H, g, hs);
+        if (rc) return rc;
+        /* kick direction: (q, p) part of grad H, quadratic invariants projected out */
+        for (size_t i = 0; i < n; i++) {
+            nv[i] = g[i];
+            nv[n + i] = g[n + 1 + i];
+        }
+        size_t kept = quad_invariant_basis(model, y, G, ys, tmp, Ik);
+        for (size_t r = 0; r < kept; r++) {
+            double dot = 0;
+            for (size_t i = 0; i < q; i++) dot += nv[i] * G[r * q + i];
+            for (size_t i = 0; i < q; i++) nv[i] -= dot * G[r * q + i];
+        }
+        /* F = d - (lambda/2) u - (mu/2) n, u = (dH/dp, -dH/dq); F_last = wp + H */
+        double lam = lambda, kmu = x[q];
+        for (size_t i = 0; i < n; i++) {
+            F[i] = x[i] - 0.5 * lam * g[n + 1 + i] - 0.5 * kmu * nv[i];
+            F[n + i] = x[n + i] + 0.5 * lam * g[i] - 0.5 * kmu * nv[n + i];
+        }
+        F[q] = wp + H;
+        /* Jacobian over (d_q, d_p, mu); the projection's own derivative is left out (mu is
+         * tiny, so Newton still converges at once to round-off) */
+        for (size_t a = 0; a < q; a++) {
+            size_t ya = a < n ? a : a + 1;           /* y-index of this (q, p) component */
+            size_t ua = a < n ? n + 1 + a : a - n;   /* u_a = +dH/dy_ua (a < n) or -dH/dy_ua */
+            double su = a < n ? 1.0 : -1.0;
+            for (size_t b = 0; b < q; b++) {
+                size_t yb = b < n ? b : b + 1;
+                A[a + b * (size_t)m] = (a == b ? 1.0 : 0.0) - 0.5 * lam * su * hs[ua * d + yb] -
+                                       0.5 * kmu * hs[ya * d + yb];
+            }
+            A[a + q * (size_t)m] = -0.5 * nv[a];
+            A[q + a * (size_t)m] = g[ya];
+        }
+        A[q + q * (size_t)m] = 0;
+        rc = dth__lu_factor(m, A, piv);
+        if (rc) return rc;
+        rc = dth__lu_solve(m, A, piv, 1, F);
+        if (rc) return rc;
+        double r = 0;
+        for (int a = 0; a < m; a++) {
+            x[a] -= F[a];
+            double sc;
+            if (a == m - 1) sc = fabs(x[a]) + fabs(lam) + 1e-300; /* mu next to the flow term */
+            else {
+                size_t j = (size_t)a < n ? (size_t)a : (size_t)a + 1;
+                sc = fabs(z[j]) + fabs(y[j]) + 1e-300;
+            }
+            r = fmax(r, fabs(F[a]) / sc);
+        }
+        if (!isfinite(r)) return DTH_ENOCONV;
+        if (r <= 4 * DBL_EPSILON) break;
+        if (r >= 0.5 * r_prev) {
+            /* stalled: accept if the energy residual is at the round-off of its terms */
+            double hsc = fabs(wp) + fabs(H);
+            for (size_t j = 0; j < d; j++) hsc += fabs(g[j] * y[j]);
+            if (fabs(wp + H) <= 256 * DBL_EPSILON * hsc && r < 1e-9) break;
+        }
+        if (it >= 12 && r >= 0.5 * r_prev) return DTH_ENOCONV;
+        r_prev = r;
+        if (it == 40) return DTH_ENOCONV;
+    }
+    for (size_t j = 0; j < d; j++) {
+        double lo = zlo ? zlo[j] : 0;
+        double dj = j < n ? x[j] : (j == n ? 0.5 * lambda : x[j - 1]);
+        y[j] = z[j] + (lo + dj);
+    }
+    int rc = dth_model_eval(model, y, DTH_EVAL_H, &H, NULL, NULL);
+    if (rc) return rc;
+    for (size_t i = 0; i < n; i++) {
+        dz[i] = x[i];
+        dz[n + 1 + i] = x[n + i];
+    }
+    dz[n] = 0.5 * lambda;
+    dz[N - 1] = 0;
+    *mu = x[q];
+    if (residual) *residual = fabs(wp + H);
+    if (iters) *iters = it;
+    return DTH_OK;
+}
+
+/* ------------------------------------------------------------------ the integrator's hook */
+
+static inline double two_sum(double a, double b, double *e)
+{
+    double s = a + b, bb = s - a;
+    *e = (a - (s - bb)) + (b - bb);
+    return s;
+}
+
+static int psi_sign_at(dth_integrator *it, const double *z, int *sign)
+{
+    double psi;
+    int rc = dth_model_psi(it->model, z, &psi, NULL, it->work);
+    if (rc) return rc;
+    *sign = psi > 0 ? 1 : (psi < 0 ? -1 : 0);
+    return DTH_OK;
+}
+
+int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_branch br, dth_step_info *info)
+{
+    size_t N = it->N;
+    int m = it->m;
+    double *cand = it->rbuf, *dd = it->rbuf + N, *fix = it->rbuf + 2 * N, *zt = it->rbuf + 3 * N;
+    double *ad = it->rbuf + 4 * N; /* DTH_REG_MAX_SEG * N: the hook's segment offsets */
+    if (rc < 0) return rc;
+    int plain_ok = rc == DTH_OK && sol->lambda * it->dir > 0;
+    if (rc == DTH_OK && !plain_ok) {
+        snprintf(it->errmsg, sizeof it->errmsg, "Newton found lambda = %.17g, against the direction of travel", sol->lambda);
+        rc = DTH_ENOROOT;
+    }
+    if (!it->psi_known) {
+        int r = psi_sign_at(it, it->z, &it->psi_sign);
+        if (r) return r;
+        it->psi_known = 1;
+    }
+    int sa = it->psi_sign, sb = 0;
+    if (plain_ok) {
+        for (size_t j = 0; j < N; j++) dd[j] = 0;
+        for (int a = 0; a < m - 1; a++) dd[it->act[a]] = it->x[a];
+        if (it->auton) dd[it->n] = 0.5 * sol->lambda;
+        for (size_t j = 0; j < N; j++) cand[j] = it->z[j] + (2 * dd[j] + it->zlo[j]);
+        int r = psi_sign_at(it, cand, &sb);
+        if (r) return r;
+        int admit = 1;
+        if (sb == sa && it->reg->type->admit) {
+            admit = it->reg->type->admit(it->reg->self, it->z, cand, sol->lambda);
+            if (admit < 0) return DTH_EMODEL;
+        }
+        if (sb == sa && admit) {
+            r = dth__integrator_commit(it, sol->lambda);
+            if (r) return r;
+            it->psi_sign = sb;
+            info->lambda = sol->lambda;
+            info->iters = sol->iters;
+            info->residual = sol->residual;
+            info->branch = br;
+            return DTH_OK;
+        }
+    }
+    /* the ordinary step failed or crossed psi = 0: ask the regularizer */
+    dth_reg_event ev = {it->model, N, it->z, it->zlo, it->lam, it->dir, sa, rc, plain_ok ? dd : NULL,
+                        plain_ok ? sol->lambda : 0.0, plain_ok ? sb : 0};
+    memset(ad, 0, DTH_REG_MAX_SEG * N * sizeof *ad);
+    memset(fix, 0, N * sizeof *fix);
+    dth_reg_action act = {DTH_REG_KEEP, 0, {0}, ad, fix, 0.0, 0};
+    int r = dth_regularizer_apply(it->reg, &ev, &act);
+    info->iters += act.iters;
+    if (r) {
+        snprintf(it->errmsg, sizeof it->errmsg, "regularizer '%s' stopped the run: %s",
+                 dth_regularizer_get_type(it->reg)->name, dth_strerror(r));
+        return r;
+    }
+    int nseg = (act.what & DTH_REG_REPLACE) ? (act.nseg > 0 ? act.nseg : 1) : 0;
+    if (nseg > DTH_REG_MAX_SEG) return DTH_EREFUSED;
+    if (!nseg && !plain_ok) return rc;
+    /* check everything, and the sign of psi at the final vertex, before touching the state */
+    double total = 0;
+    for (size_t j = 0; j < N; j++) zt[j] = it->z[j] + it->zlo[j];
+    if (nseg) {
+        for (int k = 0; k < nseg; k++) {
+            double lam = act.lambda[k];
+            if (!(lam * it->dir > 0) || !isfinite(lam)) return DTH_EREFUSED;
+            for (size_t j = 0; j < N; j++) {
+                double dj = ad[(size_t)k * N + j];
+                if (!isfinite(dj) || (it->auton && j == N - 1 && dj != 0)) return DTH_EREFUSED;
+                zt[j] += 2 * dj;
+            }
+            total += lam;
+        }
+    } else {
+        for (size_t j = 0; j < N; j++) zt[j] += 2 * dd[j];
+        total = sol->lambda;
+    }
+    if (act.what & DTH_REG_FIXUP)
+        for (size_t j = 0; j < N; j++) {
+            if (!isfinite(fix[j]) || (it->auton && j == N - 1 && fix[j] != 0)) return DTH_EREFUSED;
+            zt[j] += fix[j];
+        }
+    r = psi_sign_at(it, zt, &sb);
+    if (r) return r;
+    if (nseg) {
+        for (int k = 0; k < nseg; k++) {
+            const double *dk = ad + (size_t)k * N;
+            double lam = act.lambda[k];
+            for (int a = 0; a < m - 1; a++) it->x[a] = dk[it->act[a]];
+            it->x[m - 1] = lam;
+            for (size_t j = 0; j < N; j++) it->zb[j] = it->z[j] + (it->zlo[j] + dk[j]);
+            if (it->auton) it->zb[it->n] = it->z[it->n] + (it->zlo[it->n] + 0.5 * lam);
+            r = dth__integrator_commit(it, lam);
+            if (r) return r;
+        }
+        it->fact_valid = 0; /* no factors of these segments: no tangent map */
+        info->residual = act.residual;
+        info->branch = DTH_BRANCH_REG;
+        info->flags |= DTH_STEP_REGULARIZED;
+    } else {
+        /* it->x / it->zb still hold the ordinary solution */
+        r = dth__integrator_commit(it, sol->lambda);
+        if (r) return r;
+        info->residual = sol->residual;
+        info->branch = br;
+    }
+    if (act.what & DTH_REG_FIXUP) {
+        for (size_t j = 0; j < N; j++) {
+            double e, s2 = two_sum(it->z[j], fix[j] + it->zlo[j], &e);
+            it->z[j] = s2;
+            it->zlo[j] = e;
+        }
+        it->fact_valid = 0;
+        info->flags |= DTH_STEP_REGULARIZED;
+    }
+    if (sb != sa) info->flags |= DTH_STEP_CROSSING;
+    it->psi_sign = sb;
+    it->psi_known = 1;
+    info->lambda = total;
+    return DTH_OK;
+}
