@@ -24,7 +24,9 @@ enum {
       "integrate a scene and write its trajectory as CSV")                                        \
     X(models, "", "list the registered models, their parameters and defaults")                  \
     X(roots, "SCENE.ini [-s section.key=value]... [--range L]",                                  \
-      "every root of the step constraint at the initial vertex, classified (CSV)")
+      "every root of the step constraint at the initial vertex, classified (CSV)")               \
+    X(map, "SCENE.ini --q a:b:n --p c:d:m [--dof i] [--range L] [--out PREFIX] [-s ...]",      \
+      "phase-plane map of psi, [psi, H], regions and roots, plus the scene's trajectory (CSV)")
 
 #define CLI__DECL(name, usage, summary) int cli_cmd_##name(int argc, char **argv);
 CLI_COMMANDS(CLI__DECL)
