@@ -320,7 +320,7 @@ int dth_kicked_segment(const dth_model *model, const double *z, const double *zl
             /* stalled: accept if the energy residual is at the round-off of its terms */
             double hsc = fabs(wp) + fabs(H);
             for (size_t j = 0; j < d; j++) hsc += fabs(g[j] * y[j]);
-            if (fabs(wp + H) <= 256 * DBL_EPSILON * hsc && r < 1e-9) break;
+            if (fabs(wp + H) <= 256 * DBL_EPSILON * hsc && r < 1e-11) break;
         }
         if (it >= 12 && r >= 0.5 * r_prev) return DTH_ENOCONV;
         r_prev = r;

@@ -11,7 +11,9 @@
  * and the same equation), so a backward run retraces the crossing; the kick is what lets the
  * vertex offset H ~ psi l^2/8 change sign while the midpoint stays on H = 0.
  */
+#include <float.h>
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 #include "dth/regularize.h"
 #include "reg_common.h"
@@ -21,11 +23,14 @@ typedef struct symkick {
     size_t n;
     double *ks, *work, *zb, *zc, *zm, *g;
     double max_ratio, margin;
+    int centre;      /* condition: psi = 0 at the chain's middle midpoint (else the mirror condition) */
+    double psi_mid;  /* scratch: psi there */
 } symkick;
 
 static const dth_param_spec params[] = {
     {"max_ratio", "4", "refuse a crossing step further than this factor from the incoming root (> 1)"},
-    {"margin", "1.5", "ordinary steps must keep |psi/psi'| >= margin |lambda| at both ends (> 0)"},
+    {"condition", "mirror", "chain length from: mirror (|psi/psi'| l equal at both ends) or centre (psi = 0 at the middle)"},
+    {"margin", "1", "ordinary steps keep |psi/psi'| >= margin x (the step each end encodes) (> 0)"},
 };
 
 static int create(const dth_reg_args *a, void **self)
@@ -51,7 +56,15 @@ static int create(const dth_reg_args *a, void **self)
     r->model = a->model;
     r->n = n;
     r->max_ratio = mr;
-    r->margin = 1.5;
+    r->margin = 1;
+    for (size_t i = 0; i < a->nkv; i++)
+        if (!strcmp(a->kv[i].key, "condition")) {
+            if (!strcmp(a->kv[i].value, "centre")) r->centre = 1;
+            else if (strcmp(a->kv[i].value, "mirror")) {
+                if (a->err && a->errlen) snprintf(a->err, a->errlen, "parameter 'condition' must be mirror or centre (got '%s')", a->kv[i].value);
+                return DTH_EINVAL;
+            }
+        }
     for (size_t i = 0; i < a->nkv; i++)
         if (!strcmp(a->kv[i].key, "margin") && (dth_parse_double(a->kv[i].value, &r->margin) || !(r->margin > 0))) {
             if (a->err && a->errlen) {
@@ -78,22 +91,12 @@ static void destroy(void *self, const dth_allocator *alloc)
     dth_free(alloc, r);
 }
 
-/* |cubic root| at z on `side` (0 if none): the step the vertex's offset encodes there. */
-static int root_at(symkick *r, const double *z, double side, double *l)
-{
-    double H, psi, dpsi;
-    int rc = dth__reg_vertex(r->model, z, &H, &psi, &dpsi, r->work);
-    if (rc) return rc;
-    *l = fabs(dth_cubic_root(H, psi, dpsi, side));
-    return DTH_OK;
-}
-
 /*
  * A chain of k kicked segments of the same length l from z_a (offsets in d, k * N), ending at
  * r->zb. *f = psi at the midpoint of the middle segment; *lb = root at the end on the side of travel.
  */
 static int chain(symkick *r, const dth_reg_event *ev, int k, double l, double *d, double *mu,
-                 double *f, double *lb, double *res, int *iters)
+                 double *f, double *lb, double *res, int *iters, double la, double dela)
 {
     size_t N = ev->N;
     const double *z = ev->z, *zlo = ev->zlo;
@@ -103,9 +106,9 @@ static int chain(symkick *r, const dth_reg_event *ev, int k, double l, double *d
         int rc = dth_kicked_segment(r->model, z, zlo, ev->dir * l, ds, &mu[s], res, &it, r->ks);
         *iters += it;
         if (rc) return rc;
-        if (s == k / 2) {
+        if (r->centre && s == k / 2) {
             for (size_t j = 0; j < N; j++) r->zm[j] = z[j] + (ds[j] + (zlo ? zlo[j] : 0));
-            rc = dth_model_psi(r->model, r->zm, f, NULL, r->work);
+            rc = dth_model_psi(r->model, r->zm, &r->psi_mid, NULL, r->work);
             if (rc) return rc;
         }
         double *zn = (s % 2) ? r->zc : r->zb;
@@ -114,14 +117,21 @@ static int chain(symkick *r, const dth_reg_event *ev, int k, double l, double *d
         zlo = NULL;
     }
     if (z != r->zb) memcpy(r->zb, z, N * sizeof *z);
-    int rc = root_at(r, r->zb, ev->dir, lb);
+    double H, psi, dpsi;
+    int rc = dth__reg_vertex(r->model, r->zb, &H, &psi, &dpsi, r->work);
     if (rc) return rc;
+    *lb = fabs(dth_cubic_root(H, psi, dpsi, ev->dir));
+    if (!(*lb > 0) || dpsi == 0) return DTH_EREFUSED;
+    /* mirror condition: the end is as many encoded steps from psi = 0 as the start */
+    *f = fabs(psi / dpsi) * la - dela * *lb;
+    if (psi * ev->psi_sign > 0) *f = -fabs(*f) - dela * la; /* not across yet: push l up */
+    if (r->centre) *f = -r->psi_mid * ev->psi_sign; /* grows with l through psi = 0 */
     return DTH_OK;
 }
 
 /* Solve psi(middle midpoint) = 0 over l for a chain of k segments (secant); d holds the chain. */
 static int solve_chain(symkick *r, const dth_reg_event *ev, int k, double l0, double *d, double *l_out,
-                       double *lb, double *res, int *iters)
+                       double *lb, double *res, int *iters, double la, double dela)
 {
     size_t n = r->n, N = ev->N;
     double mu[DTH_REG_MAX_SEG] = {0};
@@ -134,14 +144,17 @@ static int solve_chain(symkick *r, const dth_reg_event *ev, int k, double l0, do
         }
     }
     double f0, l1, f1, lmin = l0 / r->max_ratio, lmax = l0 * r->max_ratio;
-    int rc = chain(r, ev, k, l0, d, mu, &f0, lb, res, iters);
+    int rc = chain(r, ev, k, l0, d, mu, &f0, lb, res, iters, la, dela);
     if (rc) return rc;
-    l1 = l0 * (f0 * ev->psi_sign > 0 ? 1.05 : 0.95); /* psi_mid falls toward 0 as l grows */
+    /* round-off of f: psi's terms (centre) or the products |psi/psi'| l (mirror) */
+    /* (the kicked segments are solved to ~1e-11 relative where Newton stalls at round-off) */
+    double fscale = 1e-11 * (r->centre ? fabs(f0) + 1e-3 : dela * la);
+    l1 = l0 * (f0 < 0 ? 1.05 : 0.95); /* f grows with l */
     for (int it = 0;; it++) {
         if (it == 60 || !(l1 > lmin && l1 < lmax)) return DTH_EREFUSED;
-        rc = chain(r, ev, k, l1, d, mu, &f1, lb, res, iters);
+        rc = chain(r, ev, k, l1, d, mu, &f1, lb, res, iters, la, dela);
         if (rc) return rc;
-        if (f1 == 0 || l1 == l0) break;
+        if (f1 == 0 || l1 == l0 || fabs(f1) <= fscale) break; /* f at its round-off */
         double slope = (f1 - f0) / (l1 - l0);
         if (!(slope != 0) || !isfinite(slope)) return DTH_EREFUSED;
         double l2 = l1 - f1 / slope;
@@ -151,7 +164,7 @@ static int solve_chain(symkick *r, const dth_reg_event *ev, int k, double l0, do
         l1 = l2;
         if (step <= 1e-12 * l1) break; /* psi at the midpoint is at its round-off */
     }
-    rc = chain(r, ev, k, l1, d, mu, &f1, lb, res, iters); /* the chain at the converged length */
+    rc = chain(r, ev, k, l1, d, mu, &f1, lb, res, iters, la, dela); /* the chain at the converged length */
     if (rc) return rc;
     *l_out = l1;
     return DTH_OK;
@@ -175,40 +188,28 @@ static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
         return DTH_EREFUSED;
     }
     double span = -2 * psi / (dpsi * ev->dir);
-    /* Chains of 1 and 3 equal kicked segments centred on psi = 0 (an odd number of kicks flips the
-     * sign of the vertex offset); take the one whose length is nearest (in ratio) to the mean of
-     * the steps its two ends encode. Every quantity compared is a function of the pair of end
-     * vertices, so the choice is the same when the chain is traversed backward. */
-    static const int ks[3] = {1, 3, 5};
-    double best = INFINITY, lbest = 0;
-    int kbest = 0, iters = 0;
-    double res = 0;
-    for (int c = 0; c < 3; c++) {
-        double l, lb, rs = 0;
-        rc = solve_chain(r, ev, ks[c], span / ks[c], act->d, &l, &lb, &rs, &iters);
+    /* Three equal kicked segments (an odd number of kicks flips the sign of the vertex offset;
+     * three let the chain span the 2 to 4 steps that the screen leaves before psi = 0). Their
+     * length solves the mirror condition |psi/psi'|(z_b) la = |psi/psi'|(z_a) lb, a function of
+     * the pair of ends, so the chain is the same traversed backward, and the screen (admit)
+     * reads the same number at both ends. */
+    double dela = fabs(psi / dpsi), l = 0, lb, res = 0;
+    int iters = 0, kbest = 0;
+    /* three segments; if the mirror condition has no crossing solution with three, five then one
+     * (first that works: symmetric only when the two ends agree on the same fallback) */
+    static const int ks[3] = {3, 5, 1};
+    for (int c = 0; c < 3 && !kbest; c++) {
+        rc = solve_chain(r, ev, ks[c], span / ks[c], act->d, &l, &lb, &res, &iters, la, dela);
         if (rc < 0) return rc;
-        if (rc || !(lb > 0)) continue;
+        if (rc) continue;
         double psi_e;
         rc = dth_model_psi(r->model, r->zb, &psi_e, NULL, r->work);
         if (rc) return rc;
-        int sb = psi_e > 0 ? 1 : (psi_e < 0 ? -1 : 0);
-        if (sb == ev->psi_sign) continue;
-        double mean = 0.5 * (la + lb), ratio = l > mean ? l / mean : mean / l;
-        if (ratio < best * (1 - 1e-9)) {
-            best = ratio;
-            lbest = l;
-            kbest = ks[c];
-            res = rs;
-        }
+        if (psi_e * ev->psi_sign < 0) kbest = ks[c];
     }
     act->iters = iters;
     if (!kbest) return DTH_EREFUSED;
-    if (kbest != 5) { /* act->d holds the last solved chain (k = 5): re-solve the chosen one */
-        double l, lb;
-        rc = solve_chain(r, ev, kbest, lbest, act->d, &l, &lb, &res, &act->iters);
-        if (rc) return rc > 0 ? DTH_EREFUSED : rc;
-        lbest = l;
-    }
+    double lbest = l;
     act->what = DTH_REG_REPLACE;
     act->nseg = kbest;
     for (int s = 0; s < kbest; s++) act->lambda[s] = ev->dir * lbest;
@@ -216,17 +217,21 @@ static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
     return DTH_OK;
 }
 
-/* Ordinary steps keep clear of psi = 0: both ends at least `margin` steps away (linear estimate
- * |psi / psi'|), so a crossing chain starts far enough back to span about 2 margin steps. */
+/* Ordinary steps keep clear of psi = 0: at each end e, |psi/psi'|(e) >= margin l_e, with l_e the
+ * step e's offset encodes toward the other end (cubic model). A function of the pair {za, zb};
+ * a crossing chain's two ends read the same by its mirror condition. */
 static int admit(void *self, const double *za, const double *zb, double lambda)
 {
     symkick *r = self;
     const double *zs[2] = {za, zb};
     for (int e = 0; e < 2; e++) {
-        double psi, dpsi;
-        int rc = dth_model_psi(r->model, zs[e], &psi, &dpsi, r->work);
+        double H, psi, dpsi;
+        int rc = dth__reg_vertex(r->model, zs[e], &H, &psi, &dpsi, r->work);
         if (rc) return -1;
-        if (fabs(psi) < r->margin * fabs(lambda) * fabs(dpsi)) return 0;
+        double side = (e == 0) == (lambda > 0) ? 1.0 : -1.0;
+        double l = fabs(dth_cubic_root(H, psi, dpsi, side));
+        if (!(l > 0)) l = fabs(lambda);
+        if (fabs(psi) < r->margin * l * fabs(dpsi)) return 0;
     }
     return 1;
 }

@@ -1,0 +1,265 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Regularization across psi = 0 (paper, section 7): the cubic-model roots, the kicked segment
+ * (midpoint on H = 0, exact time advance, reversal symmetry, quadratic invariants kept), the
+ * registry, and the shipped regularizers on the rotating pendulum (raw DTH's fold at vertex 15,
+ * energy exactness through crossings, retracing a symkick crossing backward).
+ */
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+#include "cu_main.h"
+#include "dth/dth.h"
+
+static dth_model *model(const dth_model_type *t, size_t n)
+{
+    dth_model *m = NULL;
+    char err[256];
+    if (dth_model_new(t, NULL, 0, n, NULL, &m, err, sizeof err)) fprintf(stderr, "%s\n", err);
+    return m;
+}
+
+static dth_regularizer *regul(const dth_regularizer_type *t, const dth_kv *kv, size_t nkv, const dth_model *m)
+{
+    dth_regularizer *r = NULL;
+    char err[256];
+    if (dth_regularizer_new(t, kv, nkv, m, NULL, &r, err, sizeof err)) fprintf(stderr, "%s\n", err);
+    return r;
+}
+
+/* The rotating pendulum of the notes: q0 = 0, p0 = 2.2, h = 0.05, vertex start. */
+static dth_integrator *pendulum_run(const dth_model *m, dth_regularizer *r)
+{
+    dth_options o;
+    dth_options_default(&o);
+    o.h = 0.05;
+    o.start = DTH_START_VERTEX;
+    o.regularizer = r;
+    dth_integrator *it = NULL;
+    double q0 = 0, p0 = 2.2;
+    CU_ASSERT_FATAL(dth_integrator_new(m, &o, &it) == DTH_OK);
+    CU_ASSERT_FATAL(dth_integrator_start(it, &q0, &p0, 0.0) == DTH_OK);
+    return it;
+}
+
+/* |wp + H_phys(zbar)| in units of the round-off of its terms. */
+static double energy_ulps(const dth_model *m, const double *zb)
+{
+    size_t n = dth_model_dof(m), N = 2 * n + 2;
+    double H, g[16];
+    CU_ASSERT_FATAL(dth_model_eval(m, zb, DTH_EVAL_H | DTH_EVAL_GRAD, &H, g, NULL) == DTH_OK);
+    double s = fabs(zb[N - 1]) + fabs(H);
+    for (size_t j = 0; j + 1 < N; j++) s += fabs(g[j] * zb[j]);
+    return fabs(zb[N - 1] + H) / (DBL_EPSILON * s);
+}
+
+/* The cubic's root is a root, is on the asked side, and no smaller one exists there. */
+static void test_cubic_root(void)
+{
+    struct { double H, psi, dpsi, side; } c[] = {
+        {8.13e-4, 0.748, -4.31, 1}, {8.13e-4, 0.748, -4.31, -1}, {1e-3, 0.0, 2.0, 1},
+        {-1e-3, -0.5, 1.0, 1}, {-1e-3, 0.5, -1.0, 1}, {2e-4, 1.0, 0.0, 1},
+    };
+    for (size_t i = 0; i < sizeof c / sizeof c[0]; i++) {
+        double l = dth_cubic_root(c[i].H, c[i].psi, c[i].dpsi, c[i].side);
+        double f = c[i].H - c[i].psi * l * l / 8 - c[i].dpsi * l * l * l / 24;
+        CU_ASSERT(l * c[i].side > 0);
+        CU_ASSERT(fabs(f) <= 1e-14 * (fabs(c[i].H) + 1e-300) * 10);
+        /* no sign change of the cubic strictly between 0 and l */
+        for (int k = 1; k < 1000; k++) {
+            double x = l * k / 1000.0, fx = c[i].H - c[i].psi * x * x / 8 - c[i].dpsi * x * x * x / 24;
+            CU_ASSERT(fx * c[i].H > 0);
+            if (!(fx * c[i].H > 0)) break;
+        }
+    }
+    /* all terms of one sign: no root on that side */
+    CU_ASSERT_EQUAL(dth_cubic_root(-1e-3, 0.5, -1.0, -1), 0.0);
+    /* H/psi < 0 with psi' = 0: no root on either side */
+    CU_ASSERT_EQUAL(dth_cubic_root(-1e-3, 1.0, 0.0, 1), 0.0);
+    CU_ASSERT_EQUAL(dth_cubic_root(-1e-3, 1.0, 0.0, -1), 0.0);
+}
+
+/* Kicked segment: midpoint on H = 0, t advances by lambda, wp untouched; the segment from the
+ * end with -lambda has the same midpoint (reversal symmetry); Kepler's L exact. */
+static void kicked_case(const dth_model_type *t, size_t n, const double *z, double lambda)
+{
+    dth_model *m = model(t, n);
+    CU_ASSERT_FATAL(m != NULL);
+    size_t N = 2 * n + 2;
+    double work[4096], d[8] = {0}, d2[8] = {0}, zb[8], zbar[8], zbar2[8], mu = 0, mu2 = 0, res;
+    int iters;
+    CU_ASSERT_FATAL(dth_kicked_segment_work_size(m) <= 4096);
+    CU_ASSERT_FATAL(dth_kicked_segment(m, z, NULL, lambda, d, &mu, &res, &iters, work) == DTH_OK);
+    for (size_t j = 0; j < N; j++) {
+        zbar[j] = z[j] + d[j];
+        zb[j] = z[j] + 2 * d[j];
+    }
+    CU_ASSERT(energy_ulps(m, zbar) <= 16);
+    CU_ASSERT_EQUAL(d[N - 1], 0.0);
+    CU_ASSERT(fabs(zb[n] - z[n] - lambda) <= 4 * DBL_EPSILON * (fabs(z[n]) + fabs(lambda)));
+    CU_ASSERT(mu != 0); /* the vertex is off H = 0, so a kick is needed */
+    CU_ASSERT_FATAL(dth_kicked_segment(m, zb, NULL, -lambda, d2, &mu2, &res, &iters, work) == DTH_OK);
+    double err = 0, sc = 0;
+    for (size_t j = 0; j < N; j++) {
+        zbar2[j] = zb[j] + d2[j];
+        err = fmax(err, fabs(zbar2[j] - zbar[j]));
+        sc = fmax(sc, fabs(zbar[j]));
+    }
+    CU_ASSERT(err <= 1e-13 * sc);
+    CU_ASSERT(fabs(mu2 + mu) <= 1e-9 * fabs(mu));
+    if (t == &dth_model_kepler) {
+        double La = z[0] * z[n + 2] - z[1] * z[n + 1], Lb = zb[0] * zb[n + 2] - zb[1] * zb[n + 1];
+        CU_ASSERT(fabs(La - Lb) <= 64 * DBL_EPSILON * fabs(La));
+    }
+    dth_model_free(m);
+}
+
+static void test_kicked_segment(void)
+{
+    /* pendulum vertex near psi = 0 with a positive offset (wp chosen so H(z) = 1e-3) */
+    double zp[4] = {1.9, 0.0, 1.3, 0};
+    zp[3] = -(0.5 * 1.3 * 1.3 - cos(1.9)) + 1e-3;
+    kicked_case(&dth_model_pendulum, 1, zp, 0.1);
+    kicked_case(&dth_model_pendulum, 1, zp, -0.07);
+    /* Kepler e = 0.9 orbit point, offset 1e-4 */
+    double zk[6] = {-1.2, 0.3, 0.0, 0.2, -0.45, 0};
+    double r = hypot(zk[0], zk[1]);
+    zk[5] = -(0.5 * (zk[3] * zk[3] + zk[4] * zk[4]) - 1 / r) + 1e-4;
+    kicked_case(&dth_model_kepler, 2, zk, 0.05);
+}
+
+static void test_registry(void)
+{
+    dth_registry *reg = NULL;
+    CU_ASSERT_FATAL(dth_registry_new(NULL, &reg) == DTH_OK);
+    CU_ASSERT_FATAL(dth_registry_add_builtin(reg) == DTH_OK);
+    CU_ASSERT(dth_registry_regularizer_count(reg) >= 3);
+    CU_ASSERT_PTR_EQUAL(dth_registry_find_regularizer(reg, "none"), &dth_reg_none);
+    CU_ASSERT_PTR_EQUAL(dth_registry_find_regularizer(reg, "reseed"), &dth_reg_reseed);
+    CU_ASSERT_PTR_EQUAL(dth_registry_find_regularizer(reg, "symkick"), &dth_reg_symkick);
+    CU_ASSERT_PTR_NULL(dth_registry_find_regularizer(reg, "nope"));
+    CU_ASSERT_PTR_EQUAL(dth_registry_regularizer_at(reg, 0), &dth_reg_none);
+    CU_ASSERT_PTR_NULL(dth_registry_regularizer_at(reg, 99));
+    CU_ASSERT_EQUAL(dth_registry_add_regularizer(reg, &dth_reg_none), DTH_EINVAL); /* duplicate */
+    dth_registry_free(reg);
+    /* unknown and bad parameters name the key */
+    dth_model *m = model(&dth_model_pendulum, 1);
+    dth_regularizer *r = NULL;
+    char err[256] = "";
+    dth_kv bad = {"nosuch", "1"}, badv = {"margin", "-1"};
+    CU_ASSERT_EQUAL(dth_regularizer_new(&dth_reg_symkick, &bad, 1, m, NULL, &r, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "nosuch"));
+    CU_ASSERT_EQUAL(dth_regularizer_new(&dth_reg_symkick, &badv, 1, m, NULL, &r, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "margin"));
+    CU_ASSERT_PTR_NULL(r);
+    dth_model_free(m);
+}
+
+/* none: raw DTH ends at vertex 15 with the branch status, state untouched. */
+static void test_none_ends(void)
+{
+    dth_model *m = model(&dth_model_pendulum, 1);
+    dth_regularizer *r = regul(&dth_reg_none, NULL, 0, m);
+    dth_integrator *it = pendulum_run(m, r);
+    dth_step_info inf;
+    int rc = DTH_OK;
+    long k = 0;
+    for (; k < 100 && rc == DTH_OK; k++) rc = dth_integrator_step(it, &inf);
+    CU_ASSERT_EQUAL(k - 1, 15);
+    CU_ASSERT(rc == DTH_EFOLD || rc == DTH_EGHOST || rc == DTH_ENEGOFFSET);
+    double z[4];
+    memcpy(z, dth_integrator_vertex(it), sizeof z);
+    CU_ASSERT_EQUAL(dth_integrator_step(it, &inf), rc);
+    CU_ASSERT(memcmp(z, dth_integrator_vertex(it), sizeof z) == 0);
+    dth_integrator_free(it);
+    dth_regularizer_free(r);
+    dth_model_free(m);
+}
+
+/* reseed with a fixed crossing step: many crossings, every midpoint on H = 0, wp bit-identical. */
+static void test_reseed_energy(void)
+{
+    dth_model *m = model(&dth_model_pendulum, 1);
+    dth_kv kv = {"step", "0.1"};
+    dth_regularizer *r = regul(&dth_reg_reseed, &kv, 1, m);
+    CU_ASSERT_FATAL(r != NULL);
+    dth_integrator *it = pendulum_run(m, r);
+    double wp0 = dth_integrator_vertex(it)[3], worst = 0;
+    long crossings = 0, k;
+    int rc = DTH_OK;
+    for (k = 0; k < 20000 && rc == DTH_OK; k++) {
+        dth_step_info inf;
+        rc = dth_integrator_step(it, &inf);
+        if (rc) break;
+        if (inf.flags & DTH_STEP_CROSSING) crossings++;
+        worst = fmax(worst, energy_ulps(m, dth_integrator_midpoint(it)));
+        CU_ASSERT_EQUAL(dth_integrator_vertex(it)[3], wp0);
+        if (dth_integrator_vertex(it)[3] != wp0) break;
+    }
+    CU_ASSERT_EQUAL(rc, DTH_OK);
+    CU_ASSERT(crossings >= 200);
+    CU_ASSERT(worst <= 16);
+    dth_integrator_free(it);
+    dth_regularizer_free(r);
+    dth_model_free(m);
+}
+
+/* symkick: carries the pendulum through crossings with exact energy, and a backward run from
+ * after the first crossing retraces it (the crossing chain is its own reverse). */
+static void test_symkick(void)
+{
+    dth_model *m = model(&dth_model_pendulum, 1);
+    dth_regularizer *r = regul(&dth_reg_symkick, NULL, 0, m);
+    CU_ASSERT_FATAL(r != NULL);
+    dth_integrator *it = pendulum_run(m, r);
+    double wp0 = dth_integrator_vertex(it)[3], worst = 0, z0[4];
+    dth_step_info inf;
+    CU_ASSERT_FATAL(dth_integrator_step(it, &inf) == DTH_OK);
+    memcpy(z0, dth_integrator_vertex(it), sizeof z0);
+    long crossings = 0, k;
+    for (k = 0; k < 40; k++) {
+        CU_ASSERT_FATAL(dth_integrator_step(it, &inf) == DTH_OK);
+        if (inf.flags & DTH_STEP_CROSSING) {
+            crossings++;
+            CU_ASSERT_EQUAL(inf.branch, DTH_BRANCH_REG);
+        }
+        worst = fmax(worst, energy_ulps(m, dth_integrator_midpoint(it)));
+        CU_ASSERT_EQUAL(dth_integrator_vertex(it)[3], wp0);
+    }
+    CU_ASSERT_EQUAL(crossings, 1);
+    CU_ASSERT(worst <= 16);
+    dth_integrator_reverse(it);
+    for (long j = 0; j < k; j++) CU_ASSERT_FATAL(dth_integrator_step(it, &inf) == DTH_OK);
+    double err = 0;
+    for (int j = 0; j < 4; j++) err = fmax(err, fabs(dth_integrator_vertex(it)[j] - z0[j]));
+    CU_ASSERT(err <= 1e-9 * 2.2);
+    /* further on: at least 5 crossings with every midpoint on H = 0 */
+    dth_integrator_reverse(it);
+    crossings = 0;
+    for (k = 0; k < 400; k++) {
+        if (dth_integrator_step(it, &inf) != DTH_OK) break;
+        if (inf.flags & DTH_STEP_CROSSING) crossings++;
+        worst = fmax(worst, energy_ulps(m, dth_integrator_midpoint(it)));
+    }
+    CU_ASSERT(crossings >= 5);
+    CU_ASSERT(worst <= 16);
+    dth_integrator_free(it);
+    dth_regularizer_free(r);
+    dth_model_free(m);
+}
+
+static CU_TestInfo tests[] = {
+    {"cubic-model roots", test_cubic_root},
+    {"kicked segment: energy, time, reversal, L", test_kicked_segment},
+    {"registry and parameters", test_registry},
+    {"none ends at the fold (vertex 15)", test_none_ends},
+    {"reseed step=0.1: crossings, exact energy", test_reseed_energy},
+    {"symkick: exact energy, crossing retraced", test_symkick},
+    CU_TEST_INFO_NULL,
+};
+
+CU_SuiteInfo dth_test_suites[] = {
+    {.pName = "regularize", .pTests = tests},
+    CU_SUITE_INFO_NULL,
+};
