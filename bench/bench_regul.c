@@ -235,10 +235,11 @@ int main(int argc, char **argv)
 {
     long steps = argc > 1 ? atol(argv[1]) : 100000;
     problem pend = {"pendulum q0=0 p0=2.2 h=0.05", &dth_model_pendulum, {{0}}, 0, 1, {0}, {2.2}, 0.05, DTH_START_VERTEX};
-    problem kep9 = {"kepler e=0.9 h=0.01", &dth_model_kepler, {{0}}, 0, 2, {0.1, 0}, {0, 0}, 0.01, DTH_START_MIDPOINT};
-    kep9.p0[1] = sqrt(1.9 / 0.1);
-    problem kep99 = {"kepler e=0.99 h=0.002", &dth_model_kepler, {{0}}, 0, 2, {0.01, 0}, {0, 0}, 0.002, DTH_START_MIDPOINT};
-    kep99.p0[1] = sqrt(1.99 / 0.01);
+    /* Kepler (mu = 1, a = 1) from apocentre */
+    problem kep9 = {"kepler e=0.9 h=0.01", &dth_model_kepler, {{0}}, 0, 2, {-1.9, 0}, {0, 0}, 0.01, DTH_START_MIDPOINT};
+    kep9.p0[1] = -sqrt(0.1 / 1.9);
+    problem kep99 = {"kepler e=0.99 h=0.002", &dth_model_kepler, {{0}}, 0, 2, {-1.99, 0}, {0, 0}, 0.002, DTH_START_MIDPOINT};
+    kep99.p0[1] = -sqrt(0.01 / 1.99);
     const problem *pbs[] = {&pend, &kep9, &kep99};
     static const dth_kv reseed_kv[] = {{"step", "0.1"}};
     struct {
@@ -254,8 +255,8 @@ int main(int argc, char **argv)
     };
     size_t nr = sizeof regs / sizeof regs[0];
     printf("# bench_regul %ld: long runs of %ld steps; round trip 2 x 2000 steps; tangent defect by central differences (eps 1e-7)\n", steps, steps);
-    printf("| problem | regularizer | steps run | end status | crossings | max midpoint energy residual (rel.) | wp change | max rel. L error | round trip (rel.) [crossings] | max step ratio at crossings | tangent defect crossing / ordinary | us per step |\n");
-    printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    printf("| problem | regularizer | steps run | end status | t reached | crossings | max midpoint energy residual (rel.) | wp change | max rel. L error | round trip (rel.) [crossings] | max step ratio at crossings | tangent defect crossing / ordinary | us per step |\n");
+    printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (size_t p = 0; p < sizeof pbs / sizeof pbs[0]; p++) {
         for (size_t i = 0; i < nr; i++) {
             if (pbs[p]->type != &dth_model_pendulum && regs[i].nkv) continue; /* step= is pendulum-scaled */
@@ -271,8 +272,8 @@ int main(int argc, char **argv)
             char inv[32];
             if (pbs[p]->type == &dth_model_kepler) snprintf(inv, sizeof inv, "%.1e", rs.inv_err);
             else snprintf(inv, sizeof inv, "-");
-            printf("| %s | %s | %ld | %s | %ld | %.1e | %.1e | %s | %s | %.3f | %.1e / %.1e | %.2f |\n", pbs[p]->name,
-                   regs[i].label, rs.steps, rs.status ? dth_status_name(rs.status) : "ok", rs.crossings, rs.energy,
+            printf("| %s | %s | %ld | %s | %.1f | %ld | %.1e | %.1e | %s | %s | %.3f | %.1e / %.1e | %.2f |\n", pbs[p]->name,
+                   regs[i].label, rs.steps, rs.status ? dth_status_name(rs.status) : "ok", rs.t_end, rs.crossings, rs.energy,
                    rs.wp_change, inv, trip, rs.max_ratio, dc, dp, rs.steps ? 1e6 * rs.secs / (double)rs.steps : 0.0);
             fflush(stdout);
         }
