@@ -44,6 +44,13 @@ awk -F, 'NR > 1 { print $3, $4 }' "$data-traj.csv" >"$tmp/traj.dat"
 tail -1 "$data-traj.csv" | awk -F, '{ print $3, $4, "\"" ($6 == "t_end" || $6 == "steps" || $6 == "limit" ? "end" : "stop: " $6) "\"" }' >"$tmp/end.dat"
 name=$(basename "$scene")
 h=$(awk -F= '/^[ \t]*h[ \t]*=/ { v = $2; sub(/;.*/, "", v); gsub(/[ \t]/, "", v) } END { print v }' "$scene")
+L=
+prev=
+for a in "$@"; do
+    case $prev in --range) L=$a ;; -s) case $a in integrator.h=*) h=${a#integrator.h=} ;; esac ;; esac
+    prev=$a
+done
+[ -n "$L" ] || L=$(awk -v h="$h" 'BEGIN { print 16 * (h < 0 ? -h : h) }')
 
 # the two zero sets as gnuplot contour lines
 gnuplot <<EOF
@@ -75,6 +82,7 @@ set palette maxcolors 5
 set palette defined (0 "#9e9e9e", 1 "#e8f1fa", 2 "#fdd8a8", 3 "#d7301f", 4 "#404040")
 unset colorbox
 set style fill solid 1.0 noborder
+set label 1 "vertex offset psi h^2/8 at every point\nregion I: [psi,H]^2 <= 24 K |psi|, II: >\n(K estimated on |lambda| <= $L)\ncircle: where the trajectory ends" at screen 0.705, screen 0.68 left font "sans,11"
 plot "$tmp/grid.dat" using 1:2:5 with image notitle, \
      NaN with boxes fc rgb "#e8f1fa" title "region I", \
      NaN with boxes fc rgb "#fdd8a8" title "region II", \

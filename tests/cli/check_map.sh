@@ -52,11 +52,12 @@ awk -F, 'function abs(x) { return x < 0 ? -x : x }
     abs($3) < 0.5 && abs($4) > 0.5 && $5 != "II" && $5 != "III" { print "small psi, large dpsi at " $1 "," $2 ": region " $5; bad = 1 }
     END { if (n["I"] < 100 || n["II"] < 40 || n["-"] != 1) { print "region counts I " n["I"] " II " n["II"] " - " n["-"]; bad = 1 }
           exit bad }' "$T/m1.csv" || fail "regions"
-# Theorem EU_1: in region I the vertex offset H_k = psi h^2/8 gives one root on each side near -h and +h
+# Theorem EU_1 (iii): in region I the offset H_k/psi_k = h^2/8 gives one root on each side, and its
+# bound (g_bound_5 with |psi'/psi lambda| <= 1/2) puts it at 0.894 h <= |lambda| <= 1.155 h (h = 0.05)
 awk -F, 'function abs(x) { return x < 0 ? -x : x }
     NR == 1 || $5 != "I" { next }
-    $7 == "" || $8 == "" || abs($7 + 0.05) > 0.005 || abs($8 - 0.05) > 0.005 { print "region I at " $1 "," $2 ": roots " $7 ", " $8; bad = 1 }
-    $9 != "" { print "region I at " $1 "," $2 ": a ghost " $9 " within the range"; bad = 1 }
+    $7 == "" || $8 == "" || !($7 < 0 && $8 > 0) { print "region I at " $1 "," $2 ": roots " $7 ", " $8; bad = 1 }
+    abs($7) < 0.0447 || abs($7) > 0.0578 || $8 < 0.0447 || $8 > 0.0578 { print "region I at " $1 "," $2 ": roots " $7 ", " $8; bad = 1 }
     END { exit bad }' "$T/m1.csv" || fail "region I roots"
 # where psi is small and [psi, H] large (region II) the physical root ahead meets the ghost: some points
 # have a single physical root
