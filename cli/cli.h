@@ -23,6 +23,7 @@ enum {
     X(run, "SCENE.ini [-s section.key=value]... [-o FILE]",                                       \
       "integrate a scene and write its trajectory as CSV")                                        \
     X(models, "", "list the registered models, their parameters and defaults")                  \
+    X(regularizers, "", "list the regularizers across psi = 0 ([regularize] method=), with parameters") \
     X(roots, "SCENE.ini [-s section.key=value]... [--range L]",                                  \
       "every root of the step constraint at the initial vertex, classified (CSV)")               \
     X(map, "SCENE.ini --q a:b:n --p c:d:m [--dof i] [--range L] [--out PREFIX] [-s ...]",      \

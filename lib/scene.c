@@ -337,6 +337,9 @@ int dth_scene_entry(const dth_scene *s, size_t i, const char **section, const ch
 void dth_run_setup_clear(dth_run_setup *rs)
 {
     if (!rs) return;
+    dth_regularizer_free(rs->regularizer); /* before the model it serves */
+    rs->regularizer = NULL;
+    rs->opt.regularizer = NULL;
     dth_model_free(rs->model);
     dth_free(rs->alloc, rs->q0);
     dth_free(rs->alloc, rs->p0);
@@ -554,10 +557,7 @@ static int check_keys(setup_ctx *c, const dth_model_type *type, dth_run_setup *r
         } else if (strcmp(sec, "integrator") == 0) {
             rc = check_integrator(c, rs, e);
         } else if (strcmp(sec, "regularize") == 0) {
-            if (strcmp(k, "method") != 0)
-                return bad(c->err, c->errlen, e, "unknown key (regularizer '%s' takes no parameters)", rs->regularize);
-            if (strcmp(e->value, "none") != 0)
-                return bad(c->err, c->errlen, e, "unknown regularizer '%s' (available: none)", e->value);
+            continue; /* checked by setup_regularizer once the model exists */
         } else if (strcmp(sec, "output") == 0) {
             rc = check_output(c, rs, e);
         } else if (!sec[0]) {
@@ -617,6 +617,64 @@ static int check_cross(setup_ctx *c, dth_run_setup *rs)
     return DTH_OK;
 }
 
+/* [regularize]: method= names a registered regularizer; every other key is its parameter.
+ * The instance is made for the model (paper, section 7; docs/regularization.md). */
+static int setup_regularizer(const dth_scene *s, const dth_registry *reg, dth_run_setup *rs, char *err,
+                             size_t errlen)
+{
+    const entry *em = NULL;
+    size_t np = 0;
+    for (size_t i = 0; i < s->n; i++)
+        if (!strcmp(s->e[i].section, "regularize")) {
+            if (!strcmp(s->e[i].key, "method")) em = &s->e[i];
+            else np++;
+        }
+    const dth_regularizer_type *t = dth_registry_find_regularizer(reg, em ? em->value : "none");
+    if (!t) {
+        char names[256];
+        size_t len = 0;
+        names[0] = '\0';
+        for (size_t i = 0; i < dth_registry_regularizer_count(reg) && len < sizeof names; i++)
+            len += (size_t)snprintf(names + len, sizeof names - len, "%s%s", i ? ", " : "",
+                                    dth_registry_regularizer_at(reg, i)->name);
+        return bad(err, errlen, em, "unknown regularizer '%s' (available: %s)", em->value, names);
+    }
+    snprintf(rs->regularize, sizeof rs->regularize, "%s", t->name);
+    if (!strcmp(t->name, "none")) {
+        for (size_t i = 0; i < s->n; i++)
+            if (!strcmp(s->e[i].section, "regularize") && strcmp(s->e[i].key, "method"))
+                return bad(err, errlen, &s->e[i], "unknown key (regularizer 'none' takes no parameters)");
+        return DTH_OK;
+    }
+    dth_kv *kv = dth_calloc(s->alloc, np + 1, sizeof *kv);
+    const entry **ke = dth_calloc(s->alloc, np + 1, sizeof *ke);
+    int rc = kv && ke ? DTH_OK : DTH_ENOMEM;
+    size_t n = 0;
+    for (size_t i = 0; !rc && i < s->n; i++)
+        if (!strcmp(s->e[i].section, "regularize") && strcmp(s->e[i].key, "method")) {
+            kv[n] = (dth_kv){s->e[i].key, s->e[i].value};
+            ke[n++] = &s->e[i];
+        }
+    if (!rc) {
+        char rerr[256] = "";
+        rc = dth_regularizer_new(t, kv, n, rs->model, s->alloc, &rs->regularizer, rerr, sizeof rerr);
+        if (rc == DTH_ENOMEM) set_err(err, errlen, "out of memory");
+        else if (rc) {
+            const entry *at = em;
+            for (size_t i = 0; i < n; i++)
+                if (names_key(rerr, kv[i].key)) at = ke[i];
+            rc = bad(err, errlen, at, "%s", rerr);
+        } else {
+            rs->opt.regularizer = rs->regularizer;
+        }
+    } else {
+        set_err(err, errlen, "out of memory");
+    }
+    dth_free(s->alloc, kv);
+    dth_free(s->alloc, ke);
+    return rc;
+}
+
 int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *out, char *err, size_t errlen)
 {
     if (!s || !reg || !out) {
@@ -673,6 +731,7 @@ int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *
     }
     dth_free(s->alloc, kv);
     dth_free(s->alloc, kv_entry);
+    if (!rc) rc = setup_regularizer(s, reg, &rs, err, errlen);
     if (rc) {
         dth_run_setup_clear(&rs);
         return rc < 0 ? rc : DTH_EINVAL;

@@ -238,7 +238,7 @@ static int admit(void *self, const double *za, const double *zb, double lambda)
 
 const dth_regularizer_type dth_reg_symkick = {
     .name = "symkick",
-    .doc = "symmetric kicked segment: energy-exact, time-reversible, keeps quadratic invariants; not symplectic",
+    .doc = "chains of kicked segments across psi = 0, each its own reverse: energy-exact, keeps quadratic invariants; not symplectic, the step size drifts over many crossings",
     .params = params,
     .n_params = sizeof params / sizeof params[0],
     .create = create,

@@ -81,6 +81,8 @@ typedef struct dth_run_setup {
     double dt;          /**< resample at uniform times (0: write vertices) */
     int diagnostics;    /**< write psi, dpsi, region, iters */
     const dth_allocator *alloc; /**< what the owned members were allocated with */
+    dth_regularizer *regularizer; /**< [regularize] method= other than none (owned; also in
+                                       opt.regularizer), NULL for raw DTH */
 } dth_run_setup;
 
 /**
