@@ -204,7 +204,7 @@ static int write_map(cli_out *o, const map *mp, const cell *cells)
 }
 
 /*
- * The scene's trajectory (its own start, h, steps or t_end and branch policy; raw DTH), projected
+ * The scene's trajectory (its own start, h, steps or t_end, branch policy and regularizer), projected
  * on the mapped (q_i, p_i). *stop receives the status that ended it (DTH_OK: it ran to the end),
  * *kstop and *tstop the last vertex written.
  */
