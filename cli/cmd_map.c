@@ -237,7 +237,7 @@ static int write_traj(cli_out *o, const dth_run_setup *rs, size_t dof, int *stop
         int len = snprintf(line, sizeof line, "%ld,%.17g,%.17g,%.17g,%.17g,%s", k, t, q, p, lam, end ? end : "");
         *kstop = k;
         *tstop = t;
-        if ((wrc = cli_out_line(o, line, (size_t)len)) != 0 || end) break;
+        if ((wrc = cli_out_line(o, line, (size_t)len)) != 0 || end || cli_signal_received()) break;
         lam = info.lambda;
         cli_out_maybe_flush(o);
     }
@@ -377,7 +377,8 @@ int cli_cmd_map(int argc, char **argv)
 
     /* ---- the map: every point independent, results stored by grid index and written in order after
      * the loop, so the output is the same bits for any thread count and schedule */
-    int nomem = 0;
+    int nomem = 0, sig = 0;
+    cli_catch_signals(); /* Ctrl-C: skip the remaining points, remove the temporary files */
 #ifdef _OPENMP
 #pragma omp parallel reduction(| : nomem)
 #endif
@@ -389,10 +390,15 @@ int cli_cmd_map(int argc, char **argv)
 #pragma omp for schedule(dynamic, 16)
 #endif
         for (long k = 0; k < total; k++) {
-            if (wrc) continue;
+            if (wrc || cli_signal_received()) continue;
             map_point(&mp, &w, axis_at(&mp.q, k / pa.n), axis_at(&mp.p, k % pa.n), &cells[k]);
         }
         worker_free(&w);
+    }
+    if ((sig = cli_signal_received()) != 0) {
+        cli_error("interrupted (no output written)");
+        status = 128 + sig;
+        goto done;
     }
     if (nomem) {
         cli_error("out of memory (a root finder per thread)");
@@ -412,6 +418,11 @@ int cli_cmd_map(int argc, char **argv)
     if (write_traj(&ot, &rs, mp.dof, &stop, &ksteps, &tstop)) {
         cli_error("cannot write '%s': %s", path_traj, strerror(ot.err));
         status = CLI_FAIL;
+        goto done;
+    }
+    if ((sig = cli_signal_received()) != 0) {
+        cli_error("interrupted (no output written)");
+        status = 128 + sig;
         goto done;
     }
     if (cli_out_finish(&om) || cli_out_finish(&ot)) {
