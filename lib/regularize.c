@@ -303,7 +303,7 @@ int dth_kicked_segment(const dth_model *model, const double *z, const double *zl
         if (rc) return rc;
         rc = dth__lu_solve(m, A, piv, 1, F);
         if (rc) return rc;
-        double r = 0;
+        double r = 0, rd = 0; /* rd: the offsets only (mu inherits H's round-off, magnified) */
         for (int a = 0; a < m; a++) {
             x[a] -= F[a];
             double sc;
@@ -313,6 +313,7 @@ int dth_kicked_segment(const dth_model *model, const double *z, const double *zl
                 sc = fabs(z[j]) + fabs(y[j]) + 1e-300;
             }
             r = fmax(r, fabs(F[a]) / sc);
+            if (a < m - 1) rd = fmax(rd, fabs(F[a]) / sc);
         }
         if (!isfinite(r)) return DTH_ENOCONV;
         if (r <= 4 * DBL_EPSILON) break;
@@ -320,7 +321,7 @@ int dth_kicked_segment(const dth_model *model, const double *z, const double *zl
             /* stalled: accept if the energy residual is at the round-off of its terms */
             double hsc = fabs(wp) + fabs(H);
             for (size_t j = 0; j < d; j++) hsc += fabs(g[j] * y[j]);
-            if (fabs(wp + H) <= 256 * DBL_EPSILON * hsc && r < 1e-11) break;
+            if (fabs(wp + H) <= 256 * DBL_EPSILON * hsc && rd < 1e-11 && r < 1e-8) break;
         }
         if (it >= 12 && r >= 0.5 * r_prev) return DTH_ENOCONV;
         r_prev = r;
