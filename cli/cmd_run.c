@@ -22,6 +22,7 @@ typedef struct run {
     char *line;
     size_t linecap, len;
     cli_out out;
+    int leg;          /* --roundtrip: 1 forward, 2 return (a `leg` column); 0: no column */
 } run;
 
 static void put(run *r, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
@@ -46,6 +47,7 @@ static int header(run *r)
         for (size_t i = 0; i < r->ninv; i++) put(r, ",%s", r->type->invariant_name(dth__model_self(r->model), i));
         put(r, ",psi,dpsi,region,iters");
     }
+    if (r->leg) put(r, ",leg");
     return cli_out_line(&r->out, r->line, r->len);
 }
 
@@ -73,6 +75,7 @@ static int row(run *r, long k, const double *z, double lambda, int iters, double
         else
             put(r, ",nan,nan,-,%d", iters);
     }
+    if (r->leg) put(r, ",%d", r->leg);
     return cli_out_line(&r->out, r->line, r->len);
 }
 
@@ -86,9 +89,11 @@ static double vertex_K(run *r, const double *z, double lambda_out)
 
 static void usage_run(FILE *f)
 {
-    fprintf(f, "usage: dth run SCENE.ini [-s section.key=value]... [-o FILE]\n"
+    fprintf(f, "usage: dth run SCENE.ini [-s section.key=value]... [-o FILE] [--roundtrip]\n"
                "  -s section.key=value  override a scene key (applied after the file, in order)\n"
-               "  -o FILE               write the CSV to FILE ('-': standard output); wins over [output] file=\n");
+               "  -o FILE               write the CSV to FILE ('-': standard output); wins over [output] file=\n"
+               "  --roundtrip           after the run, reverse and take as many steps back; rows get a column\n"
+               "                        leg (1 forward, 2 back) and stderr the distance to the start\n");
 }
 
 static void progress(double frac, int on, double *last)
@@ -104,6 +109,7 @@ int cli_cmd_run(int argc, char **argv)
 {
     const char *scene_path = NULL, *out_opt = NULL;
     char err[1024];
+    int roundtrip = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
@@ -116,6 +122,8 @@ int cli_cmd_run(int argc, char **argv)
             }
             if (a[1] == 'o') out_opt = argv[i + 1];
             i++;
+        } else if (!strcmp(a, "--roundtrip")) {
+            roundtrip = 1;
         } else if (a[0] == '-' && a[1]) {
             cli_error("unknown option '%s' (try dth run --help)", a);
             return CLI_USAGE;
@@ -141,7 +149,7 @@ int cli_cmd_run(int argc, char **argv)
     run r;
     memset(&r, 0, sizeof r);
     r.out.fd = -1;
-    double *zprev = NULL;
+    double *zprev = NULL, *zstart = NULL;
     if (!reg) return CLI_FAIL;
     int rc = dth_scene_new(NULL, &scene);
     if (!rc) rc = dth_scene_load(scene, scene_path, err, sizeof err);
@@ -153,6 +161,10 @@ int cli_cmd_run(int argc, char **argv)
     if (rc) {
         cli_error("%s", rc == DTH_ENOMEM ? "out of memory" : err);
         status = rc == DTH_ENOMEM ? CLI_FAIL : CLI_USAGE;
+        goto done;
+    }
+    if (roundtrip && rs.dt > 0) {
+        cli_error("--roundtrip writes vertices: it cannot be combined with [output] dt > 0");
         goto done;
     }
     rc = dth_integrator_new(rs.model, &rs.opt, &it);
@@ -178,7 +190,9 @@ int cli_cmd_run(int argc, char **argv)
     r.work = calloc(dth_model_work_size(rs.model), sizeof *r.work);
     r.zi = calloc(r.N, sizeof *r.zi);
     zprev = calloc(r.N, sizeof *zprev);
-    if (!r.line || !r.inv || !r.work || !r.zi || !zprev) {
+    zstart = calloc(r.N, sizeof *zstart);
+    r.leg = roundtrip;
+    if (!r.line || !r.inv || !r.work || !r.zi || !zprev || !zstart) {
         cli_error("out of memory");
         status = CLI_FAIL;
         goto done;
@@ -193,6 +207,7 @@ int cli_cmd_run(int argc, char **argv)
     const int tty = isatty(STDERR_FILENO);
     double t_start = cli_now(), last_progress = t_start;
     memcpy(zprev, dth_integrator_vertex(it), N * sizeof *zprev);
+    memcpy(zstart, zprev, N * sizeof *zstart);
     const double t_first = zprev[n];
     long k = 0, rows = 0, j = 0; /* vertex index; output rows; next dense-output sample */
     double lam_in = 0;
@@ -236,6 +251,34 @@ int cli_cmd_run(int argc, char **argv)
     } else if (!werr && zprev[n] == rs.t0 + dir * (double)j * rs.dt && k == 0) {
         werr = row(&r, rows++, zprev, lam_in, iters_in, 0, rs.opt.K);
     }
+    /* --roundtrip: reverse in place and take as many steps back (paper, time reversibility) */
+    if (roundtrip && !werr && !sig && rc == DTH_OK) {
+        long k1 = k;
+        dth_integrator_reverse(it);
+        r.leg = 2;
+        for (long kb = 1; kb <= k1 && !werr; kb++) {
+            if ((sig = cli_signal_received()) != 0) break;
+            dth_step_info info;
+            rc = dth_integrator_step(it, &info);
+            if (rc) break;
+            k++;
+            if (kb % rs.every == 0 || kb == k1) {
+                werr = row(&r, k, dth_integrator_vertex(it), info.lambda, info.iters, -info.lambda, rs.opt.K);
+                rows++;
+            }
+            cli_out_maybe_flush(&r.out);
+        }
+        memcpy(zprev, dth_integrator_vertex(it), N * sizeof *zprev);
+        if (!rc && !sig) {
+            double e = 0, sc = 0;
+            for (size_t i = 0; i < N; i++) {
+                e = fmax(e, fabs(zprev[i] - zstart[i]));
+                sc = fmax(sc, fabs(zstart[i]));
+            }
+            fprintf(stderr, "dth: round trip of 2 x %ld steps: max |z - z_0| = %.3g (relative %.3g)\n", k1, e,
+                    sc > 0 ? e / sc : e);
+        }
+    }
     if (tty) fprintf(stderr, "\r%20s\r", "");
     if (werr) {
         cli_error("cannot write '%s': %s", path ? path : "standard output", strerror(r.out.err));
@@ -269,6 +312,7 @@ done:
     free(r.work);
     free(r.zi);
     free(zprev);
+    free(zstart);
     dth_integrator_free(it);
     dth_run_setup_clear(&rs);
     dth_scene_free(scene);
