@@ -58,12 +58,18 @@ typedef struct cli_out {
     int direct;           /* path is a device or pipe: written in place, no rename */
     int failed;           /* a write failed (errno in err) */
     int err;
+    unsigned long long written; /* bytes handed to the file so far (buffered ones excluded) */
 } cli_out;
 
 /* Open; on failure prints "dth: cannot write 'FILE': reason" and returns -1. */
 int cli_out_open(cli_out *o, const char *path);
 /* Append one line (without its newline; it is added). Returns -1 after a write failure. */
 int cli_out_line(cli_out *o, const char *line, size_t len);
+/* Write out every buffered line and fsync a file: `written` is then on disk. -1 on failure. */
+int cli_out_sync(cli_out *o);
+/* Copy the first `bytes` bytes of the file `src` into the output (resuming a run); -1 if src is
+ * missing or shorter, or on a write failure. */
+int cli_out_copy_prefix(cli_out *o, const char *src, unsigned long long bytes);
 /* Write out buffered lines if the last flush is older than 0.5 s. */
 void cli_out_maybe_flush(cli_out *o);
 /* Flush, close and rename into place. Prints an error and returns -1 on failure. */

@@ -85,6 +85,7 @@ static int flush(cli_out *o)
         o->err = errno;
         return -1;
     }
+    o->written += o->len;
     o->len = 0;
     o->last_flush = cli_now();
     return 0;
@@ -156,12 +157,51 @@ int cli_out_line(cli_out *o, const char *line, size_t len)
             o->err = errno;
             return -1;
         }
+        o->written += len + 1;
         return 0;
     }
     memcpy(o->buf + o->len, line, len);
     o->buf[o->len + len] = '\n';
     o->len += len + 1;
     return 0;
+}
+
+int cli_out_sync(cli_out *o)
+{
+    if (flush(o)) return -1;
+    if (o->path && !o->direct && fsync(o->fd) && errno != EINVAL) {
+        o->failed = 1;
+        o->err = errno;
+        return -1;
+    }
+    return 0;
+}
+
+int cli_out_copy_prefix(cli_out *o, const char *src, unsigned long long bytes)
+{
+    int fd = open(src, O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return -1;
+    char chunk[1 << 16];
+    unsigned long long left = bytes;
+    int rc = 0;
+    while (left && !rc) {
+        ssize_t r = read(fd, chunk, left < sizeof chunk ? (size_t)left : sizeof chunk);
+        if (r < 0 && errno == EINTR) continue;
+        if (r <= 0) {
+            rc = -1; /* shorter than the checkpoint says: truncated or replaced */
+            break;
+        }
+        if (flush(o) || write_all(o->fd, chunk, (size_t)r)) {
+            o->failed = 1;
+            o->err = errno;
+            rc = -1;
+        } else {
+            o->written += (size_t)r;
+            left -= (unsigned long long)r;
+        }
+    }
+    close(fd);
+    return rc;
 }
 
 void cli_out_maybe_flush(cli_out *o)

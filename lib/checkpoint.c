@@ -164,6 +164,8 @@ static void put_state(wr *w, const dth_integrator *it)
     put_u32(w, (uint32_t)it->pending_exact);
     put_u32(w, (uint32_t)it->fact_valid);
     put_u64(w, (uint64_t)it->steps);
+    put_u32(w, (uint32_t)it->psi_known);
+    put_u32(w, (uint32_t)(it->psi_sign + 1)); /* -1, 0, 1 stored as 0, 1, 2 */
     if (it->fact_valid) {
         put_f64s(w, it->Af, m * m);
         for (size_t i = 0; i < m; i++) put_u32(w, (uint32_t)it->pivf[i]);
@@ -249,7 +251,7 @@ typedef struct st {
     const char *name;
     size_t name_len;
     uint64_t n;
-    uint32_t m, auton, have_prev, have_mid, pending_exact, fact_valid;
+    uint32_t m, auton, have_prev, have_mid, pending_exact, fact_valid, psi_known, psi_sign;
     double lam, lam_hint, dir, h, lam_fact;
     uint64_t steps;
     size_t pos_z, pos_af; /* reader positions of the vectors */
@@ -281,7 +283,9 @@ static int read_state(rd *r, st *s, char *err, size_t errlen)
     s->pending_exact = get_u32(r);
     s->fact_valid = get_u32(r);
     s->steps = get_u64(r);
-    if (r->bad || !isfinite(s->lam) || !isfinite(s->lam_hint) || !isfinite(s->lam_fact) ||
+    s->psi_known = get_u32(r);
+    s->psi_sign = get_u32(r);
+    if (r->bad || s->psi_known > 1 || s->psi_sign > 2 || !isfinite(s->lam) || !isfinite(s->lam_hint) || !isfinite(s->lam_fact) ||
         !(s->dir == 1.0 || s->dir == -1.0) || !isfinite(s->h) || s->h == 0 || s->have_prev > 1 ||
         s->have_mid > 1 || s->pending_exact > 1 || s->fact_valid > 1 || s->steps > (uint64_t)LONG_MAX) {
         set_err(err, errlen, "checkpoint state is invalid (non-finite value or bad flag)");
@@ -376,6 +380,8 @@ int dth_checkpoint_restore(dth_integrator *it, const void *buf, size_t len, char
     it->pending_exact = (int)s.pending_exact;
     it->fact_valid = (int)s.fact_valid;
     it->steps = (long)s.steps;
+    it->psi_known = (int)s.psi_known;
+    it->psi_sign = (int)s.psi_sign - 1;
     if (s.fact_valid) {
         v.pos = s.pos_af;
         for (size_t k = 0; k < m * m; k++) it->Af[k] = get_f64(&v);

@@ -13,6 +13,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "dth/scene.h"
+#include "dth/methods.h"
 #include "dth_internal.h"
 
 typedef struct entry {
@@ -474,7 +475,14 @@ static int check_integrator(setup_ctx *c, dth_run_setup *rs, const entry *e)
     const char *k = e->key, *v = e->value;
     long x;
     if (strcmp(k, "method") == 0) {
-        if (strcmp(v, "dth") != 0) return bad(c->err, c->errlen, e, "unknown method '%s' (available: dth)", v);
+        if (strcmp(v, "dth") != 0 && !dth_fixed_method_doc(v)) {
+            char avail[256] = "dth";
+            for (size_t i = 0; i < dth_fixed_method_count(); i++) {
+                size_t l = strlen(avail);
+                snprintf(avail + l, sizeof avail - l, ", %s", dth_fixed_method_name(i));
+            }
+            return bad(c->err, c->errlen, e, "unknown method '%s' (available: %s)", v, avail);
+        }
         snprintf(rs->method, sizeof rs->method, "%s", v);
     } else if (strcmp(k, "start") == 0) {
         c->start = e;

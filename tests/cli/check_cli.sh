@@ -68,10 +68,13 @@ ok "every= and dt="
 
 # ---- diagnostics columns (with the model's invariants) on the harmonic scene
 "$DTH" run "$SC/harmonic.ini" -s integrator.steps=5 >"$T/harm.csv" || fail "harmonic run"
-[ "$(head -1 "$T/harm.csv")" = "k,t,lambda,q1,q2,p1,p2,wp,H,E1,E2,psi,dpsi,region,iters" ] ||
+[ "$(head -1 "$T/harm.csv")" = "k,t,lambda,q1,q2,p1,p2,wp,H,E1,E2,psi,dpsi,region,iters,branch" ] ||
     fail "harmonic header: $(head -1 "$T/harm.csv")"
-awk -F, 'NR > 1 && ($14 != "I" || NF != 15) { print "row " NR ": region " $14; bad = 1 } END { exit bad }' \
+awk -F, 'NR > 1 && ($14 != "I" || NF != 16) { print "row " NR ": region " $14; bad = 1 } END { exit bad }' \
     "$T/harm.csv" || fail "harmonic region column"
+# branch: "-" before the first step, then the exact first step of a midpoint start, then "plus"
+[ "$(cut -d, -f16 "$T/harm.csv" | sed -n '2,4p' | tr '\n' ' ')" = "- exact plus " ] ||
+    fail "harmonic branch column: $(cut -d, -f16 "$T/harm.csv" | sed -n '2,4p' | tr '\n' ' ')"
 ok "diagnostics columns"
 
 # ---- a terminating trajectory keeps its rows and exits 3
