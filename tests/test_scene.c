@@ -244,7 +244,7 @@ static const bad_case bad_cases[] = {
     {"[model]\nname = harmonic\nn = 2\nomega = 1, 2, 3\n[initial]\nq = 1, 2\np = 0, 0\n[integrator]\nh=1\nsteps=1\n", 4, "model.omega", "3 values"},
     {BASE_PEND "steps = 10\n[integrator]\nh = 0\n", 10, "integrator.h", "nonzero"},
     {BASE_PEND "steps = 10\n[integrator]\nh = 1e400\n", 10, "integrator.h", "1e400"},
-    {BASE_PEND "steps = 10\n[integrator]\nmethod = rk4\n", 10, "integrator.method", "rk4"},
+    {BASE_PEND "steps = 10\n[integrator]\nmethod = rk5\n", 10, "integrator.method", "unknown method 'rk5' (available: dth, midpoint"},
     {BASE_PEND "steps = 10\n[integrator]\nstart = middle\n", 10, "integrator.start", "middle"},
     {BASE_PEND "steps = -1\n", 8, "integrator.steps", "-1"},
     {BASE_PEND "steps = 1.5\n", 8, "integrator.steps", "1.5"},
