@@ -166,7 +166,8 @@ static void put_state(wr *w, const dth_integrator *it)
     put_u64(w, (uint64_t)it->steps);
     put_u32(w, (uint32_t)it->psi_known);
     put_u32(w, (uint32_t)(it->psi_sign + 1)); /* -1, 0, 1 stored as 0, 1, 2 */
-    if (it->fact_valid) {
+    put_u32(w, (uint32_t)(it->fact_valid && !it->band)); /* dense factors follow */
+    if (it->fact_valid && !it->band) {
         put_f64s(w, it->Af, m * m);
         for (size_t i = 0; i < m; i++) put_u32(w, (uint32_t)it->pivf[i]);
     }
@@ -251,7 +252,7 @@ typedef struct st {
     const char *name;
     size_t name_len;
     uint64_t n;
-    uint32_t m, auton, have_prev, have_mid, pending_exact, fact_valid, psi_known, psi_sign;
+    uint32_t m, auton, have_prev, have_mid, pending_exact, fact_valid, psi_known, psi_sign, factors;
     double lam, lam_hint, dir, h, lam_fact;
     uint64_t steps;
     size_t pos_z, pos_af; /* reader positions of the vectors */
@@ -285,14 +286,15 @@ static int read_state(rd *r, st *s, char *err, size_t errlen)
     s->steps = get_u64(r);
     s->psi_known = get_u32(r);
     s->psi_sign = get_u32(r);
-    if (r->bad || s->psi_known > 1 || s->psi_sign > 2 || !isfinite(s->lam) || !isfinite(s->lam_hint) || !isfinite(s->lam_fact) ||
+    s->factors = get_u32(r);
+    if (r->bad || s->psi_known > 1 || s->psi_sign > 2 || s->factors > s->fact_valid || !isfinite(s->lam) || !isfinite(s->lam_hint) || !isfinite(s->lam_fact) ||
         !(s->dir == 1.0 || s->dir == -1.0) || !isfinite(s->h) || s->h == 0 || s->have_prev > 1 ||
         s->have_mid > 1 || s->pending_exact > 1 || s->fact_valid > 1 || s->steps > (uint64_t)LONG_MAX) {
         set_err(err, errlen, "checkpoint state is invalid (non-finite value or bad flag)");
         return DTH_EPARSE;
     }
     s->pos_af = r->pos;
-    if (s->fact_valid) {
+    if (s->factors) {
         size_t m = s->m;
         get_bytes(r, 8 * m * m);
         for (size_t i = 0; i < m; i++) {
@@ -364,6 +366,10 @@ int dth_checkpoint_restore(dth_integrator *it, const void *buf, size_t len, char
                 (int)s.name_len, s.name, (unsigned long long)s.n, mname, it->n);
         return DTH_EINVAL;
     }
+    if ((int)s.factors != (s.fact_valid && !it->band)) {
+        set_err(err, errlen, "checkpoint factors do not match this integrator's (dense/banded) solve");
+        return DTH_EPARSE;
+    }
     /* everything is valid: commit */
     size_t N = it->N, m = (size_t)it->m;
     rd v = {r.p, r.len, s.pos_z, 0};
@@ -382,7 +388,7 @@ int dth_checkpoint_restore(dth_integrator *it, const void *buf, size_t len, char
     it->steps = (long)s.steps;
     it->psi_known = (int)s.psi_known;
     it->psi_sign = (int)s.psi_sign - 1;
-    if (s.fact_valid) {
+    if (s.factors) {
         v.pos = s.pos_af;
         for (size_t k = 0; k < m * m; k++) it->Af[k] = get_f64(&v);
         for (size_t i = 0; i < m; i++) it->pivf[i] = (int)get_u32(&v);

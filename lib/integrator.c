@@ -486,7 +486,7 @@ static int commit(dth_integrator *it, double lam)
     int *tp = it->pivf;
     it->pivf = it->piv;
     it->piv = tp;
-    it->fact_valid = !it->band; /* Af holds dense factors; the banded tangent refactors at zbar */
+    it->fact_valid = 1; /* a tangent map exists: dense factors in Af; the banded one refactors at zbar */
     it->lam_fact = lam;
     it->lam = lam;
     it->have_prev = 1;
@@ -573,8 +573,8 @@ int dth_integrator_step(dth_integrator *it, dth_step_info *info)
 int dth_integrator_tangent(dth_integrator *it, double *M)
 {
     if (!it || !M) return DTH_EINVAL;
-    if (it->band) return it->have_mid ? dth__band_tangent(it->band, it->model, it->zbar, it->lam_fact, M) : DTH_EINVAL;
-    if (!it->fact_valid) return DTH_EINVAL;
+    if (!it->fact_valid) return DTH_EINVAL; /* no step yet, or a regularizer's step */
+    if (it->band) return dth__band_tangent(it->band, it->model, it->zbar, it->lam_fact, M);
     size_t n = it->n, N = it->N, d = it->d;
     int m = it->m;
     double Hphys, lam = it->lam_fact;
