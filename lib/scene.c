@@ -52,6 +52,7 @@ static void entry_free(const dth_allocator *a, entry *e)
     dth_free(a, e->key);
     dth_free(a, e->value);
     dth_free(a, e->origin);
+    memset(e, 0, sizeof *e);
 }
 
 int dth_scene_new(const dth_allocator *alloc, dth_scene **out)
@@ -290,7 +291,7 @@ int dth_scene_set(dth_scene *s, const char *assignment, char *err, size_t errlen
     }
     size_t olen = strlen(assignment) + 4;
     char *origin = dth_calloc(s->alloc, olen, 1);
-    entry x;
+    entry x = {0};
     int rc = origin ? DTH_OK : DTH_ENOMEM;
     if (!rc) {
         snprintf(origin, olen, "-s %s", assignment);

@@ -196,7 +196,63 @@ static void test_registry_enomem(void)
     }
 }
 
+/* scene: new, load (from memory), override, setup into a run setup, clear, free */
+static int scene_scenario(const dth_allocator *al, const dth_registry *reg)
+{
+    static const char text[] = "[model]\nname = harmonic\nomega = 1,\n  2\n[initial]\nq = 1, 0.5\np = 0, 0\n"
+                               "[integrator]\nh = 0.1\nsteps = 10\n[regularize]\nmethod = reseed\nstep = 0.1\n"
+                               "[output]\nfile = out.csv\n";
+    char err[256];
+    dth_scene *s = NULL;
+    int rc = dth_scene_new(al, &s);
+    if (rc) {
+        CU_ASSERT(s == NULL);
+        return rc;
+    }
+    rc = dth_scene_load_mem(s, "alloc.ini", text, sizeof text - 1, err, sizeof err);
+    if (!rc) {
+        rc = dth_scene_set(s, "integrator.steps=20", err, sizeof err);
+        if (rc) CU_ASSERT_STRING_EQUAL(dth_scene_get(s, "integrator", "steps"), "10"); /* unchanged */
+    }
+    if (!rc) {
+        dth_run_setup rs;
+        memset(&rs, 0, sizeof rs);
+        rc = dth_scene_setup(s, reg, &rs, err, sizeof err);
+        if (!rc) {
+            CU_ASSERT(rs.steps == 20 && rs.n == 2 && rs.regularizer != NULL);
+            dth_run_setup_clear(&rs);
+        } else {
+            CU_ASSERT(rs.model == NULL && rs.q0 == NULL); /* untouched on failure */
+        }
+    }
+    dth_scene_free(s);
+    return rc;
+}
+
+static void test_scene_enomem(void)
+{
+    dth_registry *reg = NULL;
+    CU_ASSERT_FATAL(dth_registry_new(NULL, &reg) == DTH_OK);
+    CU_ASSERT_FATAL(dth_registry_add_builtin(reg) == DTH_OK);
+    failing_alloc fa;
+    dth_allocator al = failing_alloc_make(&fa, 0);
+    CU_ASSERT_FATAL(scene_scenario(&al, reg) == DTH_OK);
+    long total = fa.count;
+    CU_ASSERT(total >= 10);
+    CU_ASSERT(fa.live == 0);
+    for (long k = 1; k <= total; k++) {
+        al = failing_alloc_make(&fa, k);
+        int rc = scene_scenario(&al, reg);
+        CU_ASSERT(rc == DTH_ENOMEM);
+        if (rc != DTH_ENOMEM) printf("  [scene: allocation %ld of %ld failed, status %s]\n", k, total, dth_status_name(rc));
+        CU_ASSERT(fa.live == 0);
+        CU_ASSERT(fa.failed == 1);
+    }
+    dth_registry_free(reg);
+}
+
 static CU_TestInfo alloc_tests[] = {
+    {"scene new/load/set/setup: each allocation fails in turn", test_scene_enomem},
     {"dth_model_new: each allocation fails in turn", test_model_new_enomem},
     {"dth_integrator_new: each allocation fails in turn; steps allocate nothing", test_integrator_new_enomem},
     {"registry: each allocation fails in turn", test_registry_enomem},
