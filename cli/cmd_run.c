@@ -361,6 +361,7 @@ int cli_cmd_run(int argc, char **argv)
     void *ck = NULL;
     size_t cklen = 0;
     const ckpt_cli *ckc = NULL;
+    ckpt_cli ckc_copy; /* blobs sit unaligned in the checkpoint buffer */
     if (!reg) return CLI_FAIL;
     int rc = dth_scene_new(NULL, &scene);
     if (!rc && resume_path) {
@@ -368,13 +369,13 @@ int cli_cmd_run(int argc, char **argv)
         size_t tlen, cblen;
         rc = dth_checkpoint_read_file(resume_path, NULL, &ck, &cklen, err, sizeof err);
         if (!rc && (dth_checkpoint_blob(ck, cklen, "scene", &text, &tlen) ||
-                    dth_checkpoint_blob(ck, cklen, "cli", &cb, &cblen) || cblen != sizeof(ckpt_cli) ||
-                    ((const ckpt_cli *)cb)->version != CKPT_CLI_VERSION)) {
+                    dth_checkpoint_blob(ck, cklen, "cli", &cb, &cblen) || cblen != sizeof ckc_copy ||
+                    (memcpy(&ckc_copy, cb, sizeof ckc_copy), ckc_copy.version != CKPT_CLI_VERSION))) {
             snprintf(err, sizeof err, "%s: not a checkpoint of dth run (no scene or loop state)", resume_path);
             rc = DTH_EPARSE;
         }
         if (!rc) {
-            ckc = cb;
+            ckc = &ckc_copy;
             char name[1100];
             snprintf(name, sizeof name, "%s(scene)", resume_path);
             rc = dth_scene_load_mem(scene, name, text, tlen, err, sizeof err);
