@@ -284,8 +284,8 @@ int dth_kicked_segment(const dth_model *model, const double *z, const double *zl
             F[n + i] = x[n + i] + 0.5 * lam * g[i] - 0.5 * kmu * nv[n + i];
         }
         F[q] = wp + H;
-        /* Jacobian over (d_q, d_p, mu); the projection's own derivative is left out (mu is
-         * tiny, so Newton still converges at once to round-off) */
+        /* Jacobian over (d_q, d_p, mu); the derivative of the projection itself is left out
+         * (it is multiplied by mu, which is tiny) */
         for (size_t a = 0; a < q; a++) {
             size_t ya = a < n ? a : a + 1;           /* y-index of this (q, p) component */
             size_t ua = a < n ? n + 1 + a : a - n;   /* u_a = +dH/dy_ua (a < n) or -dH/dy_ua */
@@ -299,11 +299,22 @@ int dth_kicked_segment(const dth_model *model, const double *z, const double *zl
             A[q + a * (size_t)m] = g[ya];
         }
         A[q + q * (size_t)m] = 0;
+        /* the kick's Hessian term projected like n itself, P H with P = I - G^T G (without it
+         * Newton converges only linearly where grad H is far from n, e.g. Kepler pericentres) */
+        for (size_t rr = 0; rr < kept; rr++)
+            for (size_t b = 0; b < q; b++) {
+                size_t yb = b < n ? b : b + 1;
+                double sb = 0;
+                for (size_t c = 0; c < q; c++) sb += G[rr * q + c] * hs[(c < n ? c : c + 1) * d + yb];
+                for (size_t a = 0; a < q; a++) A[a + b * (size_t)m] += 0.5 * kmu * G[rr * q + a] * sb;
+            }
         rc = dth__lu_factor(m, A, piv);
         if (rc) return rc;
         rc = dth__lu_solve(m, A, piv, 1, F);
         if (rc) return rc;
-        double r = 0, rd = 0; /* rd: the offsets only (mu inherits H's round-off, magnified) */
+        /* rd: the offsets only (mu inherits H's round-off, magnified), against the size of the
+         * whole (q, p) state (a component near 0 only sees the round-off of the others) */
+        double r = 0, rd = 0, zs = 1e-300;
         for (int a = 0; a < m; a++) {
             x[a] -= F[a];
             double sc;
@@ -313,15 +324,23 @@ int dth_kicked_segment(const dth_model *model, const double *z, const double *zl
                 sc = fabs(z[j]) + fabs(y[j]) + 1e-300;
             }
             r = fmax(r, fabs(F[a]) / sc);
-            if (a < m - 1) rd = fmax(rd, fabs(F[a]) / sc);
+            if (a < m - 1) {
+                rd = fmax(rd, fabs(F[a]));
+                zs = fmax(zs, sc);
+            }
         }
+        rd /= zs;
         if (!isfinite(r)) return DTH_ENOCONV;
         if (r <= 4 * DBL_EPSILON) break;
         if (r >= 0.5 * r_prev) {
             /* stalled: accept if the energy residual is at the round-off of its terms */
             double hsc = fabs(wp) + fabs(H);
             for (size_t j = 0; j < d; j++) hsc += fabs(g[j] * y[j]);
-            if (fabs(wp + H) <= 256 * DBL_EPSILON * hsc && rd < 1e-11 && r < 1e-8) break;
+            /* mu judged by the chord it moves, |dmu| |n| (|mu| may be far below lambda's scale) */
+            double nn = 0;
+            for (size_t i = 0; i < q; i++) nn += nv[i] * nv[i];
+            double rmu = fabs(F[m - 1]) * sqrt(nn) / zs;
+            if (fabs(wp + H) <= 256 * DBL_EPSILON * hsc && rd < 1e-11 && (r < 1e-8 || rmu < 1e-11)) break;
         }
         if (it >= 12 && r >= 0.5 * r_prev) return DTH_ENOCONV;
         r_prev = r;

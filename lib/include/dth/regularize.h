@@ -123,6 +123,8 @@ DTH_API extern const dth_regularizer_type dth_reg_none;
 DTH_API extern const dth_regularizer_type dth_reg_reseed;
 /** Symmetric kicked segment: energy-exact, time-reversible, momentum-exact (not symplectic). */
 DTH_API extern const dth_regularizer_type dth_reg_symkick;
+/** Every step a kicked segment with lambda = arc/|u(zbar)|^alpha: reversible, energy-exact (not symplectic). */
+DTH_API extern const dth_regularizer_type dth_reg_prescribed;
 
 /* ---- building blocks for writing regularizers ---- */
 

@@ -1,0 +1,456 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Benchmark (not a test): the "prescribed" regularizer (every step a kicked segment with the step
+ * lambda = arc/|u(zbar)|^alpha set at its own midpoint; paper, section 7) against the open targets of
+ * docs/regularization.md: 10^4 pendulum revolutions and the phase order, 10^3 Kepler orbits at
+ * e = 0.9 / 0.99 (energy, L, precession of omega), a 2-D chain through psi = 0, round trips through
+ * >= 10 crossings, step ratio at crossings, tangent-map defect, kick size against h, cost per step.
+ * Usage: bench_regul2 [scale]   (scale 1: the doc's figures, about a minute; 0.1: a quick look)
+ */
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <gsl/gsl_sf_ellint.h>
+#include "dth/dth.h"
+
+#define PI 3.14159265358979323846
+#define MAXN 64
+
+static double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+typedef struct problem {
+    const char *name;
+    const dth_model_type *type;
+    dth_kv mkv[4];
+    size_t nmkv, n;
+    double q0[MAXN], p0[MAXN], h;
+    dth_start start;
+    dth_kv rkv[3]; /* regularizer parameters */
+    size_t nrkv;
+    const dth_regularizer_type *reg; /* NULL: raw DTH */
+    int no_branch_check;             /* 1: dth_options.branch_check = 0 */
+} problem;
+
+typedef struct run_out {
+    long steps, crossings;
+    int status;
+    double t_end, energy, wp_change, L_err, max_ratio, max_ratio_cross, omega_drift, secs, q_end, psi_min, psi_max;
+} run_out;
+
+typedef struct ctx {
+    dth_model *m;
+    dth_regularizer *r;
+    dth_integrator *it;
+    size_t N;
+} ctx;
+
+static ctx open_pb(const problem *pb)
+{
+    ctx c = {0};
+    char err[256];
+    if (dth_model_new(pb->type, pb->nmkv ? pb->mkv : NULL, pb->nmkv, pb->n, NULL, &c.m, err, sizeof err) ||
+        (pb->reg && dth_regularizer_new(pb->reg, pb->rkv, pb->nrkv, c.m, NULL, &c.r, err, sizeof err))) {
+        fprintf(stderr, "%s: %s\n", pb->name, err);
+        exit(1);
+    }
+    dth_options o;
+    dth_options_default(&o);
+    o.h = pb->h;
+    o.start = pb->start;
+    o.regularizer = c.r;
+    if (pb->no_branch_check) o.branch_check = 0;
+    if (dth_integrator_new(c.m, &o, &c.it) || dth_integrator_start(c.it, pb->q0, pb->p0, 0.0)) {
+        fprintf(stderr, "%s: cannot start\n", pb->name);
+        exit(1);
+    }
+    c.N = dth_integrator_dim(c.it);
+    return c;
+}
+
+static void close_pb(ctx *c)
+{
+    dth_integrator_free(c->it);
+    dth_regularizer_free(c->r);
+    dth_model_free(c->m);
+}
+
+/* |wp + H_phys(zbar)| relative to the size of H's terms at the midpoint. */
+static double midpoint_energy(const dth_model *m, const double *zb, size_t N)
+{
+    double H, g[2 * MAXN + 2];
+    if (dth_model_eval(m, zb, DTH_EVAL_H | DTH_EVAL_GRAD, &H, g, NULL)) return INFINITY;
+    double s = fabs(zb[N - 1]) + fabs(H);
+    for (size_t j = 0; j + 1 < N; j++) s += fabs(g[j] * zb[j]);
+    return fabs(zb[N - 1] + H) / s;
+}
+
+/* Quadratic invariant watched: L (Kepler), total angular momentum (2-D coupled), else none. */
+static int watch_L(const problem *pb, const double *z, double *L)
+{
+    size_t n = pb->n;
+    if (pb->type == &dth_model_kepler) {
+        *L = z[0] * z[n + 2] - z[1] * z[n + 1];
+        return 1;
+    }
+    if (pb->type == &dth_model_coupled) {
+        *L = 0;
+        for (size_t i = 0; i + 1 < n; i += 2) *L += z[i] * z[n + 1 + i + 1] - z[i + 1] * z[n + 1 + i];
+        return 1;
+    }
+    return 0;
+}
+
+static double omega_of(const ctx *c, const double *z)
+{
+    double I[8];
+    if (dth_model_invariants(c->m, z, I)) return NAN;
+    return I[3];
+}
+
+/* Run until t >= t_end or `steps` steps. */
+static run_out run(const problem *pb, double t_end, long steps)
+{
+    run_out o = {0};
+    o.psi_min = INFINITY;
+    o.psi_max = -INFINITY;
+    ctx c = open_pb(pb);
+    size_t N = c.N, n = pb->n;
+    double work[4096];
+    double wp0 = dth_integrator_vertex(c.it)[N - 1], L0 = 0, L;
+    int hasL = watch_L(pb, dth_integrator_vertex(c.it), &L0);
+    int kep = pb->type == &dth_model_kepler;
+    double om0 = kep ? omega_of(&c, dth_integrator_vertex(c.it)) : 0, om_prev = om0, om_unw = om0;
+    double lprev = 0;
+    double t0 = now();
+    for (long k = 0; k < steps; k++) {
+        dth_step_info inf;
+        int rc = dth_integrator_step(c.it, &inf);
+        if (rc) {
+            o.status = rc;
+            break;
+        }
+        o.steps++;
+        double l = dth_integrator_lambda(c.it);
+        int cross = (inf.flags & DTH_STEP_CROSSING) != 0;
+        if (cross) o.crossings++;
+        if (lprev != 0 && k > 1) {
+            double q = fabs(l / lprev);
+            if (q < 1) q = 1 / q;
+            o.max_ratio = fmax(o.max_ratio, q);
+            if (cross) o.max_ratio_cross = fmax(o.max_ratio_cross, q);
+        }
+        lprev = l;
+        const double *z = dth_integrator_vertex(c.it);
+        o.energy = fmax(o.energy, midpoint_energy(c.m, dth_integrator_midpoint(c.it), N));
+        if (z[N - 1] != wp0) o.wp_change = fmax(o.wp_change, fabs(z[N - 1] - wp0));
+        if (hasL && watch_L(pb, z, &L)) o.L_err = fmax(o.L_err, fabs(L - L0) / fabs(L0));
+        if (kep) {
+            double om = omega_of(&c, z), dw = om - om_prev;
+            dw -= 2 * PI * floor(dw / (2 * PI) + 0.5);
+            om_unw += dw;
+            om_prev = om;
+        }
+        if (N - 1 <= 64 && (k & 63) == 0) {
+            double psi;
+            if (!dth_model_psi(c.m, z, &psi, NULL, work)) {
+                o.psi_min = fmin(o.psi_min, psi);
+                o.psi_max = fmax(o.psi_max, psi);
+            }
+        }
+        if (z[n] >= t_end) break;
+    }
+    o.secs = now() - t0;
+    o.t_end = dth_integrator_vertex(c.it)[n];
+    o.q_end = dth_integrator_vertex(c.it)[0];
+    o.omega_drift = om_unw - om0;
+    close_pb(&c);
+    return o;
+}
+
+/* After the first step: `steps` forward, reverse, as many back; relative distance to the start. */
+static double round_trip(const problem *pb, long steps, long *crossings, int *status)
+{
+    ctx c = open_pb(pb);
+    size_t N = c.N;
+    dth_step_info inf;
+    *status = dth_integrator_step(c.it, &inf);
+    double z0[2 * MAXN + 2], nz = 0, err = 0;
+    memcpy(z0, dth_integrator_vertex(c.it), N * sizeof *z0);
+    *crossings = 0;
+    long k;
+    for (k = 0; k < steps && !*status; k++) {
+        *status = dth_integrator_step(c.it, &inf);
+        if (inf.flags & DTH_STEP_CROSSING) ++*crossings;
+    }
+    dth_integrator_reverse(c.it);
+    for (long j = 0; j < k && !*status; j++) *status = dth_integrator_step(c.it, &inf);
+    const double *z = dth_integrator_vertex(c.it);
+    for (size_t j = 0; j < N; j++) {
+        nz = fmax(nz, fabs(z0[j]));
+        err = fmax(err, fabs(z[j] - z0[j]));
+    }
+    close_pb(&c);
+    return err / nz;
+}
+
+/*
+ * Tangent-map defect max|M^T J M - J| of nsteps whole steps by central differences (eps), from the
+ * first crossing step (cross = 1) or the first step after the fifth that does not cross (0);
+ * *block: the same for the (q, p) block of M alone.
+ */
+static double tangent_defect(const problem *pb, int cross, double eps, int nsteps, double *block)
+{
+    *block = NAN;
+    ctx c = open_pb(pb);
+    size_t N = c.N, n = pb->n;
+    double za[2 * MAXN + 2], lam = 0;
+    int found = 0;
+    dth_step_info inf;
+    dth_integrator_step(c.it, &inf);
+    for (long k = 0; k < 200000; k++) {
+        memcpy(za, dth_integrator_vertex(c.it), N * sizeof *za);
+        lam = dth_integrator_lambda(c.it);
+        if (dth_integrator_step(c.it, &inf)) break;
+        if (((inf.flags & DTH_STEP_CROSSING) != 0) == cross && k > 5) {
+            found = 1;
+            break;
+        }
+    }
+    double defect = NAN;
+    if (found && N <= 16) {
+        double M[256], zp[16], zm[16], zz[16];
+        for (size_t j = 0; j < N && found; j++) {
+            double e = eps * fmax(1.0, fabs(za[j]));
+            for (int s = 0; s < 2; s++) {
+                memcpy(zz, za, N * sizeof *zz);
+                zz[j] += s ? -e : e;
+                if (dth_integrator_set_vertex(c.it, zz, lam)) found = 0;
+                for (int k = 0; k < nsteps && found; k++)
+                    if (dth_integrator_step(c.it, &inf)) found = 0;
+                if (found) memcpy(s ? zm : zp, dth_integrator_vertex(c.it), N * sizeof *zp);
+            }
+            for (size_t i = 0; i < N; i++) M[i * N + j] = (zp[i] - zm[i]) / (2 * e);
+        }
+        if (found) {
+            defect = 0;
+            for (size_t a = 0; a < N; a++)
+                for (size_t b = 0; b < N; b++) {
+                    double s = 0;
+                    for (size_t i = 0; i <= n; i++) s += M[i * N + a] * M[(i + n + 1) * N + b] - M[(i + n + 1) * N + a] * M[i * N + b];
+                    double Jab = (b == a + n + 1) ? 1.0 : (a == b + n + 1 ? -1.0 : 0.0);
+                    defect = fmax(defect, fabs(s - Jab));
+                }
+            /* the (q, p) block alone (t and wp held): the map on the physical phase space */
+            *block = 0;
+            for (size_t a = 0; a < N; a++)
+                for (size_t b = 0; b < N; b++) {
+                    if (a == n || b == n || a == N - 1 || b == N - 1) continue;
+                    double s = 0;
+                    for (size_t i = 0; i < n; i++) s += M[i * N + a] * M[(i + n + 1) * N + b] - M[(i + n + 1) * N + a] * M[i * N + b];
+                    double Jab = (b == a + n + 1) ? 1.0 : (a == b + n + 1 ? -1.0 : 0.0);
+                    *block = fmax(*block, fabs(s - Jab));
+                }
+        }
+    }
+    close_pb(&c);
+    return defect;
+}
+
+/* Pendulum: mean time per revolution over revolutions 1..R+1 (linear interpolation of t at q = 2 pi j). */
+static double mean_period(const problem *pb, int R, int *status)
+{
+    ctx c = open_pb(pb);
+    double qa = 0, ta = 0, t1 = NAN, tR = NAN;
+    int j = 1;
+    *status = 0;
+    while (j <= R + 1) {
+        dth_step_info inf;
+        int rc = dth_integrator_step(c.it, &inf);
+        if (rc) {
+            *status = rc;
+            break;
+        }
+        const double *z = dth_integrator_vertex(c.it);
+        while (j <= R + 1 && z[0] >= 2 * PI * j) {
+            double t = ta + (2 * PI * j - qa) / (z[0] - qa) * (z[1] - ta);
+            if (j == 1) t1 = t;
+            if (j == R + 1) tR = t;
+            j++;
+        }
+        qa = z[0];
+        ta = z[1];
+    }
+    close_pb(&c);
+    return (tR - t1) / R;
+}
+
+/* Pendulum: largest kick |mu| over the steps up to t_end, from the chord: mu = grad H . (z_b - z_a) / |grad H|^2 at zbar. */
+static double max_kick(const problem *pb, double t_end)
+{
+    ctx c = open_pb(pb);
+    double za[4], H, g[3], mx = 0;
+    dth_step_info inf;
+    dth_integrator_step(c.it, &inf);
+    while (dth_integrator_vertex(c.it)[1] < t_end) {
+        memcpy(za, dth_integrator_vertex(c.it), 4 * sizeof *za);
+        if (dth_integrator_step(c.it, &inf)) return NAN;
+        const double *zb = dth_integrator_vertex(c.it), *zm = dth_integrator_midpoint(c.it);
+        if (dth_model_eval(c.m, zm, DTH_EVAL_H | DTH_EVAL_GRAD, &H, g, NULL)) return NAN;
+        double mu = (g[0] * (zb[0] - za[0]) + g[2] * (zb[2] - za[2])) / (g[0] * g[0] + g[2] * g[2]);
+        mx = fmax(mx, fabs(mu));
+    }
+    close_pb(&c);
+    return mx;
+}
+
+static const char *st(int s) { return s ? dth_status_name(s) : "ok"; }
+
+int main(int argc, char **argv)
+{
+    double scale = argc > 1 ? atof(argv[1]) : 1.0;
+    if (!(scale > 0)) scale = 1;
+    /* rotating pendulum q0 = 0, p0 = 2.2 (midpoint start: the energy of (q0, p0) exactly) */
+    problem pend = {"pendulum", &dth_model_pendulum, {{0}}, 0, 1, {0}, {2.2}, 0.05, DTH_START_MIDPOINT,
+                    {{"alpha", "0"}}, 1, &dth_reg_prescribed, 1};
+    double E = 0.5 * 2.2 * 2.2 - 1, kk = sqrt(2 / (1 + E));
+    double T = 2 * gsl_sf_ellint_Kcomp(kk, GSL_PREC_DOUBLE) * kk;
+
+    printf("# bench_regul2 %g (prescribed regularizer)\n\n", scale);
+    /* ---- long runs ---- */
+    long R = (long)(10000 * scale);
+    printf("## long runs\n\n| problem | alpha | h | steps | end | t reached | revolutions / orbits | crossings | max midpoint energy residual (rel.) | wp change | max rel. L error | precession per orbit | max step ratio (all / at crossings) | psi range (sampled) | us per step |\n");
+    printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    {
+        run_out o = run(&pend, T * (double)R + 1, 1L << 40);
+        printf("| %s | 0 | %.3g | %ld | %s | %.1f | %.1f | %ld | %.1e | %.1e | - | - | %.4f / %.4f | [%.2g, %.2g] | %.2f |\n", pend.name, pend.h, o.steps,
+               st(o.status), o.t_end, o.q_end / (2 * PI), o.crossings, o.energy, o.wp_change, o.max_ratio, o.max_ratio_cross, o.psi_min,
+               o.psi_max, 1e6 * o.secs / (double)o.steps);
+        fflush(stdout);
+    }
+    /* Kepler a = mu = 1 from apocentre (period 2 pi); alpha = 0.75 makes lambda ~ r^(3/2) near
+     * pericentre (|u| ~ 1/r^2), Sundman's time transformation */
+    struct { double e, h; const char *alpha; } kc[] = {{0.9, 0.05, "0.75"}, {0.99, 0.025, "0.75"}, {0.9, 0.025, "0.75"}, {0.99, 0.0125, "0.75"}};
+    long orbits = (long)(1000 * scale);
+    if (orbits < 1) orbits = 1;
+    problem kps[4];
+    char knames[4][64];
+    for (size_t i = 0; i < 4; i++) {
+        snprintf(knames[i], sizeof knames[i], "kepler e=%g apocentre", kc[i].e);
+        problem kp = {knames[i], &dth_model_kepler, {{0}}, 0, 2, {-(1 + kc[i].e), 0}, {0, -sqrt((1 - kc[i].e) / (1 + kc[i].e))},
+                      kc[i].h, DTH_START_MIDPOINT, {{"alpha", kc[i].alpha}}, 1, &dth_reg_prescribed, 1};
+        kps[i] = kp;
+        run_out o = run(&kp, 2 * PI * (double)(i < 2 ? orbits : orbits / 10 + 1), 1L << 40);
+        double norb = o.t_end / (2 * PI);
+        printf("| %s | %s | %.3g | %ld | %s | %.1f | %.1f | %ld | %.1e | %.1e | %.1e | %+.3e | %.4f / %.4f | [%.2g, %.2g] | %.2f |\n", knames[i], kc[i].alpha, kp.h,
+               o.steps, st(o.status), o.t_end, norb, o.crossings, o.energy, o.wp_change, o.L_err, o.omega_drift / norb, o.max_ratio,
+               o.max_ratio_cross, o.psi_min, o.psi_max, 1e6 * o.secs / (double)o.steps);
+        fflush(stdout);
+    }
+    /* 2-D chain of 3 particles (k = 1, L = 1) started compressed with transverse momenta: psi < 0 at
+     * the start (transverse stiffness k (1 - L/r) < 0), > 0 once the springs stretch */
+    problem chain = {"chain 3 particles 2-D", &dth_model_coupled, {{"preset", "chain"}, {"size", "3"}, {"dim", "2"}, {"L", "1"}}, 4, 6,
+                     {0, 0, 0.5, 0, 1.0, 0}, {0, 1, 0, -2, 0, 1.5}, 0.02, DTH_START_MIDPOINT, {{"alpha", "0"}}, 1, &dth_reg_prescribed, 1};
+    {
+        run_out o = run(&chain, 200 * scale + 1, 1L << 40);
+        printf("| %s | 0 | %.3g | %ld | %s | %.1f | - | %ld | %.1e | %.1e | %.1e | - | %.4f / %.4f | [%.2g, %.2g] | %.2f |\n", chain.name, chain.h, o.steps,
+               st(o.status), o.t_end, o.crossings, o.energy, o.wp_change, o.L_err, o.max_ratio, o.max_ratio_cross, o.psi_min, o.psi_max,
+               1e6 * o.secs / (double)o.steps);
+        problem raw = chain;
+        raw.reg = NULL;
+        run_out r0 = run(&raw, 200, 1L << 40);
+        printf("| %s, raw DTH | - | %.3g | %ld | %s | %.1f | - | %ld | - | - | - | - | - | - | %.2f |\n", chain.name, chain.h, r0.steps, st(r0.status),
+               r0.t_end, r0.crossings, 1e6 * r0.secs / (double)(r0.steps ? r0.steps : 1));
+        fflush(stdout);
+    }
+
+    /* ---- phase: mean period against the exact one ---- */
+    int RP = (int)(200 * scale);
+    if (RP < 20) RP = 20;
+    printf("\n## pendulum phase (alpha = 0, midpoint start): mean time per revolution over revolutions 1..%d, exact period %.15f\n\n", RP + 1, T);
+    printf("| h | period error | observed order | end |\n|---|---|---|---|\n");
+    {
+        double prev = NAN;
+        for (double h = 0.05; h > 0.006; h /= 2) {
+            problem pb = pend;
+            pb.h = h;
+            int s2;
+            double e = mean_period(&pb, RP, &s2) - T;
+            printf("| %.5f | %+.3e | %.2f | %s |\n", h, e, isfinite(prev) ? log2(fabs(prev / e)) : NAN, st(s2));
+            prev = e;
+        }
+    }
+    /* ---- the kick against h ---- */
+    printf("\n## pendulum: largest kick |mu| over t in [0, 20] (crossings included)\n\n| h | max |mu| | order |\n|---|---|---|\n");
+    {
+        double prev = NAN;
+        for (double h = 0.05; h > 0.006; h /= 2) {
+            problem pb = pend;
+            pb.h = h;
+            double k = max_kick(&pb, 20);
+            printf("| %.5f | %.3e | %.2f |\n", h, k, isfinite(prev) ? log2(prev / k) : NAN);
+            prev = k;
+        }
+    }
+    /* ---- round trips, step ratio, tangent defect ---- */
+    printf("\n## round trip (after the first step: S steps, reverse, S back), tangent defect of one step (central differences, eps 1e-7)\n\n");
+    printf("| problem | S | crossings | round trip (rel.) | end | one step, extended z: at a crossing / elsewhere | one step, (q, p) block | two steps, (q, p) block |\n|---|---|---|---|---|---|---|---|\n");
+    {
+        problem band = pend;
+        band.rkv[1] = (dth_kv){"band", "0.5"};
+        band.nrkv = 2;
+        band.name = "pendulum hybrid band=0.5";
+        problem pend2 = pend;
+        pend2.h = 0.025;
+        pend2.name = "pendulum h=0.025";
+        problem pend4 = pend;
+        pend4.h = 0.0125;
+        pend4.name = "pendulum";
+        pend2.name = "pendulum";
+        problem kp2 = kps[0], kp3 = kps[1];
+        const problem *rt[] = {&pend, &pend2, &pend4, &band, &kp2, &kp3, &chain};
+        long S[] = {2000, 4000, 8000, 2000, 4000, 4000, 2000};
+        for (size_t i = 0; i < sizeof rt / sizeof rt[0]; i++) {
+            long cr;
+            int s2;
+            double e = round_trip(rt[i], S[i], &cr, &s2);
+            double bc, bn, b2c, b2n, dc = tangent_defect(rt[i], 1, 1e-7, 1, &bc), dn = tangent_defect(rt[i], 0, 1e-7, 1, &bn);
+            tangent_defect(rt[i], 1, 1e-7, 2, &b2c);
+            tangent_defect(rt[i], 0, 1e-7, 2, &b2n);
+            printf("| %s, h=%g | %ld | %ld | %.1e | %s | %.1e / %.1e | %.1e / %.1e | %.1e / %.1e |\n", rt[i]->name, rt[i]->h, S[i], cr, e, st(s2), dc, dn,
+                   bc, bn, b2c, b2n);
+            fflush(stdout);
+        }
+        problem raw = pend;
+        raw.reg = NULL;
+        double bn, b2n, dn = tangent_defect(&raw, 0, 1e-7, 1, &bn);
+        tangent_defect(&raw, 0, 1e-7, 2, &b2n);
+        printf("| pendulum raw DTH h=0.05 | - | - | - | - | - / %.1e | - / %.1e | - / %.1e |\n", dn, bn, b2n);
+    }
+    /* ---- cost per step, side by side on a libration orbit (no crossing) ---- */
+    printf("\n## cost per step on the libration orbit q0 = 0, p0 = 1, h = 0.05 (same run; ratios only)\n\n| configuration | us per step |\n|---|---|\n");
+    {
+        long ns = (long)(200000 * scale);
+        if (ns < 2000) ns = 2000;
+        problem lib = pend;
+        lib.p0[0] = 1;
+        problem cfg[4] = {lib, lib, lib, lib};
+        cfg[0].reg = NULL;
+        cfg[2].no_branch_check = 1;
+        cfg[3].rkv[1] = (dth_kv){"band", "1e-9"};
+        cfg[3].nrkv = 2;
+        const char *lab[] = {"raw DTH", "prescribed", "prescribed, branch_check = 0", "prescribed band=1e-9 (ordinary steps kept)"};
+        for (int i = 0; i < 4; i++) {
+            run_out o = run(&cfg[i], INFINITY, ns);
+            printf("| %s | %.2f |\n", lab[i], 1e6 * o.secs / (double)o.steps);
+        }
+    }
+    return 0;
+}

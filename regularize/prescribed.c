@@ -1,0 +1,230 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Regularizer "prescribed" (paper, section 7: DTH dynamics needs a regularization): every step is
+ * a kicked segment (dth_kicked_segment: midpoint on H = 0, chord (lambda J grad H + mu n)(zbar))
+ * whose time step is prescribed by a law evaluated at the segment's own midpoint,
+ *     lambda = dir * arc / |u(zbar)|^alpha,   u = the (q, p) part of J grad H,
+ * with arc a constant fixed once (parameter, or at the first step from |lambda| |u(z)|^alpha).
+ * The law depends on the midpoint only and each kicked segment is its own reverse, so the step
+ * map is exactly time-reversible with no switching decision; the step varies smoothly through
+ * psi = 0 and the step never ends there (dH/dmu = |n|^2/2 != 0 away from equilibria). Energy is
+ * exact (wp untouched, midpoints on H = 0), quadratic invariants are kept; the kick gives up
+ * symplecticity at every step. band > 0 makes it a hybrid: ordinary DTH steps are kept where
+ * |psi| > band at both ends (symplectic there, but the switch is not reversible).
+ */
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+#include "dth/regularize.h"
+#include "reg_common.h"
+
+typedef struct prescribed {
+    const dth_model *model;
+    size_t n;
+    double alpha, arc, band;
+    int arc_fixed;             /* arc set (parameter, or at the first step): a constant after that */
+    double lam_last, mu_last;  /* the last segment's step and kick (0: none yet); a seed only */
+    double *ks, *work, *d, *y, *g, *dlast;
+} prescribed;
+
+static const dth_param_spec params[] = {
+    {"alpha", "0", "step law lambda = arc / |u(zbar)|^alpha (0: constant step, 1: constant phase-space arc) (>= 0)"},
+    {"arc", "", "the constant arc (> 0); default: |first step| * |u(first vertex)|^alpha"},
+    {"band", "0", "hybrid: keep ordinary DTH steps where |psi| > band at both ends (0: kicked segments only)"},
+};
+
+static int param_err(const dth_reg_args *a, const char *key, const char *what)
+{
+    if (a->err && a->errlen) snprintf(a->err, a->errlen, "parameter '%s' must be %s", key, what);
+    return DTH_EINVAL;
+}
+
+static int create(const dth_reg_args *a, void **self)
+{
+    size_t n = dth_model_dof(a->model), N = 2 * n + 2;
+    size_t nks = dth_kicked_segment_work_size(a->model), nw = dth_model_work_size(a->model);
+    prescribed *r = dth_calloc(a->alloc, 1, sizeof *r);
+    if (!r) return DTH_ENOMEM;
+    *self = r;
+    for (size_t i = 0; i < a->nkv; i++) {
+        const char *k = a->kv[i].key, *v = a->kv[i].value;
+        if (!strcmp(k, "alpha") && (dth_parse_double(v, &r->alpha) || !(r->alpha >= 0) || !isfinite(r->alpha)))
+            return param_err(a, k, "a number >= 0");
+        if (!strcmp(k, "arc")) {
+            if (dth_parse_double(v, &r->arc) || !(r->arc > 0) || !isfinite(r->arc)) return param_err(a, k, "a number > 0");
+            r->arc_fixed = 1;
+        }
+        if (!strcmp(k, "band") && (dth_parse_double(v, &r->band) || !(r->band >= 0) || !isfinite(r->band)))
+            return param_err(a, k, "a number >= 0");
+    }
+    r->ks = dth_calloc(a->alloc, nks + nw + 4 * N, sizeof(double));
+    if (!r->ks) return DTH_ENOMEM;
+    r->model = a->model;
+    r->n = n;
+    r->work = r->ks + nks;
+    r->d = r->work + nw;
+    r->y = r->d + N;
+    r->g = r->y + N;
+    r->dlast = r->g + N;
+    return DTH_OK;
+}
+
+static void destroy(void *self, const dth_allocator *alloc)
+{
+    prescribed *r = self;
+    if (!r) return;
+    dth_free(alloc, r->ks);
+    dth_free(alloc, r);
+}
+
+/* |u| over (q, p) at y = z + (zlo + d) (d may be NULL: at the vertex). */
+static int speed_at(prescribed *r, const double *z, const double *zlo, const double *d, double *speed)
+{
+    size_t n = r->n;
+    for (size_t j = 0; j < 2 * n + 1; j++) r->y[j] = z[j] + ((zlo ? zlo[j] : 0) + (d ? d[j] : 0));
+    double H;
+    int rc = dth_model_eval(r->model, r->y, DTH_EVAL_H | DTH_EVAL_GRAD, &H, r->g, NULL);
+    if (rc) return rc;
+    double s = 0;
+    for (size_t i = 0; i < n; i++) s += r->g[i] * r->g[i] + r->g[n + 1 + i] * r->g[n + 1 + i];
+    *speed = sqrt(s);
+    return isfinite(*speed) ? DTH_OK : DTH_EDOMAIN;
+}
+
+/* The law's step for a speed (signed by the direction of travel). */
+static double law(const prescribed *r, double speed, double dir)
+{
+    return dir * (r->alpha == 0 ? r->arc : r->arc / pow(speed, r->alpha));
+}
+
+/*
+ * Solve the kicked segment together with its step: lambda - law(|u(zbar(lambda))|) = 0 by a
+ * secant iteration on lambda around dth_kicked_segment (seeded from the last solution, so each
+ * inner solve takes one or two Newton iterations). Both directions solve the same equations for
+ * the same midpoint, so the converged segment is its own reverse up to round-off.
+ */
+static int solve(prescribed *r, const dth_reg_event *ev, double *lam_out, double *mu, double *res, int *iters)
+{
+    size_t N = ev->N;
+    double speed;
+    int rc = speed_at(r, ev->z, ev->zlo, NULL, &speed);
+    if (rc) return rc;
+    double lam = law(r, speed, ev->dir);
+    int total = 0, it, close = 0;
+    /* seed: the last segment's offset rescaled to this step (the next midpoint offset mirrors the
+     * last one; after a reversal lambda/lam_last ~ -1 gives the last midpoint back), else the
+     * ordinary step's offset rescaled, else an Euler half step. Only the seed depends on history. */
+    for (int attempt = 0;; attempt++) {
+        memset(r->d, 0, N * sizeof *r->d);
+        *mu = 0;
+        if (attempt == 0 && r->lam_last != 0) {
+            double s = lam / r->lam_last;
+            for (size_t j = 0; j < N; j++) r->d[j] = s * r->dlast[j];
+            *mu = s * r->mu_last;
+        } else if (attempt <= 1 && ev->plain_d && ev->plain_lambda != 0) {
+            double s = lam / ev->plain_lambda;
+            for (size_t j = 0; j < N; j++) r->d[j] = s * ev->plain_d[j];
+            attempt = 1;
+        } else {
+            for (size_t j = 0; j < N - 1; j++) r->y[j] = ev->z[j] + ev->zlo[j];
+            double H;
+            rc = dth_model_eval(r->model, r->y, DTH_EVAL_H | DTH_EVAL_GRAD, &H, r->g, NULL);
+            if (rc) return rc;
+            for (size_t i = 0; i < r->n; i++) {
+                r->d[i] = 0.5 * lam * r->g[r->n + 1 + i];
+                r->d[r->n + 1 + i] = -0.5 * lam * r->g[i];
+            }
+            attempt = 2;
+        }
+        int ki = 0;
+        rc = dth_kicked_segment(r->model, ev->z, ev->zlo, lam, r->d, mu, res, &ki, r->ks);
+        total += ki;
+        if (rc < 0 || (rc == DTH_OK) || attempt == 2) break;
+    }
+    if (rc) return rc;
+    double lp = 0, fp = 0;
+    for (it = 0; it < 40; it++) {
+        if (it > 0) {
+            int ki = 0;
+            rc = dth_kicked_segment(r->model, ev->z, ev->zlo, lam, r->d, mu, res, &ki, r->ks);
+            total += ki;
+            if (rc) return rc;
+        }
+        if (r->alpha == 0) break;
+        rc = speed_at(r, ev->z, ev->zlo, r->d, &speed);
+        if (rc) return rc;
+        double f = lam - law(r, speed, ev->dir);
+        /* f carries the round-off of |u| (a few ulp of lambda): stop at 4 ulp, or one secant
+         * step after reaching 64 ulp (the step then only moves lambda within that noise) */
+        if (fabs(f) <= 4 * DBL_EPSILON * fabs(lam) || close) break;
+        if (fabs(f) <= 64 * DBL_EPSILON * fabs(lam)) close = 1;
+        double ln;
+        if (it == 0 || f == fp) ln = lam - f; /* fixed-point step to start the secant */
+        else ln = lam - f * (lam - lp) / (f - fp);
+        if (!(ln * ev->dir > 0) || !isfinite(ln)) return DTH_ENOCONV;
+        lp = lam;
+        fp = f;
+        /* rescale the seed to the new step (the flow part of d scales with lambda) */
+        double s = ln / lam;
+        for (size_t j = 0; j < N; j++) r->d[j] *= s;
+        *mu *= s;
+        lam = ln;
+    }
+    if (it == 40) return DTH_ENOCONV;
+    memcpy(r->dlast, r->d, N * sizeof *r->d);
+    r->lam_last = lam;
+    r->mu_last = *mu;
+    *lam_out = lam;
+    *iters = total;
+    return DTH_OK;
+}
+
+static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
+{
+    prescribed *r = self;
+    if (!r->arc_fixed) {
+        /* fix the constant once, from the first step this instance sees */
+        double l0 = ev->lam_in != 0 ? fabs(ev->lam_in) : (ev->plain_status == DTH_OK ? fabs(ev->plain_lambda) : 0);
+        if (!(l0 > 0)) return DTH_EREFUSED;
+        double speed;
+        int rc = speed_at(r, ev->z, ev->zlo, NULL, &speed);
+        if (rc) return rc;
+        r->arc = r->alpha == 0 ? l0 : l0 * pow(speed, r->alpha);
+        if (!(r->arc > 0) || !isfinite(r->arc)) return DTH_EREFUSED;
+        r->arc_fixed = 1;
+    }
+    double lam = 0, mu = 0, res = 0;
+    int iters = 0;
+    int rc = solve(r, ev, &lam, &mu, &res, &iters);
+    act->iters = iters;
+    if (rc) return rc < 0 ? rc : DTH_EREFUSED;
+    memcpy(act->d, r->d, ev->N * sizeof *act->d);
+    act->lambda[0] = lam;
+    act->nseg = 1;
+    act->what = DTH_REG_REPLACE;
+    act->residual = res;
+    return DTH_OK;
+}
+
+/* Every ordinary step is turned down, unless band > 0 and |psi| > band at both ends. */
+static int admit(void *self, const double *za, const double *zb, double lambda)
+{
+    prescribed *r = self;
+    (void)lambda;
+    if (!(r->band > 0)) return 0;
+    double psa, psb;
+    if (dth_model_psi(r->model, za, &psa, NULL, r->work) || dth_model_psi(r->model, zb, &psb, NULL, r->work)) return -1;
+    return fabs(psa) > r->band && fabs(psb) > r->band;
+}
+
+const dth_regularizer_type dth_reg_prescribed = {
+    .name = "prescribed",
+    .doc = "every step a kicked segment with lambda = arc/|u(zbar)|^alpha at its own midpoint: energy-exact, keeps quadratic invariants, exactly reversible, smooth through psi = 0; not symplectic at any step",
+    .params = params,
+    .n_params = sizeof params / sizeof params[0],
+    .create = create,
+    .destroy = destroy,
+    .apply = apply,
+    .admit = admit,
+};

@@ -1,0 +1,280 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The "prescribed" regularizer (paper, section 7): every step a kicked segment whose step is
+ * lambda = arc/|u(zbar)|^alpha at its own midpoint. Checked: exact energy (wp bit-identical,
+ * midpoints on H = 0) through psi = 0 crossings, the step law at the midpoint, time reversal
+ * (round trips through many crossings), quadratic invariants (Kepler's L, the chain's momenta),
+ * second-order phase of the rotating pendulum against the exact period, the kick's O(h^3) size,
+ * and parameter checking.
+ */
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+#include "cu_main.h"
+#include "dth/dth.h"
+
+#define PI 3.14159265358979323846
+
+typedef struct setup {
+    dth_model *m;
+    dth_regularizer *r;
+    dth_integrator *it;
+    size_t N;
+} setup;
+
+static setup open_run(const dth_model_type *t, const dth_kv *mkv, size_t nmkv, size_t n, const char *alpha,
+                      const double *q0, const double *p0, double h)
+{
+    setup s = {0};
+    char err[256];
+    dth_kv kv = {"alpha", alpha};
+    CU_ASSERT_FATAL(dth_model_new(t, mkv, nmkv, n, NULL, &s.m, err, sizeof err) == DTH_OK);
+    CU_ASSERT_FATAL(dth_regularizer_new(&dth_reg_prescribed, &kv, 1, s.m, NULL, &s.r, err, sizeof err) == DTH_OK);
+    dth_options o;
+    dth_options_default(&o);
+    o.h = h;
+    o.start = DTH_START_MIDPOINT;
+    o.regularizer = s.r;
+    o.branch_check = 0; /* the ordinary step is only looked at, never kept */
+    CU_ASSERT_FATAL(dth_integrator_new(s.m, &o, &s.it) == DTH_OK);
+    CU_ASSERT_FATAL(dth_integrator_start(s.it, q0, p0, 0.0) == DTH_OK);
+    s.N = dth_integrator_dim(s.it);
+    return s;
+}
+
+static void close_run(setup *s)
+{
+    dth_integrator_free(s->it);
+    dth_regularizer_free(s->r);
+    dth_model_free(s->m);
+}
+
+/* |wp + H_phys(zbar)| in units of the round-off of its terms. */
+static double energy_ulps(const dth_model *m, const double *zb)
+{
+    size_t n = dth_model_dof(m), N = 2 * n + 2;
+    double H, g[32];
+    CU_ASSERT_FATAL(dth_model_eval(m, zb, DTH_EVAL_H | DTH_EVAL_GRAD, &H, g, NULL) == DTH_OK);
+    double s = fabs(zb[N - 1]) + fabs(H);
+    for (size_t j = 0; j + 1 < N; j++) s += fabs(g[j] * zb[j]);
+    return fabs(zb[N - 1] + H) / (DBL_EPSILON * s);
+}
+
+/* |u| over (q, p) at y. */
+static double speed(const dth_model *m, const double *y)
+{
+    size_t n = dth_model_dof(m);
+    double H, g[32], s = 0;
+    CU_ASSERT_FATAL(dth_model_eval(m, y, DTH_EVAL_H | DTH_EVAL_GRAD, &H, g, NULL) == DTH_OK);
+    for (size_t i = 0; i < n; i++) s += g[i] * g[i] + g[n + 1 + i] * g[n + 1 + i];
+    return sqrt(s);
+}
+
+/*
+ * Forward S steps after the first, reverse, S back: relative distance to the start; counts the
+ * crossings; checks every step on the way: wp bit-identical, midpoint on H = 0, the step law.
+ */
+static double round_trip(setup *s, long S, double alpha, long *crossings)
+{
+    size_t N = s->N;
+    dth_step_info inf;
+    CU_ASSERT_FATAL(dth_integrator_step(s->it, &inf) == DTH_OK);
+    double z0[32], wp0 = dth_integrator_vertex(s->it)[N - 1], arc = NAN, err = 0, nz = 0, law = 0, eu = 0;
+    memcpy(z0, dth_integrator_vertex(s->it), N * sizeof *z0);
+    *crossings = 0;
+    int wp_ok = 1;
+    for (int leg = 0; leg < 2; leg++) {
+        for (long k = 0; k < S; k++) {
+            int rc = dth_integrator_step(s->it, &inf);
+            CU_ASSERT_EQUAL_FATAL(rc, DTH_OK);
+            CU_ASSERT(inf.flags & DTH_STEP_REGULARIZED);
+            if (!leg && (inf.flags & DTH_STEP_CROSSING)) ++*crossings;
+            const double *zb = dth_integrator_midpoint(s->it);
+            eu = fmax(eu, energy_ulps(s->m, zb));
+            if (dth_integrator_vertex(s->it)[N - 1] != wp0) wp_ok = 0;
+            /* the step law at the midpoint: lambda |u(zbar)|^alpha is the same constant */
+            double a = fabs(inf.lambda) * pow(speed(s->m, zb), alpha);
+            if (isnan(arc)) arc = a;
+            law = fmax(law, fabs(a - arc) / arc);
+        }
+        if (!leg) dth_integrator_reverse(s->it);
+    }
+    CU_ASSERT(wp_ok);
+    CU_ASSERT(eu <= 8);
+    CU_ASSERT(law <= 1e-13);
+    const double *z = dth_integrator_vertex(s->it);
+    for (size_t j = 0; j < N; j++) {
+        nz = fmax(nz, fabs(z0[j]));
+        err = fmax(err, fabs(z[j] - z0[j]));
+    }
+    return err / nz;
+}
+
+/* Rotating pendulum, alpha = 0: 2000 steps through >= 10 crossings and back to 1e-9. */
+static void test_pendulum_round_trip(void)
+{
+    double q0 = 0, p0 = 2.2;
+    setup s = open_run(&dth_model_pendulum, NULL, 0, 1, "0", &q0, &p0, 0.05);
+    long cr;
+    double e = round_trip(&s, 2000, 0, &cr);
+    CU_ASSERT(cr >= 10);
+    CU_ASSERT(e <= 1e-9);
+    close_run(&s);
+}
+
+/* Kepler e = 0.9 from apocentre, alpha = 0.75: two orbits there and back; L exact throughout. */
+static void test_kepler_round_trip_L(void)
+{
+    double e = 0.9, q0[2] = {-(1 + e), 0}, p0[2] = {0, -sqrt((1 - e) / (1 + e))};
+    setup s = open_run(&dth_model_kepler, NULL, 0, 2, "0.75", q0, p0, 0.05);
+    long cr;
+    double rt = round_trip(&s, 1000, 0.75, &cr);
+    CU_ASSERT(cr >= 8);
+    CU_ASSERT(rt <= 1e-9);
+    /* forward again (the vertex is not (q0, p0): midpoint start): L at every vertex to a few
+     * ulps, through the crossings */
+    dth_integrator_reverse(s.it);
+    const double *z0 = dth_integrator_vertex(s.it);
+    double L0 = z0[0] * z0[4] - z0[1] * z0[3], Lerr = 0;
+    for (int k = 0; k < 1000; k++) {
+        dth_step_info inf;
+        CU_ASSERT_EQUAL_FATAL(dth_integrator_step(s.it, &inf), DTH_OK);
+        const double *z = dth_integrator_vertex(s.it);
+        Lerr = fmax(Lerr, fabs(z[0] * z[4] - z[1] * z[3] - L0) / fabs(L0));
+    }
+    CU_ASSERT(Lerr <= 1e-14);
+    close_run(&s);
+}
+
+/* 2-D chain of 3 (k = 1, L = 1) started compressed: psi changes sign; round trip; momenta exact. */
+static void test_chain(void)
+{
+    dth_kv mkv[] = {{"preset", "chain"}, {"size", "3"}, {"dim", "2"}, {"L", "1"}};
+    double q0[6] = {0, 0, 0.5, 0, 1.0, 0}, p0[6] = {0, 1, 0, -2, 0, 1.5};
+    setup s = open_run(&dth_model_coupled, mkv, 4, 6, "0", q0, p0, 0.02);
+    long cr;
+    double rt = round_trip(&s, 1000, 0, &cr);
+    CU_ASSERT(cr >= 10);
+    CU_ASSERT(rt <= 1e-9);
+    /* forward 1000 steps more: linear momentum (px, py) and angular momentum at every vertex */
+    dth_integrator_reverse(s.it);
+    double P0[3], perr = 0;
+    for (int k = 0; k <= 1000; k++) {
+        dth_step_info inf;
+        if (k) CU_ASSERT_EQUAL_FATAL(dth_integrator_step(s.it, &inf), DTH_OK);
+        const double *z = dth_integrator_vertex(s.it), *p = z + 7;
+        double P[3] = {0, 0, 0};
+        for (int i = 0; i < 3; i++) {
+            P[0] += p[2 * i];
+            P[1] += p[2 * i + 1];
+            P[2] += z[2 * i] * p[2 * i + 1] - z[2 * i + 1] * p[2 * i];
+        }
+        if (!k) memcpy(P0, P, sizeof P0);
+        for (int j = 0; j < 3; j++) perr = fmax(perr, fabs(P[j] - P0[j]));
+    }
+    CU_ASSERT(fabs(P0[1] - 0.5) <= 1e-12 && fabs(P0[2]) > 0.1);
+    CU_ASSERT(perr <= 1e-13);
+    close_run(&s);
+}
+
+/* Mean time per revolution over revolutions 1..R+1 (linear interpolation of t at q = 2 pi j). */
+static double mean_period(double h, int R)
+{
+    double q0 = 0, p0 = 2.2, qa = 0, ta = 0, t1 = NAN, tR = NAN;
+    setup s = open_run(&dth_model_pendulum, NULL, 0, 1, "0", &q0, &p0, h);
+    for (int j = 1; j <= R + 1;) {
+        dth_step_info inf;
+        CU_ASSERT_EQUAL_FATAL(dth_integrator_step(s.it, &inf), DTH_OK);
+        const double *z = dth_integrator_vertex(s.it);
+        while (j <= R + 1 && z[0] >= 2 * PI * j) {
+            double t = ta + (2 * PI * j - qa) / (z[0] - qa) * (z[1] - ta);
+            if (j == 1) t1 = t;
+            if (j == R + 1) tR = t;
+            j++;
+        }
+        qa = z[0];
+        ta = z[1];
+    }
+    close_run(&s);
+    return (tR - t1) / R;
+}
+
+/*
+ * Phase: the period error against the exact 2 K(k) k (k^2 = 2/(1 + E), E = p0^2/2 - 1; the
+ * value below is GSL's gsl_sf_ellint_Kcomp) falls by 4 per halving of h.
+ */
+static void test_phase_order(void)
+{
+    const double T = 4.221680066865676;
+    double e1 = mean_period(0.05, 20) - T, e2 = mean_period(0.025, 20) - T, e3 = mean_period(0.0125, 20) - T;
+    double o1 = log2(e1 / e2), o2 = log2(e2 / e3);
+    CU_ASSERT(fabs(o1 - 2) <= 0.05);
+    CU_ASSERT(fabs(o2 - 2) <= 0.05);
+    CU_ASSERT(fabs(e1) <= 2e-4);
+}
+
+/* The kick: mu = grad H . (z_b - z_a)/|grad H|^2 at the midpoint (no invariants) is O(h^3). */
+static double max_kick(double h)
+{
+    double q0 = 0, p0 = 2.2, mx = 0;
+    setup s = open_run(&dth_model_pendulum, NULL, 0, 1, "0", &q0, &p0, h);
+    dth_step_info inf;
+    CU_ASSERT_FATAL(dth_integrator_step(s.it, &inf) == DTH_OK);
+    while (dth_integrator_vertex(s.it)[1] < 10) {
+        double za[4], H, g[3];
+        memcpy(za, dth_integrator_vertex(s.it), sizeof za);
+        CU_ASSERT_EQUAL_FATAL(dth_integrator_step(s.it, &inf), DTH_OK);
+        const double *zb = dth_integrator_vertex(s.it);
+        CU_ASSERT_FATAL(dth_model_eval(s.m, dth_integrator_midpoint(s.it), DTH_EVAL_H | DTH_EVAL_GRAD, &H, g, NULL) == DTH_OK);
+        mx = fmax(mx, fabs((g[0] * (zb[0] - za[0]) + g[2] * (zb[2] - za[2])) / (g[0] * g[0] + g[2] * g[2])));
+    }
+    close_run(&s);
+    return mx;
+}
+
+static void test_kick_order(void)
+{
+    double k1 = max_kick(0.05), k2 = max_kick(0.025);
+    CU_ASSERT(fabs(log2(k1 / k2) - 3) <= 0.1);
+    CU_ASSERT(k1 > 0 && k1 <= 1e-4);
+}
+
+/* Parameters are checked; the type is registered under its name. */
+static void test_params(void)
+{
+    dth_model *m = NULL;
+    dth_regularizer *r = NULL;
+    char err[256];
+    CU_ASSERT_FATAL(dth_model_new(&dth_model_pendulum, NULL, 0, 1, NULL, &m, err, sizeof err) == DTH_OK);
+    dth_kv bad[] = {{"alpha", "-1"}, {"arc", "0"}, {"band", "x"}, {"step", "1"}};
+    for (size_t i = 0; i < 4; i++) {
+        CU_ASSERT_EQUAL(dth_regularizer_new(&dth_reg_prescribed, &bad[i], 1, m, NULL, &r, err, sizeof err), DTH_EINVAL);
+        CU_ASSERT(r == NULL);
+        CU_ASSERT(strstr(err, bad[i].key) != NULL);
+    }
+    dth_kv ok[] = {{"alpha", "1.5"}, {"arc", "0.01"}, {"band", "0.5"}};
+    CU_ASSERT_EQUAL(dth_regularizer_new(&dth_reg_prescribed, ok, 3, m, NULL, &r, err, sizeof err), DTH_OK);
+    dth_regularizer_free(r);
+    dth_registry *reg = NULL;
+    CU_ASSERT_FATAL(dth_registry_new(NULL, &reg) == DTH_OK);
+    CU_ASSERT_FATAL(dth_registry_add_builtin(reg) == DTH_OK);
+    CU_ASSERT(dth_registry_find_regularizer(reg, "prescribed") == &dth_reg_prescribed);
+    dth_registry_free(reg);
+    dth_model_free(m);
+}
+
+static CU_TestInfo tests[] = {
+    {"pendulum: round trip through crossings, energy, step law", test_pendulum_round_trip},
+    {"kepler e=0.9: round trip, L exact", test_kepler_round_trip_L},
+    {"2-D chain: crossings, round trip, momenta", test_chain},
+    {"pendulum phase: second order", test_phase_order},
+    {"kick is O(h^3)", test_kick_order},
+    {"parameters and registry", test_params},
+    CU_TEST_INFO_NULL,
+};
+
+CU_SuiteInfo dth_test_suites[] = {
+    {.pName = "prescribed", .pTests = tests},
+    CU_SUITE_INFO_NULL,
+};
