@@ -20,16 +20,6 @@
 static const unsigned char MAGIC[8] = {'D', 'T', 'H', 'C', 'K', 'P', 'T', 0};
 enum { HEADER = 8 + 4 + 4 + 8, TRAILER = 8, MAX_NAME = 255 };
 
-static void set_err(char *err, size_t len, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static void set_err(char *err, size_t len, const char *fmt, ...)
-{
-    if (!err || !len) return;
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(err, len, fmt, ap);
-    va_end(ap);
-}
-
 /* FNV-1a 64 */
 static uint64_t fnv1a(const unsigned char *p, size_t n)
 {
@@ -216,12 +206,12 @@ static int open_checked(rd *r, const void *buf, size_t len, char *err, size_t er
 {
     *r = (rd){buf, len, 0, 0};
     if (!buf || len < HEADER + TRAILER) {
-        set_err(err, errlen, "checkpoint truncated (%zu bytes)", len);
+        dth__set_err(err, errlen, "checkpoint truncated (%zu bytes)", len);
         return DTH_EPARSE;
     }
     const unsigned char *p = buf;
     if (memcmp(p, MAGIC, sizeof MAGIC) != 0) {
-        set_err(err, errlen, "not a dth checkpoint (bad magic)");
+        dth__set_err(err, errlen, "not a dth checkpoint (bad magic)");
         return DTH_EPARSE;
     }
     get_bytes(r, sizeof MAGIC);
@@ -229,18 +219,18 @@ static int open_checked(rd *r, const void *buf, size_t len, char *err, size_t er
     get_u32(r);
     uint64_t total = get_u64(r);
     if (ver != DTH_CHECKPOINT_VERSION) {
-        set_err(err, errlen, "checkpoint format version %u, this library reads version %d", (unsigned)ver,
+        dth__set_err(err, errlen, "checkpoint format version %u, this library reads version %d", (unsigned)ver,
                 DTH_CHECKPOINT_VERSION);
         return DTH_EPARSE;
     }
     if (total != len) {
-        set_err(err, errlen, "checkpoint is %zu bytes, its header says %llu (truncated or extended)", len,
+        dth__set_err(err, errlen, "checkpoint is %zu bytes, its header says %llu (truncated or extended)", len,
                 (unsigned long long)total);
         return DTH_EPARSE;
     }
     rd t = {p + len - TRAILER, TRAILER, 0, 0};
     if (get_u64(&t) != fnv1a(p, len - TRAILER)) {
-        set_err(err, errlen, "checkpoint checksum mismatch (corrupted)");
+        dth__set_err(err, errlen, "checkpoint checksum mismatch (corrupted)");
         return DTH_EPARSE;
     }
     r->len = len - TRAILER; /* the body ends at the checksum */
@@ -265,7 +255,7 @@ static int read_state(rd *r, st *s, char *err, size_t errlen)
     s->m = get_u32(r);
     s->auton = get_u32(r);
     if (r->bad || s->n == 0 || s->n > (1u << 20) || s->m > 2 * s->n + 3 || s->auton > 1) {
-        set_err(err, errlen, "checkpoint state header is invalid");
+        dth__set_err(err, errlen, "checkpoint state header is invalid");
         return DTH_EPARSE;
     }
     size_t N = 2 * (size_t)s->n + 2;
@@ -290,7 +280,7 @@ static int read_state(rd *r, st *s, char *err, size_t errlen)
     if (r->bad || s->psi_known > 1 || s->psi_sign > 2 || s->factors > s->fact_valid || !isfinite(s->lam) || !isfinite(s->lam_hint) || !isfinite(s->lam_fact) ||
         !(s->dir == 1.0 || s->dir == -1.0) || !isfinite(s->h) || s->h == 0 || s->have_prev > 1 ||
         s->have_mid > 1 || s->pending_exact > 1 || s->fact_valid > 1 || s->steps > (uint64_t)LONG_MAX) {
-        set_err(err, errlen, "checkpoint state is invalid (non-finite value or bad flag)");
+        dth__set_err(err, errlen, "checkpoint state is invalid (non-finite value or bad flag)");
         return DTH_EPARSE;
     }
     s->pos_af = r->pos;
@@ -302,7 +292,7 @@ static int read_state(rd *r, st *s, char *err, size_t errlen)
             if (pv < 1 || pv > m) r->bad = 1;
         }
         if (r->bad) {
-            set_err(err, errlen, "checkpoint factors are invalid");
+            dth__set_err(err, errlen, "checkpoint factors are invalid");
             return DTH_EPARSE;
         }
     }
@@ -339,7 +329,7 @@ static int verify(const void *buf, size_t len, rd *r, st *s, char *err, size_t e
     if (rc) return rc;
     rd b = *r;
     if (scan_blobs(&b, NULL, NULL, NULL) != DTH_OK) {
-        set_err(err, errlen, "checkpoint blobs are malformed");
+        dth__set_err(err, errlen, "checkpoint blobs are malformed");
         return DTH_EPARSE;
     }
     return DTH_OK;
@@ -362,12 +352,12 @@ int dth_checkpoint_restore(dth_integrator *it, const void *buf, size_t len, char
     const char *mname = dth_model_get_type(it->model)->name;
     if (strlen(mname) != s.name_len || memcmp(mname, s.name, s.name_len) != 0 || s.n != it->n ||
         s.m != (uint32_t)it->m || s.auton != (uint32_t)it->auton) {
-        set_err(err, errlen, "checkpoint of model '%.*s' with %llu degrees of freedom does not fit model '%s' with %zu",
+        dth__set_err(err, errlen, "checkpoint of model '%.*s' with %llu degrees of freedom does not fit model '%s' with %zu",
                 (int)s.name_len, s.name, (unsigned long long)s.n, mname, it->n);
         return DTH_EINVAL;
     }
     if ((int)s.factors != (s.fact_valid && !it->band)) {
-        set_err(err, errlen, "checkpoint factors do not match this integrator's (dense/banded) solve");
+        dth__set_err(err, errlen, "checkpoint factors do not match this integrator's (dense/banded) solve");
         return DTH_EPARSE;
     }
     /* everything is valid: commit */
@@ -433,7 +423,7 @@ int dth_checkpoint_write_file(const dth_integrator *it, const dth_blob *blobs, s
     if (!tmp || !buf) {
         dth_free(it->alloc, tmp);
         dth_free(it->alloc, buf);
-        set_err(err, errlen, "out of memory writing checkpoint '%s'", path);
+        dth__set_err(err, errlen, "out of memory writing checkpoint '%s'", path);
         return DTH_ENOMEM;
     }
     memcpy(tmp, path, plen);
@@ -441,7 +431,7 @@ int dth_checkpoint_write_file(const dth_integrator *it, const dth_blob *blobs, s
     rc = dth_checkpoint_save(it, blobs, nblobs, buf, len, &len);
     FILE *f = rc ? NULL : fopen(tmp, "wb");
     if (!rc && !f) {
-        set_err(err, errlen, "cannot create '%s': %s", tmp, strerror(errno));
+        dth__set_err(err, errlen, "cannot create '%s': %s", tmp, strerror(errno));
         rc = DTH_EIO;
     }
     if (f) {
@@ -456,7 +446,7 @@ int dth_checkpoint_write_file(const dth_integrator *it, const dth_blob *blobs, s
             e = errno;
         }
         if (!ok) {
-            set_err(err, errlen, "cannot write checkpoint '%s': %s", path, strerror(e));
+            dth__set_err(err, errlen, "cannot write checkpoint '%s': %s", path, strerror(e));
             remove(tmp);
             rc = DTH_EIO;
         }
@@ -490,20 +480,20 @@ int dth_checkpoint_read_file(const char *path, const dth_allocator *alloc, void 
     *len = 0;
     FILE *f = fopen(path, "rb");
     if (!f) {
-        set_err(err, errlen, "cannot open checkpoint '%s': %s", path, strerror(errno));
+        dth__set_err(err, errlen, "cannot open checkpoint '%s': %s", path, strerror(errno));
         return DTH_EIO;
     }
     long size = -1;
     if (fseek(f, 0, SEEK_END) == 0) size = ftell(f);
     if (size < 0 || fseek(f, 0, SEEK_SET) != 0) {
-        set_err(err, errlen, "cannot read checkpoint '%s': %s", path, strerror(errno));
+        dth__set_err(err, errlen, "cannot read checkpoint '%s': %s", path, strerror(errno));
         fclose(f);
         return DTH_EIO;
     }
     unsigned char *b = dth_calloc(alloc, (size_t)size, 1);
     if (!b) {
         fclose(f);
-        set_err(err, errlen, "out of memory reading checkpoint '%s'", path);
+        dth__set_err(err, errlen, "out of memory reading checkpoint '%s'", path);
         return DTH_ENOMEM;
     }
     size_t got = fread(b, 1, (size_t)size, f);
@@ -511,14 +501,14 @@ int dth_checkpoint_read_file(const char *path, const dth_allocator *alloc, void 
     fclose(f);
     if (ioerr || got != (size_t)size) {
         dth_free(alloc, b);
-        set_err(err, errlen, "cannot read checkpoint '%s'", path);
+        dth__set_err(err, errlen, "cannot read checkpoint '%s'", path);
         return DTH_EIO;
     }
     char msg[160] = "";
     int rc = dth_checkpoint_verify(b, got, msg, sizeof msg);
     if (rc) {
         dth_free(alloc, b);
-        set_err(err, errlen, "%s: %s", path, msg);
+        dth__set_err(err, errlen, "%s: %s", path, msg);
         return rc;
     }
     *buf = b;

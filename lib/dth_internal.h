@@ -14,6 +14,8 @@ const void *dth__model_self(const dth_model *m);
 int dth__model_accepts_key(const dth_model_type *t, const char *key);
 /** u = J grad H over y = (q, t, p): (dH/dp, 1, -dH/dq). */
 void dth__flow_y(size_t n, const double *grad, double *u);
+/** printf into a caller's message buffer (err may be NULL or len 0: nothing is written). */
+void dth__set_err(char *err, size_t len, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 /** Parse a comma-separated list of finite doubles; 0 on success. */
 int dth__parse_list(const char *v, double *out, size_t max, size_t *count);
 

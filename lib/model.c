@@ -18,8 +18,7 @@ struct dth_model {
     const dth_allocator *alloc;
 };
 
-static void set_err(char *err, size_t len, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static void set_err(char *err, size_t len, const char *fmt, ...)
+void dth__set_err(char *err, size_t len, const char *fmt, ...)
 {
     if (!err || !len) return;
     va_list ap;
@@ -49,22 +48,22 @@ int dth_model_new(const dth_model_type *type, const dth_kv *kv, size_t nkv, size
 {
     if (out) *out = NULL;
     if (!type || !out || (nkv && !kv) || !type->create || !type->eval) {
-        set_err(err, errlen, "invalid arguments to dth_model_new");
+        dth__set_err(err, errlen, "invalid arguments to dth_model_new");
         return DTH_EINVAL;
     }
     for (size_t i = 0; i < nkv; i++) {
         if (!kv[i].key || !kv[i].value) {
-            set_err(err, errlen, "parameter %zu has no key or value", i);
+            dth__set_err(err, errlen, "parameter %zu has no key or value", i);
             return DTH_EINVAL;
         }
         if (!spec_accepts(type, kv[i].key)) {
-            set_err(err, errlen, "model '%s' has no parameter '%s'", type->name, kv[i].key);
+            dth__set_err(err, errlen, "model '%s' has no parameter '%s'", type->name, kv[i].key);
             return DTH_EINVAL;
         }
     }
     dth_model *m = dth_calloc(alloc, 1, sizeof *m);
     if (!m) {
-        set_err(err, errlen, "out of memory");
+        dth__set_err(err, errlen, "out of memory");
         return DTH_ENOMEM;
     }
     m->type = type;
@@ -73,13 +72,13 @@ int dth_model_new(const dth_model_type *type, const dth_kv *kv, size_t nkv, size
     if (err && errlen) err[0] = '\0';
     int rc = type->create(&args, &m->self, &m->info);
     if (rc == DTH_OK && m->info.n == 0) {
-        set_err(err, errlen, "model '%s' reported zero degrees of freedom", type->name);
+        dth__set_err(err, errlen, "model '%s' reported zero degrees of freedom", type->name);
         rc = DTH_EINVAL;
     }
     if (rc != DTH_OK) {
         if (m->self && type->destroy) type->destroy(m->self, alloc);
         dth_free(alloc, m);
-        if (err && errlen && !err[0]) set_err(err, errlen, "model '%s': %s", type->name, dth_strerror(rc));
+        if (err && errlen && !err[0]) dth__set_err(err, errlen, "model '%s': %s", type->name, dth_strerror(rc));
         return rc < 0 ? rc : DTH_EINVAL;
     }
     *out = m;

@@ -27,16 +27,6 @@ struct dth_scene {
     char *source; /* first file loaded, for messages about missing keys */
 };
 
-static void set_err(char *err, size_t len, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-static void set_err(char *err, size_t len, const char *fmt, ...)
-{
-    if (!err || !len) return;
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(err, len, fmt, ap);
-    va_end(ap);
-}
-
 static char *dup_n(const dth_allocator *a, const char *s, size_t len)
 {
     char *d = dth_calloc(a, len + 1, 1);
@@ -195,12 +185,12 @@ static int load_stream(dth_scene *s, FILE *f, const char *path, char *err, size_
 int dth_scene_load(dth_scene *s, const char *path, char *err, size_t errlen)
 {
     if (!s || !path) {
-        set_err(err, errlen, "invalid arguments to dth_scene_load");
+        dth__set_err(err, errlen, "invalid arguments to dth_scene_load");
         return DTH_EINVAL;
     }
     FILE *f = fopen(path, "r");
     if (!f) {
-        set_err(err, errlen, "%s: cannot read: %s", path, strerror(errno));
+        dth__set_err(err, errlen, "%s: cannot read: %s", path, strerror(errno));
         return DTH_EIO;
     }
     return load_stream(s, f, path, err, errlen);
@@ -210,13 +200,13 @@ int dth_scene_load_mem(dth_scene *s, const char *name, const char *text, size_t 
                        size_t errlen)
 {
     if (!s || !name || (!text && len)) {
-        set_err(err, errlen, "invalid arguments to dth_scene_load_mem");
+        dth__set_err(err, errlen, "invalid arguments to dth_scene_load_mem");
         return DTH_EINVAL;
     }
     static const char empty[1] = "";
     FILE *f = fmemopen((void *)(len ? text : empty), len ? len : 1, "r");
     if (!f) {
-        set_err(err, errlen, "%s: cannot read: %s", name, strerror(errno));
+        dth__set_err(err, errlen, "%s: cannot read: %s", name, strerror(errno));
         return errno == ENOMEM ? DTH_ENOMEM : DTH_EIO;
     }
     return load_stream(s, f, name, err, errlen);
@@ -229,7 +219,7 @@ static int load_stream(dth_scene *s, FILE *f, const char *path, char *err, size_
     int rc = dth_scene_new(s->alloc, &c.tmp);
     if (rc) {
         fclose(f);
-        set_err(err, errlen, "out of memory");
+        dth__set_err(err, errlen, "out of memory");
         return rc;
     }
     int line = ini_parse_stream(reader, &c, handler, &c);
@@ -237,16 +227,16 @@ static int load_stream(dth_scene *s, FILE *f, const char *path, char *err, size_
     fclose(f);
     char *src = s->source ? NULL : dup_s(s->alloc, path);
     if (ioerr) {
-        set_err(err, errlen, "%s: cannot read: %s", path, strerror(ioerr));
+        dth__set_err(err, errlen, "%s: cannot read: %s", path, strerror(ioerr));
         rc = DTH_EIO;
     } else if (c.too_long) {
-        set_err(err, errlen, "%s:%d: line longer than 197 characters", path, c.lineno);
+        dth__set_err(err, errlen, "%s:%d: line longer than 197 characters", path, c.lineno);
         rc = DTH_EPARSE;
     } else if (c.nomem || line == -2 || (!s->source && !src) || reserve(s, c.tmp->n)) {
-        set_err(err, errlen, "out of memory");
+        dth__set_err(err, errlen, "out of memory");
         rc = DTH_ENOMEM;
     } else if (line != 0) {
-        set_err(err, errlen, "%s:%d: syntax error: expected [section], key=value, or a comment", path, line);
+        dth__set_err(err, errlen, "%s:%d: syntax error: expected [section], key=value, or a comment", path, line);
         rc = DTH_EPARSE;
     }
     if (rc) {
@@ -271,13 +261,13 @@ static void trim(const char **b, const char **e)
 int dth_scene_set(dth_scene *s, const char *assignment, char *err, size_t errlen)
 {
     if (!s || !assignment) {
-        set_err(err, errlen, "invalid arguments to dth_scene_set");
+        dth__set_err(err, errlen, "invalid arguments to dth_scene_set");
         return DTH_EINVAL;
     }
     const char *eq = strchr(assignment, '=');
     const char *dot = eq ? memchr(assignment, '.', (size_t)(eq - assignment)) : NULL;
     if (!eq || !dot) {
-        set_err(err, errlen, "-s %s: expected section.key=value", assignment);
+        dth__set_err(err, errlen, "-s %s: expected section.key=value", assignment);
         return DTH_EPARSE;
     }
     const char *sb = assignment, *se = dot, *kb = dot + 1, *ke = eq, *vb = eq + 1,
@@ -286,7 +276,7 @@ int dth_scene_set(dth_scene *s, const char *assignment, char *err, size_t errlen
     trim(&kb, &ke);
     trim(&vb, &ve);
     if (sb == se || kb == ke) {
-        set_err(err, errlen, "-s %s: expected section.key=value", assignment);
+        dth__set_err(err, errlen, "-s %s: expected section.key=value", assignment);
         return DTH_EPARSE;
     }
     size_t olen = strlen(assignment) + 4;
@@ -302,7 +292,7 @@ int dth_scene_set(dth_scene *s, const char *assignment, char *err, size_t errlen
     if (!rc) rc = reserve(s, 1);
     if (rc) {
         if (x.section) entry_free(s->alloc, &x);
-        set_err(err, errlen, "out of memory");
+        dth__set_err(err, errlen, "out of memory");
         return rc;
     }
     put(s, &x);
@@ -570,14 +560,14 @@ static int check_keys(setup_ctx *c, const dth_model_type *type, dth_run_setup *r
         } else if (strcmp(sec, "output") == 0) {
             rc = check_output(c, rs, e);
         } else if (!sec[0]) {
-            set_err(c->err, c->errlen, "%s: key '%s' is outside any [section]", e->origin, k);
+            dth__set_err(c->err, c->errlen, "%s: key '%s' is outside any [section]", e->origin, k);
             return DTH_EINVAL;
         } else {
-            set_err(c->err, c->errlen, "%s: unknown section [%s] (known: model, initial, integrator, regularize, output)",
+            dth__set_err(c->err, c->errlen, "%s: unknown section [%s] (known: model, initial, integrator, regularize, output)",
                     e->origin, sec);
             return DTH_EINVAL;
         }
-        if (rc == DTH_ENOMEM) set_err(c->err, c->errlen, "out of memory");
+        if (rc == DTH_ENOMEM) dth__set_err(c->err, c->errlen, "out of memory");
         if (rc) return rc;
     }
     return DTH_OK;
@@ -590,14 +580,14 @@ static int check_cross(setup_ctx *c, dth_run_setup *rs)
 {
     const char *src = c->s->source ? c->s->source : "scene";
     if (!c->q || !c->p) {
-        set_err(c->err, c->errlen, "%s: missing [initial] %s= (comma-separated initial values)", src, c->q ? "p" : "q");
+        dth__set_err(c->err, c->errlen, "%s: missing [initial] %s= (comma-separated initial values)", src, c->q ? "p" : "q");
         return DTH_EINVAL;
     }
     size_t np = count_items(c->p->value);
     if (np != rs->n)
         return bad(c->err, c->errlen, c->p, "%zu values, but initial.q has %zu (%s)", np, rs->n, c->q->origin);
     if (!c->h) {
-        set_err(c->err, c->errlen, "%s: missing [integrator] h= (the first step; its sign sets the direction)", src);
+        dth__set_err(c->err, c->errlen, "%s: missing [integrator] h= (the first step; its sign sets the direction)", src);
         return DTH_EINVAL;
     }
     if (c->steps && c->t_end && is_override(c->steps) != is_override(c->t_end)) {
@@ -611,7 +601,7 @@ static int check_cross(setup_ctx *c, dth_run_setup *rs)
                    first->section, first->key, first->origin);
     }
     if (!c->steps && !c->t_end) {
-        set_err(c->err, c->errlen, "%s: missing [integrator] steps= or t_end= (how long to run)", src);
+        dth__set_err(c->err, c->errlen, "%s: missing [integrator] steps= or t_end= (how long to run)", src);
         return DTH_EINVAL;
     }
     rs->has_t_end = c->t_end != NULL;
@@ -667,7 +657,7 @@ static int setup_regularizer(const dth_scene *s, const dth_registry *reg, dth_ru
     if (!rc) {
         char rerr[256] = "";
         rc = dth_regularizer_new(t, kv, n, rs->model, s->alloc, &rs->regularizer, rerr, sizeof rerr);
-        if (rc == DTH_ENOMEM) set_err(err, errlen, "out of memory");
+        if (rc == DTH_ENOMEM) dth__set_err(err, errlen, "out of memory");
         else if (rc) {
             const entry *at = em;
             for (size_t i = 0; i < n; i++)
@@ -677,7 +667,7 @@ static int setup_regularizer(const dth_scene *s, const dth_registry *reg, dth_ru
             rs->opt.regularizer = rs->regularizer;
         }
     } else {
-        set_err(err, errlen, "out of memory");
+        dth__set_err(err, errlen, "out of memory");
     }
     dth_free(s->alloc, kv);
     dth_free(s->alloc, ke);
@@ -687,7 +677,7 @@ static int setup_regularizer(const dth_scene *s, const dth_registry *reg, dth_ru
 int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *out, char *err, size_t errlen)
 {
     if (!s || !reg || !out) {
-        set_err(err, errlen, "invalid arguments to dth_scene_setup");
+        dth__set_err(err, errlen, "invalid arguments to dth_scene_setup");
         return DTH_EINVAL;
     }
     const char *src = s->source ? s->source : "scene";
@@ -695,7 +685,7 @@ int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *
     long in = find(s, "model", "name");
     if (in < 0) {
         list_models(reg, names, sizeof names);
-        set_err(err, errlen, "%s: missing [model] name= (known models: %s)", src, names);
+        dth__set_err(err, errlen, "%s: missing [model] name= (known models: %s)", src, names);
         return DTH_EINVAL;
     }
     const entry *ename = &s->e[in];
@@ -719,14 +709,14 @@ int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *
     const entry **kv_entry = dth_calloc(s->alloc, s->n + 1, sizeof *kv_entry);
     size_t nkv = 0;
     int rc = kv && kv_entry ? DTH_OK : DTH_ENOMEM;
-    if (rc) set_err(err, errlen, "out of memory");
+    if (rc) dth__set_err(err, errlen, "out of memory");
     if (!rc) rc = check_keys(&c, type, &rs, kv, kv_entry, &nkv);
     if (!rc) rc = check_cross(&c, &rs);
     if (!rc) {
         char merr[256];
         rc = dth_model_new(type, kv, nkv, rs.n, s->alloc, &rs.model, merr, sizeof merr);
         if (rc == DTH_ENOMEM) {
-            set_err(err, errlen, "out of memory");
+            dth__set_err(err, errlen, "out of memory");
         } else if (rc) {
             /* name the line of the parameter the model complains about; else the q values */
             const entry *at = c.q;
