@@ -11,19 +11,7 @@
 #include <string.h>
 #include <time.h>
 #include "dth/dth.h"
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static int cmp(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
+#include "bench_common.h"
 
 enum { REPEATS = 3 };
 
@@ -70,7 +58,7 @@ static result run(size_t N, const char *structure, long steps)
         }
         dth_integrator_step(it, NULL); /* the exact first step of a midpoint start */
         iters = 0;
-        double t0 = now();
+        double t0 = bench_now();
         for (long k = 0; k < steps; k++) {
             dth_step_info si;
             int rc = dth_integrator_step(it, &si);
@@ -81,10 +69,10 @@ static result run(size_t N, const char *structure, long steps)
             }
             iters += si.iters;
         }
-        t[r] = (now() - t0) / (double)steps * 1e6;
+        t[r] = (bench_now() - t0) / (double)steps * 1e6;
         dth_integrator_free(it);
     }
-    qsort(t, REPEATS, sizeof t[0], cmp);
+    qsort(t, REPEATS, sizeof t[0], bench_cmp_double);
     res.us_step = t[REPEATS / 2];
     res.iters = (double)iters / (double)steps;
     free(q);

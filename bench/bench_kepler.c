@@ -10,19 +10,7 @@
 #include <stdlib.h>
 #include <time.h>
 #include "dth/dth.h"
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static int cmp(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
+#include "bench_common.h"
 
 enum { REPEATS = 7 };
 
@@ -37,7 +25,7 @@ static double time_run(const dth_model *m, double h, const double *q0, const dou
     dth_integrator *it;
     if (dth_integrator_new(m, &o, &it) || dth_integrator_start(it, q0, p0, 0.0)) return -1;
     dth_step_info info;
-    double t0 = now();
+    double t0 = bench_now();
     for (long k = 0; k < steps; k++) {
         if (dth_integrator_step(it, &info)) {
             fprintf(stderr, "step %ld failed: %s\n", k, dth_integrator_errmsg(it));
@@ -46,7 +34,7 @@ static double time_run(const dth_model *m, double h, const double *q0, const dou
         }
         *iters += info.iters;
     }
-    double dt = (now() - t0) / (double)steps;
+    double dt = (bench_now() - t0) / (double)steps;
     *t_covered += dth_integrator_vertex(it)[dth_model_dof(m)];
     dth_integrator_free(it);
     return dt;
@@ -72,8 +60,8 @@ int main(int argc, char **argv)
         tp[r] = time_run(pen, h, &pq, &pp, steps, &ip, &cp);
         if (tk[r] < 0 || tp[r] < 0) return 1;
     }
-    qsort(tk, REPEATS, sizeof(double), cmp);
-    qsort(tp, REPEATS, sizeof(double), cmp);
+    qsort(tk, REPEATS, sizeof(double), bench_cmp_double);
+    qsort(tp, REPEATS, sizeof(double), bench_cmp_double);
     double k = tk[REPEATS / 2], p = tp[REPEATS / 2], nr = (double)REPEATS * (double)steps;
     printf("DTH step cost, h = %g, midpoint start, %ld steps, median of %d runs\n", h, steps, REPEATS);
     printf("  kepler e = 0.6 (n = 2)   %8.3f us  (%.2f Newton iterations per step, mean step %.4f)\n",

@@ -13,13 +13,7 @@
 #include <string.h>
 #include <time.h>
 #include "dth/dth.h"
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
+#include "bench_common.h"
 
 typedef struct problem {
     const char *name;
@@ -104,7 +98,7 @@ static result run(const problem *pb, const dth_regularizer_type *rt, const dth_k
     int has_inv = watch_inv(m, dth_integrator_vertex(it), &I0);
     double lprev = 0;
     int after_reg = 0;
-    double t0 = now();
+    double t0 = bench_now();
     for (long k = 0; k < steps; k++) {
         dth_step_info inf;
         int rc = dth_integrator_step(it, &inf);
@@ -132,7 +126,7 @@ static result run(const problem *pb, const dth_regularizer_type *rt, const dth_k
         if (z[N - 1] != wp0) rs.wp_change = fmax(rs.wp_change, fabs(z[N - 1] - wp0));
         if (has_inv && watch_inv(m, z, &I)) rs.inv_err = fmax(rs.inv_err, fabs(I - I0) / fabs(I0));
     }
-    rs.secs = now() - t0;
+    rs.secs = bench_now() - t0;
     rs.t_end = dth_integrator_vertex(it)[pb->n];
     dth_integrator_free(it);
     dth_regularizer_free(r);

@@ -9,6 +9,7 @@
 #include <stdlib.h>
 #include <time.h>
 #include "dth/dth.h"
+#include "bench_common.h"
 
 /* Count every malloc/calloc/realloc made by the process (the step must make none). */
 extern void *__libc_malloc(size_t);
@@ -21,19 +22,6 @@ void *realloc(void *p, size_t n);
 void *malloc(size_t n) { n_alloc++; return __libc_malloc(n); }
 void *calloc(size_t a, size_t b) { n_alloc++; return __libc_calloc(a, b); }
 void *realloc(void *p, size_t n) { n_alloc++; return __libc_realloc(p, n); }
-
-static double now(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static int cmp(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
 
 enum { REPEATS = 7 };
 
@@ -60,7 +48,7 @@ int main(int argc, char **argv)
         dth_integrator_start(it, &q, &p, 0.0);
         dth_step_info info;
         unsigned long a0 = n_alloc;
-        double t0 = now();
+        double t0 = bench_now();
         for (long k = 0; k < steps; k++) {
             if (dth_integrator_step(it, &info)) {
                 fprintf(stderr, "step failed: %s\n", dth_integrator_errmsg(it));
@@ -68,23 +56,23 @@ int main(int argc, char **argv)
             }
             iters += info.iters;
         }
-        t_dth[r] = (now() - t0) / (double)steps;
+        t_dth[r] = (bench_now() - t0) / (double)steps;
         allocs_in_loop += n_alloc - a0;
         sink += dth_integrator_vertex(it)[0];
         dth_integrator_free(it);
         /* Stormer-Verlet (kick-drift-kick) on the same Hamiltonian, same step */
         double h = o.h, qv = 1.0, pv = 0.0;
-        t0 = now();
+        t0 = bench_now();
         for (long k = 0; k < steps; k++) {
             pv -= 0.5 * h * sin(qv);
             qv += h * pv;
             pv -= 0.5 * h * sin(qv);
         }
-        t_sv[r] = (now() - t0) / (double)steps;
+        t_sv[r] = (bench_now() - t0) / (double)steps;
         sink += qv;
     }
-    qsort(t_dth, REPEATS, sizeof(double), cmp);
-    qsort(t_sv, REPEATS, sizeof(double), cmp);
+    qsort(t_dth, REPEATS, sizeof(double), bench_cmp_double);
+    qsort(t_sv, REPEATS, sizeof(double), bench_cmp_double);
     double dth = t_dth[REPEATS / 2], sv = t_sv[REPEATS / 2];
     printf("pendulum, h = %.3g, %ld steps, median of %d runs\n", o.h, steps, REPEATS);
     printf("  DTH step            %8.3f us   (%.2f Newton iterations per step)\n", 1e6 * dth,
