@@ -40,7 +40,7 @@ typedef struct problem {
 } problem;
 
 typedef struct run_out {
-    long steps, crossings;
+    long steps, crossings, kept;
     int status;
     double t_end, energy, wp_change, L_err, max_ratio, max_ratio_cross, omega_drift, secs, q_end, psi_min, psi_max;
 } run_out;
@@ -141,6 +141,7 @@ static run_out run(const problem *pb, double t_end, long steps)
         double l = dth_integrator_lambda(c.it);
         int cross = (inf.flags & DTH_STEP_CROSSING) != 0;
         if (cross) o.crossings++;
+        if (!(inf.flags & DTH_STEP_REGULARIZED)) o.kept++;
         if (lprev != 0 && k > 1) {
             double q = fabs(l / lprev);
             if (q < 1) q = 1 / q;
@@ -326,13 +327,13 @@ int main(int argc, char **argv)
     printf("# bench_regul2 %g (prescribed regularizer)\n\n", scale);
     /* ---- long runs ---- */
     long R = (long)(10000 * scale);
-    printf("## long runs\n\n| problem | alpha | h | steps | end | t reached | revolutions / orbits | crossings | max midpoint energy residual (rel.) | wp change | max rel. L error | precession per orbit | max step ratio (all / at crossings) | psi range (sampled) | us per step |\n");
-    printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    printf("## long runs\n\n| problem | alpha | h | steps | end | t reached | revolutions / orbits | crossings | max midpoint energy residual (rel.) | wp change | max rel. L error | precession per orbit | max step ratio (all / at crossings) | psi range (sampled) | ordinary steps kept | us per step |\n");
+    printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     {
         run_out o = run(&pend, T * (double)R + 1, 1L << 40);
-        printf("| %s | 0 | %.3g | %ld | %s | %.1f | %.1f | %ld | %.1e | %.1e | - | - | %.4f / %.4f | [%.2g, %.2g] | %.2f |\n", pend.name, pend.h, o.steps,
+        printf("| %s | 0 | %.3g | %ld | %s | %.1f | %.1f | %ld | %.1e | %.1e | - | - | %.4f / %.4f | [%.2g, %.2g] | %ld | %.2f |\n", pend.name, pend.h, o.steps,
                st(o.status), o.t_end, o.q_end / (2 * PI), o.crossings, o.energy, o.wp_change, o.max_ratio, o.max_ratio_cross, o.psi_min,
-               o.psi_max, 1e6 * o.secs / (double)o.steps);
+               o.psi_max, o.kept, 1e6 * o.secs / (double)o.steps);
         fflush(stdout);
     }
     /* Kepler a = mu = 1 from apocentre (period 2 pi); alpha = 0.75 makes lambda ~ r^(3/2) near
@@ -349,9 +350,9 @@ int main(int argc, char **argv)
         kps[i] = kp;
         run_out o = run(&kp, 2 * PI * (double)(i < 2 ? orbits : orbits / 10 + 1), 1L << 40);
         double norb = o.t_end / (2 * PI);
-        printf("| %s | %s | %.3g | %ld | %s | %.1f | %.1f | %ld | %.1e | %.1e | %.1e | %+.3e | %.4f / %.4f | [%.2g, %.2g] | %.2f |\n", knames[i], kc[i].alpha, kp.h,
+        printf("| %s | %s | %.3g | %ld | %s | %.1f | %.1f | %ld | %.1e | %.1e | %.1e | %+.3e | %.4f / %.4f | [%.2g, %.2g] | %ld | %.2f |\n", knames[i], kc[i].alpha, kp.h,
                o.steps, st(o.status), o.t_end, norb, o.crossings, o.energy, o.wp_change, o.L_err, o.omega_drift / norb, o.max_ratio,
-               o.max_ratio_cross, o.psi_min, o.psi_max, 1e6 * o.secs / (double)o.steps);
+               o.max_ratio_cross, o.psi_min, o.psi_max, o.kept, 1e6 * o.secs / (double)o.steps);
         fflush(stdout);
     }
     /* 2-D chain of 3 particles (k = 1, L = 1) started compressed with transverse momenta: psi < 0 at
@@ -360,13 +361,13 @@ int main(int argc, char **argv)
                      {0, 0, 0.5, 0, 1.0, 0}, {0, 1, 0, -2, 0, 1.5}, 0.02, DTH_START_MIDPOINT, {{"alpha", "0"}}, 1, &dth_reg_prescribed, 1};
     {
         run_out o = run(&chain, 200 * scale + 1, 1L << 40);
-        printf("| %s | 0 | %.3g | %ld | %s | %.1f | - | %ld | %.1e | %.1e | %.1e | - | %.4f / %.4f | [%.2g, %.2g] | %.2f |\n", chain.name, chain.h, o.steps,
+        printf("| %s | 0 | %.3g | %ld | %s | %.1f | - | %ld | %.1e | %.1e | %.1e | - | %.4f / %.4f | [%.2g, %.2g] | %ld | %.2f |\n", chain.name, chain.h, o.steps,
                st(o.status), o.t_end, o.crossings, o.energy, o.wp_change, o.L_err, o.max_ratio, o.max_ratio_cross, o.psi_min, o.psi_max,
-               1e6 * o.secs / (double)o.steps);
+               o.kept, 1e6 * o.secs / (double)o.steps);
         problem raw = chain;
         raw.reg = NULL;
         run_out r0 = run(&raw, 200, 1L << 40);
-        printf("| %s, raw DTH | - | %.3g | %ld | %s | %.1f | - | %ld | - | - | - | - | - | - | %.2f |\n", chain.name, chain.h, r0.steps, st(r0.status),
+        printf("| %s, raw DTH | - | %.3g | %ld | %s | %.1f | - | %ld | - | - | - | - | - | - | - | %.2f |\n", chain.name, chain.h, r0.steps, st(r0.status),
                r0.t_end, r0.crossings, 1e6 * r0.secs / (double)(r0.steps ? r0.steps : 1));
         fflush(stdout);
     }
@@ -414,9 +415,9 @@ int main(int argc, char **argv)
         pend4.h = 0.0125;
         pend4.name = "pendulum";
         pend2.name = "pendulum";
-        problem kp2 = kps[0], kp3 = kps[1];
-        const problem *rt[] = {&pend, &pend2, &pend4, &band, &kp2, &kp3, &chain};
-        long S[] = {2000, 4000, 8000, 2000, 4000, 4000, 2000};
+        problem kp2 = kps[0], kp3 = kps[1], kp4 = kps[3];
+        const problem *rt[] = {&pend, &pend2, &pend4, &band, &kp2, &kp3, &kp4, &chain};
+        long S[] = {2000, 4000, 8000, 2000, 4000, 4000, 4000, 2000};
         for (size_t i = 0; i < sizeof rt / sizeof rt[0]; i++) {
             long cr;
             int s2;

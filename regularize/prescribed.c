@@ -24,6 +24,7 @@ typedef struct prescribed {
     size_t n;
     double alpha, arc, band;
     int arc_fixed;             /* arc set (parameter, or at the first step): a constant after that */
+    int fallback;              /* keep the ordinary step where no kicked segment is found */
     double lam_last, mu_last;  /* the last segment's step and kick (0: none yet); a seed only */
     double *ks, *work, *d, *y, *g, *dlast;
 } prescribed;
@@ -32,6 +33,7 @@ static const dth_param_spec params[] = {
     {"alpha", "0", "step law lambda = arc / |u(zbar)|^alpha (0: constant step, 1: constant phase-space arc) (>= 0)"},
     {"arc", "", "the constant arc (> 0); default: |first step| * |u(first vertex)|^alpha"},
     {"band", "0", "hybrid: keep ordinary DTH steps where |psi| > band at both ends (0: kicked segments only)"},
+    {"fallback", "yes", "yes: keep the ordinary DTH step where the kicked segment has no solution (no: refuse)"},
 };
 
 static int param_err(const dth_reg_args *a, const char *key, const char *what)
@@ -47,6 +49,7 @@ static int create(const dth_reg_args *a, void **self)
     prescribed *r = dth_calloc(a->alloc, 1, sizeof *r);
     if (!r) return DTH_ENOMEM;
     *self = r;
+    r->fallback = 1;
     for (size_t i = 0; i < a->nkv; i++) {
         const char *k = a->kv[i].key, *v = a->kv[i].value;
         if (!strcmp(k, "alpha") && (dth_parse_double(v, &r->alpha) || !(r->alpha >= 0) || !isfinite(r->alpha)))
@@ -54,6 +57,11 @@ static int create(const dth_reg_args *a, void **self)
         if (!strcmp(k, "arc")) {
             if (dth_parse_double(v, &r->arc) || !(r->arc > 0) || !isfinite(r->arc)) return param_err(a, k, "a number > 0");
             r->arc_fixed = 1;
+        }
+        if (!strcmp(k, "fallback")) {
+            if (!strcmp(v, "yes")) r->fallback = 1;
+            else if (!strcmp(v, "no")) r->fallback = 0;
+            else return param_err(a, k, "yes or no");
         }
         if (!strcmp(k, "band") && (dth_parse_double(v, &r->band) || !(r->band >= 0) || !isfinite(r->band)))
             return param_err(a, k, "a number >= 0");
@@ -198,6 +206,13 @@ static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
     int iters = 0;
     int rc = solve(r, ev, &lam, &mu, &res, &iters);
     act->iters = iters;
+    if (rc > 0 && ev->plain_status == DTH_OK && r->fallback) {
+        /* no kicked segment (its Newton fails where dH(zbar)/dmu passes 0): keep the ordinary
+         * DTH step, itself its own reverse; the next step returns to the law */
+        r->lam_last = 0;
+        act->what = DTH_REG_KEEP;
+        return DTH_OK;
+    }
     if (rc) return rc < 0 ? rc : DTH_EREFUSED;
     memcpy(act->d, r->d, ev->N * sizeof *act->d);
     act->lambda[0] = lam;

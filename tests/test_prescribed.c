@@ -240,6 +240,52 @@ static void test_kick_order(void)
     CU_ASSERT(k1 > 0 && k1 <= 1e-4);
 }
 
+/*
+ * Where the kicked segment has no solution: Kepler e = 0.99, h = 0.0125, a midpoint at the
+ * first pericentre (t = pi). With L projected out of the kick, H(zbar(mu)) has a minimum above 0
+ * there (dH/dmu = |n|^2/2 + (lambda/4) u^T H_zz n + ... passes 0), so fallback=no refuses and
+ * fallback=yes keeps the ordinary DTH step there once and carries on (energy still exact).
+ */
+static void test_no_segment_at_pericentre(void)
+{
+    double e = 0.99, q0[2] = {-(1 + e), 0}, p0[2] = {0, -sqrt((1 - e) / (1 + e))};
+    for (int fb = 0; fb < 2; fb++) {
+        dth_model *m = NULL;
+        dth_regularizer *r = NULL;
+        dth_integrator *it = NULL;
+        char err[256];
+        dth_kv kv[] = {{"alpha", "0.75"}, {"fallback", fb ? "yes" : "no"}};
+        CU_ASSERT_FATAL(dth_model_new(&dth_model_kepler, NULL, 0, 2, NULL, &m, err, sizeof err) == DTH_OK);
+        CU_ASSERT_FATAL(dth_regularizer_new(&dth_reg_prescribed, kv, 2, m, NULL, &r, err, sizeof err) == DTH_OK);
+        dth_options o;
+        dth_options_default(&o);
+        o.h = 0.0125;
+        o.regularizer = r;
+        o.branch_check = 0;
+        CU_ASSERT_FATAL(dth_integrator_new(m, &o, &it) == DTH_OK);
+        CU_ASSERT_FATAL(dth_integrator_start(it, q0, p0, 0.0) == DTH_OK);
+        double wp0 = dth_integrator_vertex(it)[5];
+        int rc = DTH_OK, kept = 0;
+        long k;
+        for (k = 0; k < 2000 && !rc; k++) {
+            dth_step_info inf;
+            rc = dth_integrator_step(it, &inf);
+            if (!rc && k > 0 && !(inf.flags & DTH_STEP_REGULARIZED)) kept++;
+        }
+        if (fb) {
+            CU_ASSERT_EQUAL(rc, DTH_OK);
+            CU_ASSERT_EQUAL(kept, 1);
+            CU_ASSERT(dth_integrator_vertex(it)[5] == wp0);
+        } else {
+            CU_ASSERT_EQUAL(rc, DTH_EREFUSED);
+            CU_ASSERT(fabs(dth_integrator_vertex(it)[2] - PI) < 0.01);
+        }
+        dth_integrator_free(it);
+        dth_regularizer_free(r);
+        dth_model_free(m);
+    }
+}
+
 /* Parameters are checked; the type is registered under its name. */
 static void test_params(void)
 {
@@ -247,8 +293,8 @@ static void test_params(void)
     dth_regularizer *r = NULL;
     char err[256];
     CU_ASSERT_FATAL(dth_model_new(&dth_model_pendulum, NULL, 0, 1, NULL, &m, err, sizeof err) == DTH_OK);
-    dth_kv bad[] = {{"alpha", "-1"}, {"arc", "0"}, {"band", "x"}, {"step", "1"}};
-    for (size_t i = 0; i < 4; i++) {
+    dth_kv bad[] = {{"alpha", "-1"}, {"arc", "0"}, {"band", "x"}, {"step", "1"}, {"fallback", "maybe"}};
+    for (size_t i = 0; i < 5; i++) {
         CU_ASSERT_EQUAL(dth_regularizer_new(&dth_reg_prescribed, &bad[i], 1, m, NULL, &r, err, sizeof err), DTH_EINVAL);
         CU_ASSERT(r == NULL);
         CU_ASSERT(strstr(err, bad[i].key) != NULL);
@@ -270,6 +316,7 @@ static CU_TestInfo tests[] = {
     {"2-D chain: crossings, round trip, momenta", test_chain},
     {"pendulum phase: second order", test_phase_order},
     {"kick is O(h^3)", test_kick_order},
+    {"kepler e=0.99: no kicked segment at a pericentre (fallback)", test_no_segment_at_pericentre},
     {"parameters and registry", test_params},
     CU_TEST_INFO_NULL,
 };
