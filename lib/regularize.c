@@ -182,8 +182,9 @@ static size_t quad_invariant_basis(const dth_model *model, const double *y, doub
     int keep[64];
     if (ni > 64) return 0;
     /* third difference along v = (1, .., 1) (t untouched): zero for quadratics up to round-off */
-    double ynorm = 1;
-    for (size_t i = 0; i < 2 * n + 1; i++) ynorm = fmax(ynorm, fabs(y[i]));
+    double ynorm = 1; /* over (q, p) only: t grows without bound and would blow the probe up */
+    for (size_t i = 0; i < 2 * n + 1; i++)
+        if (i != n) ynorm = fmax(ynorm, fabs(y[i]));
     double e = 1e-2 * ynorm / sqrt((double)q);
     for (size_t j = 0; j < ni; j++) keep[j] = 1;
     double c4[4] = {-1.5, -0.5, 0.5, 1.5}, w4[4] = {-1, 3, -3, 1};
