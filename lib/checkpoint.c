@@ -161,6 +161,11 @@ static void put_state(wr *w, const dth_integrator *it)
         put_f64s(w, it->Af, m * m);
         for (size_t i = 0; i < m; i++) put_u32(w, (uint32_t)it->pivf[i]);
     }
+    /* the regularizer's own state (a constant fixed at its first step, seeds), as its bytes */
+    size_t rl = dth__reg_state_size(it->reg);
+    put_u64(w, rl);
+    if (rl && w->buf && w->len + rl <= w->cap) dth__reg_save_state(it->reg, w->buf + w->len);
+    w->len += rl;
 }
 
 int dth_checkpoint_save(const dth_integrator *it, const dth_blob *blobs, size_t nblobs, void *buf,
@@ -246,6 +251,8 @@ typedef struct st {
     double lam, lam_hint, dir, h, lam_fact;
     uint64_t steps;
     size_t pos_z, pos_af; /* reader positions of the vectors */
+    uint64_t reg_len;     /* bytes of regularizer state */
+    size_t pos_reg;
 } st;
 
 static int read_state(rd *r, st *s, char *err, size_t errlen)
@@ -295,6 +302,14 @@ static int read_state(rd *r, st *s, char *err, size_t errlen)
             dth__set_err(err, errlen, "checkpoint factors are invalid");
             return DTH_EPARSE;
         }
+    }
+    s->reg_len = get_u64(r);
+    s->pos_reg = r->pos;
+    if (!r->bad && s->reg_len > r->len - r->pos) r->bad = 1;
+    if (!r->bad) get_bytes(r, s->reg_len);
+    if (r->bad) {
+        dth__set_err(err, errlen, "checkpoint regularizer state is invalid");
+        return DTH_EPARSE;
     }
     return DTH_OK;
 }
@@ -358,6 +373,16 @@ int dth_checkpoint_restore(dth_integrator *it, const void *buf, size_t len, char
     }
     if ((int)s.factors != (s.fact_valid && !it->band)) {
         dth__set_err(err, errlen, "checkpoint factors do not match this integrator's (dense/banded) solve");
+        return DTH_EPARSE;
+    }
+    if (s.reg_len != dth__reg_state_size(it->reg)) {
+        dth__set_err(err, errlen, "checkpoint holds %llu bytes of regularizer state, this integrator's regularizer %zu",
+                     (unsigned long long)s.reg_len, dth__reg_state_size(it->reg));
+        return DTH_EINVAL;
+    }
+    /* the regularizer checks its bytes first: nothing is changed if it rejects them */
+    if (s.reg_len && dth__reg_load_state(it->reg, (const unsigned char *)r.p + s.pos_reg, (size_t)s.reg_len)) {
+        dth__set_err(err, errlen, "checkpoint regularizer state is rejected by the regularizer");
         return DTH_EPARSE;
     }
     /* everything is valid: commit */

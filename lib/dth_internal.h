@@ -14,6 +14,13 @@ const void *dth__model_self(const dth_model *m);
 int dth__model_accepts_key(const dth_model_type *t, const char *key);
 /** u = J grad H over y = (q, t, p): (dH/dp, 1, -dH/dq). */
 void dth__flow_y(size_t n, const double *grad, double *u);
+struct dth_regularizer;
+/** Bytes of state a regularizer instance carries (0: stateless or NULL). */
+size_t dth__reg_state_size(const struct dth_regularizer *r);
+/** Save that state into buf (dth__reg_state_size bytes). */
+void dth__reg_save_state(const struct dth_regularizer *r, void *buf);
+/** Load it back; -1 if len does not match or the regularizer rejects the bytes. */
+int dth__reg_load_state(struct dth_regularizer *r, const void *buf, size_t len);
 /** printf into a caller's message buffer (err may be NULL or len 0: nothing is written). */
 void dth__set_err(char *err, size_t len, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 /** Parse a comma-separated list of finite doubles; 0 on success. */

@@ -73,6 +73,22 @@ void dth_regularizer_free(dth_regularizer *r)
 
 const dth_regularizer_type *dth_regularizer_get_type(const dth_regularizer *r) { return r ? r->type : NULL; }
 
+size_t dth__reg_state_size(const dth_regularizer *r)
+{
+    return r && r->type->state_size && r->type->save_state && r->type->load_state ? r->type->state_size(r->self) : 0;
+}
+
+void dth__reg_save_state(const dth_regularizer *r, void *buf)
+{
+    if (dth__reg_state_size(r)) r->type->save_state(r->self, buf);
+}
+
+int dth__reg_load_state(dth_regularizer *r, const void *buf, size_t len)
+{
+    if (len != dth__reg_state_size(r)) return -1;
+    return len ? r->type->load_state(r->self, buf, len) : 0;
+}
+
 int dth_regularizer_apply(dth_regularizer *r, const dth_reg_event *ev, dth_reg_action *act)
 {
     if (!r || !ev || !act) return DTH_EINVAL;

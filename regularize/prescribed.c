@@ -233,6 +233,38 @@ static int admit(void *self, const double *za, const double *zb, double lambda)
     return fabs(psa) > r->band && fabs(psb) > r->band;
 }
 
+/* The state a checkpoint keeps: arc once fixed, and the last segment (the next solve's seed). */
+static size_t state_size(const void *self)
+{
+    const prescribed *r = self;
+    return (4 + (2 * r->n + 2)) * sizeof(double);
+}
+
+static void save_state(const void *self, void *buf)
+{
+    const prescribed *r = self;
+    double head[4] = {r->arc, (double)r->arc_fixed, r->lam_last, r->mu_last};
+    memcpy(buf, head, sizeof head);
+    memcpy((char *)buf + sizeof head, r->dlast, (2 * r->n + 2) * sizeof(double));
+}
+
+static int load_state(void *self, const void *buf, size_t len)
+{
+    prescribed *r = self;
+    double head[4];
+    if (len != state_size(self)) return -1;
+    memcpy(head, buf, sizeof head);
+    if (!(head[1] == 0 || head[1] == 1) || (head[1] == 1 && !(head[0] > 0 && isfinite(head[0]))) ||
+        !isfinite(head[2]) || !isfinite(head[3]))
+        return -1;
+    r->arc = head[0];
+    r->arc_fixed = (int)head[1];
+    r->lam_last = head[2];
+    r->mu_last = head[3];
+    memcpy(r->dlast, (const char *)buf + sizeof head, (2 * r->n + 2) * sizeof(double));
+    return 0;
+}
+
 const dth_regularizer_type dth_reg_prescribed = {
     .name = "prescribed",
     .doc = "every step a kicked segment with lambda = arc/|u(zbar)|^alpha at its own midpoint: energy-exact, keeps quadratic invariants, exactly reversible, smooth through psi = 0; not symplectic at any step",
@@ -242,4 +274,7 @@ const dth_regularizer_type dth_reg_prescribed = {
     .destroy = destroy,
     .apply = apply,
     .admit = admit,
+    .state_size = state_size,
+    .save_state = save_state,
+    .load_state = load_state,
 };

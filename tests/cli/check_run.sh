@@ -50,9 +50,12 @@ resume_check dense "$SC/pendulum.ini" "-s integrator.t_end=12" "-s integrator.t_
 resume_check every "$SC/harmonic.ini" "-s integrator.steps=500" "-s integrator.steps=233" -s output.every=7
 resume_check reg "$SC/pendulum-rotation.ini" "-s integrator.steps=600" "-s integrator.steps=250" \
     -s regularize.method=reseed -s regularize.step=0.1 -s output.diagnostics=yes
+# a regularizer with state of its own (a constant fixed at its first step, its solver's seed)
+resume_check prescribed "$SC/pendulum-rotation-prescribed.ini" "-s integrator.t_end=30" "-s integrator.t_end=11"
+resume_check prescribed_kepler "$SC/kepler-e09-prescribed.ini" "-s integrator.t_end=40" "-s integrator.t_end=13"
 crossings=$(awk -F, 'NR > 1 && $NF == "reg"' "$T/reg-ref.csv" | wc -l)
 [ "$crossings" -ge 4 ] || fail "reg: only $crossings regularized steps in the reference"
-ok "resume is bit-identical (steps, t_end, dt, every, $crossings regularized steps)"
+ok "resume is bit-identical (steps, t_end, dt, every, $crossings regularized steps, prescribed)"
 
 # a run killed at any moment: resume from its last checkpoint
 "$DTH" run "$SC/pendulum.ini" -s integrator.steps=400000 -o "$T/kill-ref.csv" 2>/dev/null

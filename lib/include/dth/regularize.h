@@ -98,6 +98,14 @@ typedef struct dth_regularizer_type {
      * the unordered pair {za, zb} and |lambda| only.
      */
     int (*admit)(void *self, const double *za, const double *zb, double lambda);
+    /**
+     * Optional, for a regularizer whose instance carries state from step to step (a constant
+     * fixed at the first step, a predictor's seed): its size in bytes, and save/load of it, so
+     * that checkpoints restart bit for bit. NULL: the instance is stateless.
+     */
+    size_t (*state_size)(const void *self);
+    void (*save_state)(const void *self, void *buf);
+    int (*load_state)(void *self, const void *buf, size_t len); /**< 0, or < 0 if invalid */
 } dth_regularizer_type;
 
 /** An instance: a type plus its state. Opaque. Not shared between integrators running at once. */
