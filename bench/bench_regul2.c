@@ -141,7 +141,7 @@ static run_out run(const problem *pb, double t_end, long steps)
         double l = dth_integrator_lambda(c.it);
         int cross = (inf.flags & DTH_STEP_CROSSING) != 0;
         if (cross) o.crossings++;
-        if (!(inf.flags & DTH_STEP_REGULARIZED)) o.kept++;
+        if (k > 0 && !(inf.flags & DTH_STEP_REGULARIZED)) o.kept++; /* not the exact first step */
         if (lprev != 0 && k > 1) {
             double q = fabs(l / lprev);
             if (q < 1) q = 1 / q;
@@ -337,8 +337,9 @@ int main(int argc, char **argv)
         fflush(stdout);
     }
     /* Kepler a = mu = 1 from apocentre (period 2 pi); alpha = 0.75 makes lambda ~ r^(3/2) near
-     * pericentre (|u| ~ 1/r^2), Sundman's time transformation */
-    struct { double e, h; const char *alpha; } kc[] = {{0.9, 0.05, "0.75"}, {0.99, 0.025, "0.75"}, {0.9, 0.025, "0.75"}, {0.99, 0.0125, "0.75"}};
+     * pericentre (|u| ~ 1/r^2), Sundman's time transformation, alpha = 1 lambda ~ r^2; no fallback:
+     * every step is a kicked segment or the run ends */
+    struct { double e, h; const char *alpha; } kc[] = {{0.9, 0.05, "0.75"}, {0.99, 0.025, "1"}, {0.9, 0.025, "0.75"}, {0.99, 0.0125, "1"}};
     long orbits = (long)(1000 * scale);
     if (orbits < 1) orbits = 1;
     problem kps[4];
@@ -346,7 +347,7 @@ int main(int argc, char **argv)
     for (size_t i = 0; i < 4; i++) {
         snprintf(knames[i], sizeof knames[i], "kepler e=%g apocentre", kc[i].e);
         problem kp = {knames[i], &dth_model_kepler, {{0}}, 0, 2, {-(1 + kc[i].e), 0}, {0, -sqrt((1 - kc[i].e) / (1 + kc[i].e))},
-                      kc[i].h, DTH_START_MIDPOINT, {{"alpha", kc[i].alpha}}, 1, &dth_reg_prescribed, 1};
+                      kc[i].h, DTH_START_MIDPOINT, {{"alpha", kc[i].alpha}, {"fallback", "no"}}, 2, &dth_reg_prescribed, 1};
         kps[i] = kp;
         run_out o = run(&kp, 2 * PI * (double)(i < 2 ? orbits : orbits / 10 + 1), 1L << 40);
         double norb = o.t_end / (2 * PI);
@@ -415,9 +416,14 @@ int main(int argc, char **argv)
         pend4.h = 0.0125;
         pend4.name = "pendulum";
         pend2.name = "pendulum";
-        problem kp2 = kps[0], kp3 = kps[1], kp4 = kps[3];
+        problem kp2 = kps[0], kp3 = kps[1], kp4 = kps[1];
+        /* a midpoint on the first pericentre, where no kicked segment exists: one fallback step */
+        kp4.h = 0.0125;
+        kp4.rkv[0] = (dth_kv){"alpha", "0.75"};
+        kp4.rkv[1] = (dth_kv){"fallback", "yes"};
+        kp4.name = "kepler e=0.99 alpha=0.75 fallback=yes";
         const problem *rt[] = {&pend, &pend2, &pend4, &band, &kp2, &kp3, &kp4, &chain};
-        long S[] = {2000, 4000, 8000, 2000, 4000, 4000, 4000, 2000};
+        long S[] = {2000, 4000, 8000, 2000, 4000, 20000, 4000, 2000};
         for (size_t i = 0; i < sizeof rt / sizeof rt[0]; i++) {
             long cr;
             int s2;
