@@ -567,6 +567,7 @@ int cli_cmd_run(int argc, char **argv)
             rc = st_step(&st, &s);
             if (rc) break;
             account(&L, &s);
+            L.in = s;
             L.k++;
             if (kb % rs.every == 0 || kb == k1) {
                 werr = row(&r, L.k, st_vertex(&st), &s, -s.lambda, rs.opt.K);

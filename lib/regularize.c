@@ -443,7 +443,7 @@ int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_bran
     }
     /* the ordinary step failed or crossed psi = 0: ask the regularizer */
     dth_reg_event ev = {it->model, N, it->z, it->zlo, it->lam, it->dir, sa, rc, plain_ok ? dd : NULL,
-                        plain_ok ? sol->lambda : 0.0, plain_ok ? sb : 0};
+                        plain_ok ? sol->lambda : 0.0, plain_ok ? sb : 0, it->have_prev ? it->dprev : NULL};
     memset(ad, 0, DTH_REG_MAX_SEG * N * sizeof *ad);
     memset(fix, 0, N * sizeof *fix);
     dth_reg_action act = {DTH_REG_KEEP, 0, {0}, ad, fix, 0.0, 0};

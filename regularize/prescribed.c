@@ -4,7 +4,7 @@
  * a kicked segment (dth_kicked_segment: midpoint on H = 0, chord (lambda J grad H + mu n)(zbar))
  * whose time step is prescribed by a law evaluated at the segment's own midpoint,
  *     lambda = dir * arc / |u(zbar)|^alpha,   u = the (q, p) part of J grad H,
- * with arc a constant fixed once (parameter, or at the first step from |lambda| |u(z)|^alpha).
+ * with arc a constant fixed once (parameter, or from the first step: |lambda| |u(its midpoint)|^alpha).
  * The law depends on the midpoint only and each kicked segment is its own reverse, so the step
  * map is exactly time-reversible with no switching decision; the step varies smoothly through
  * psi = 0 and the step never ends there (dH/dmu = |n|^2/2 != 0 away from equilibria). Energy is
@@ -31,7 +31,7 @@ typedef struct prescribed {
 
 static const dth_param_spec params[] = {
     {"alpha", "0", "step law lambda = arc / |u(zbar)|^alpha (0: constant step, 1: constant phase-space arc) (>= 0)"},
-    {"arc", "", "the constant arc (> 0); default: |first step| * |u(first vertex)|^alpha"},
+    {"arc", "", "the constant arc (> 0); default: |first step| * |u(its midpoint)|^alpha"},
     {"band", "0", "hybrid: keep ordinary DTH steps where |psi| > band at both ends (0: kicked segments only)"},
     {"fallback", "yes", "yes: keep the ordinary DTH step where the kicked segment has no solution (no: refuse)"},
 };
@@ -195,8 +195,17 @@ static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
         /* fix the constant once, from the first step this instance sees */
         double l0 = ev->lam_in != 0 ? fabs(ev->lam_in) : (ev->plain_status == DTH_OK ? fabs(ev->plain_lambda) : 0);
         if (!(l0 > 0)) return DTH_EREFUSED;
+        /* the speed at the incoming step's midpoint when there is one (then that step, e.g. the
+         * exact first step of a midpoint start, obeys the law itself and a round trip retraces
+         * it), else at the vertex */
         double speed;
-        int rc = speed_at(r, ev->z, ev->zlo, NULL, &speed);
+        int rc;
+        if (ev->lam_in != 0 && ev->in_d) {
+            for (size_t j = 0; j < ev->N; j++) r->dlast[j] = -ev->in_d[j];
+            rc = speed_at(r, ev->z, ev->zlo, r->dlast, &speed);
+        } else {
+            rc = speed_at(r, ev->z, ev->zlo, NULL, &speed);
+        }
         if (rc) return rc;
         r->arc = r->alpha == 0 ? l0 : l0 * pow(speed, r->alpha);
         if (!(r->arc > 0) || !isfinite(r->arc)) return DTH_EREFUSED;

@@ -253,13 +253,23 @@ static void test_no_segment_at_pericentre(void)
         dth_model *m = NULL;
         dth_regularizer *r = NULL;
         dth_integrator *it = NULL;
-        char err[256];
-        dth_kv kv[] = {{"alpha", "0.75"}, {"fallback", fb ? "yes" : "no"}};
+        char err[256], arc[64];
         CU_ASSERT_FATAL(dth_model_new(&dth_model_kepler, NULL, 0, 2, NULL, &m, err, sizeof err) == DTH_OK);
-        CU_ASSERT_FATAL(dth_regularizer_new(&dth_reg_prescribed, kv, 2, m, NULL, &r, err, sizeof err) == DTH_OK);
         dth_options o;
         dth_options_default(&o);
         o.h = 0.0125;
+        /* the arc measured at the first vertex after the exact first step (an explicit arc= keeps
+         * this configuration, in which a midpoint lands on the first pericentre) */
+        CU_ASSERT_FATAL(dth_integrator_new(m, &o, &it) == DTH_OK);
+        CU_ASSERT_FATAL(dth_integrator_start(it, q0, p0, 0.0) == DTH_OK);
+        CU_ASSERT_FATAL(dth_integrator_step(it, NULL) == DTH_OK);
+        double g[5], H;
+        CU_ASSERT_FATAL(dth_model_eval(m, dth_integrator_vertex(it), DTH_EVAL_GRAD, &H, g, NULL) == DTH_OK);
+        snprintf(arc, sizeof arc, "%.17g", o.h * pow(sqrt(g[0] * g[0] + g[1] * g[1] + g[3] * g[3] + g[4] * g[4]), 0.75));
+        dth_integrator_free(it);
+        it = NULL;
+        dth_kv kv[] = {{"alpha", "0.75"}, {"fallback", fb ? "yes" : "no"}, {"arc", arc}};
+        CU_ASSERT_FATAL(dth_regularizer_new(&dth_reg_prescribed, kv, 3, m, NULL, &r, err, sizeof err) == DTH_OK);
         o.regularizer = r;
         o.branch_check = 0;
         CU_ASSERT_FATAL(dth_integrator_new(m, &o, &it) == DTH_OK);

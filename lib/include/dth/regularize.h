@@ -51,6 +51,8 @@ typedef struct dth_reg_event {
     const double *plain_d;  /**< its midpoint offset zbar - z_k (N), NULL unless plain_status == 0 */
     double plain_lambda;    /**< its lambda (0 unless plain_status == 0) */
     int plain_psi_sign;     /**< sign of psi at the vertex it reaches (0 unless plain_status == 0) */
+    const double *in_d;     /**< the incoming step's midpoint offset zbar - z_(k-1) (N): its midpoint
+                                 is z_k - in_d; NULL if there is no incoming step */
 } dth_reg_event;
 
 /** dth_reg_action.what (bit flags). */
