@@ -339,7 +339,7 @@ int main(int argc, char **argv)
     /* Kepler a = mu = 1 from apocentre (period 2 pi); alpha = 0.75 makes lambda ~ r^(3/2) near
      * pericentre (|u| ~ 1/r^2), Sundman's time transformation, alpha = 1 lambda ~ r^2; no fallback:
      * every step is a kicked segment or the run ends */
-    struct { double e, h; const char *alpha; } kc[] = {{0.9, 0.05, "0.75"}, {0.99, 0.025, "1"}, {0.9, 0.025, "0.75"}, {0.99, 0.0125, "1"}};
+    struct { double e, h; const char *alpha; } kc[] = {{0.9, 0.05, "1"}, {0.99, 0.025, "1"}, {0.9, 0.025, "1"}, {0.99, 0.0125, "1"}};
     long orbits = (long)(1000 * scale);
     if (orbits < 1) orbits = 1;
     problem kps[4];
