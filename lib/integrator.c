@@ -424,14 +424,19 @@ int dth__newton(dth_integrator *it, double lam0, const double *d0, dth__solution
             break;
         }
         if (r >= 0.5 * r_prev) {
-            /* The correction stopped decreasing: accept only if the residual is at round-off. */
-            double fs = 0;
+            /* The correction stopped decreasing: accept only if the energy residual is at
+             * round-off and the state residual at round-off or below what the noise of lambda
+             * itself causes (lambda is fixed by a second-order effect, so its correction can
+             * stall well above eps: paper, Lemma g_taylor; a residual d - (lambda/2) u then
+             * carries (dlambda/2) u). */
+            double fs = 0, ds = 0, rl = fabs(it->dx[m - 1]) / fabs(x[m - 1]);
             for (int a = 0; a < m - 1; a++) {
                 int j = it->act[a];
                 fs = fmax(fs, fabs(F[a]) / bs[block_of(it, j)]);
+                ds = fmax(ds, fabs(x[a]) / bs[block_of(it, j)]);
             }
             double hs = h_scale(it, zb, Hphys);
-            if (fs <= 1e3 * DBL_EPSILON && fabs(F[m - 1]) <= 1e3 * DBL_EPSILON * hs) break;
+            if (fs <= 1e3 * DBL_EPSILON + 2 * fmin(rl, 1e-6) * ds && fabs(F[m - 1]) <= 1e3 * DBL_EPSILON * hs) break;
             if (iter >= 8) {
                 seterr(it, "Newton stalled at relative correction %.3g (residual %.3g)", r, fabs(F[m - 1]));
                 return DTH_ENOCONV;
