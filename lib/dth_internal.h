@@ -10,6 +10,8 @@
 
 /** The model's own state pointer (for calling optional callbacks directly). */
 const void *dth__model_self(const dth_model *m);
+/** Bit j set: invariant j is (at most) quadratic in (q, p), as probed once when the model was made. */
+unsigned long long dth__model_quad_mask(const dth_model *m);
 /** 1 if the model type's parameter spec accepts `key`. */
 int dth__model_accepts_key(const dth_model_type *t, const char *key);
 /** u = J grad H over y = (q, t, p): (dH/dp, 1, -dH/dq). */

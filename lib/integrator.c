@@ -535,6 +535,14 @@ int dth_integrator_step(dth_integrator *it, dth_step_info *info)
         info->branch = DTH_BRANCH_EXACT;
         return DTH_OK;
     }
+    int pre = 0;
+    if (it->reg && dth__reg_replaces_all(it)) {
+        /* a regularizer that replaces every step: no ordinary step unless it keeps one */
+        int rc = dth__reg_pre(it, info);
+        if (rc != DTH__REG_PLAIN) return rc;
+        pre = 1;
+    }
+    int pre_iters = info->iters;
     double lam0;
     const double *d0;
     if (it->have_prev) {
@@ -556,12 +564,16 @@ int dth_integrator_step(dth_integrator *it, dth_step_info *info)
     }
     dth__solution sol = {NAN, NAN, 0};
     int rc = dth__newton(it, lam0, d0, &sol);
-    info->iters = sol.iters;
+    info->iters = pre_iters + sol.iters;
     info->residual = sol.residual;
     /* which root (branch.c): Newton's if physical, else the physical root ahead, else a status */
     dth_branch br;
     rc = dth__branch_select(it, rc, &sol, &br);
-    if (it->reg) return dth__reg_step(it, rc, &sol, br, info); /* psi = 0 crossings (regularize.c) */
+    if (it->reg) {
+        /* psi = 0 crossings (regularize.c) */
+        sol.iters += pre_iters;
+        return dth__reg_step(it, rc, &sol, br, info, pre);
+    }
     if (rc) {
         if (rc == DTH_ENOROOT && isfinite(sol.lambda)) info->lambda = sol.lambda;
         return rc;

@@ -36,6 +36,7 @@ struct dth_integrator {
     dth_regularizer *reg;
     int psi_sign, psi_known;
     double *rbuf;     /* (4 + DTH_REG_MAX_SEG) N doubles of hook workspace */
+    unsigned reg_what; /* within one step: what a hook asked before the ordinary step (KEEP [| FIXUP]) */
     char errmsg[192];
 };
 
@@ -71,8 +72,18 @@ int dth__branch_select(dth_integrator *it, int rc, dth__solution *sol, dth_branc
 int dth__integrator_commit(dth_integrator *it, double lam);
 /**
  * With a regularizer attached: take the ordinary step `rc` / `sol` (root `br`) if it succeeded
- * without changing the sign of psi, else call the hook and commit what it decides.
+ * without changing the sign of psi, else call the hook and commit what it decides. pre != 0: the
+ * hook was already asked (dth__reg_pre) and kept the ordinary step; commit it, or return its status.
  */
-int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_branch br, dth_step_info *info);
+int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_branch br, dth_step_info *info, int pre);
+/** Nonzero if the attached regularizer replaces every step (its type's replaces_all). */
+int dth__reg_replaces_all(const dth_integrator *it);
+/** dth__reg_pre's answer: the hook kept the ordinary step, which is still to be computed. */
+#define DTH__REG_PLAIN 1000
+/**
+ * For a regularizer that replaces every step: ask the hook before any ordinary step is computed
+ * (ev.plain_pending = 1). Returns DTH_OK (its step is committed), a status, or DTH__REG_PLAIN.
+ */
+int dth__reg_pre(dth_integrator *it, dth_step_info *info);
 
 #endif

@@ -4,6 +4,7 @@
  * model checker, and parameter-parsing helpers for model writers.
  */
 #include <errno.h>
+#include <float.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -16,6 +17,7 @@ struct dth_model {
     void *self;
     dth_model_info info;
     const dth_allocator *alloc;
+    unsigned long long quad_mask; /* bit j: invariant j is (at most) quadratic in (q, p) */
 };
 
 void dth__set_err(char *err, size_t len, const char *fmt, ...)
@@ -42,6 +44,67 @@ static int spec_accepts(const dth_model_type *t, const char *key)
 }
 
 int dth__model_accepts_key(const dth_model_type *t, const char *key) { return spec_accepts(t, key); }
+
+/*
+ * Which invariants are (at most) quadratic in (q, p), for the kicked segment's projection
+ * (regularize.c: the midpoint identity keeps exactly those). Decided once per instance, so that the
+ * projection cannot switch along a trajectory: the third difference along two directions must be
+ * at round-off at every probe point where the invariants evaluate (three points in [0.25, 1.25]^d
+ * for models defined on a positive orthant, three in [-1, 1]^d; t = 0), and at least two points
+ * must evaluate. A non-polynomial invariant passes only if its third differences vanish at all of
+ * them. Invariants beyond the 64th are never projected.
+ */
+static int probe_quadratic(const dth_model *m, unsigned long long *mask)
+{
+    *mask = 0;
+    const dth_model_type *t = m->type;
+    size_t ni = (t->n_invariants && t->invariants) ? t->n_invariants(m->self) : 0, n = m->info.n, d = 2 * n + 1;
+    if (!ni) return DTH_OK;
+    if (ni > 64) ni = 64;
+    size_t nall = t->n_invariants(m->self);
+    double *buf = dth_calloc(m->alloc, 3 * d + 2 * nall, sizeof *buf);
+    if (!buf) return DTH_ENOMEM;
+    double *y0 = buf, *v = buf + d, *ys = buf + 2 * d, *I = buf + 3 * d, *D = I + nall;
+    unsigned long long seed = 0x9E3779B97F4A7C15ull, pass = (ni == 64) ? ~0ull : ((1ull << ni) - 1);
+    int valid = 0;
+    const double c4[4] = {-1.5, -0.5, 0.5, 1.5}, w4[4] = {-1, 3, -3, 1};
+    for (int pt = 0; pt < 6; pt++) {
+        for (size_t i = 0; i < d; i++) {
+            seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+            double u = (double)(seed >> 11) * 0x1.0p-53; /* [0, 1) */
+            y0[i] = i == n ? 0 : (pt < 3 ? 0.25 + u : 2 * u - 1);
+        }
+        int ok = 1;
+        unsigned long long here = pass;
+        for (int dir = 0; dir < 2 && ok; dir++) {
+            for (size_t i = 0; i < d; i++) {
+                seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+                v[i] = i == n ? 0 : 0.05 * ((double)(seed >> 11) * 0x1.0p-52 - 1);
+            }
+            double mag[64] = {0};
+            for (size_t j = 0; j < nall; j++) D[j] = 0;
+            for (int k = 0; k < 4 && ok; k++) {
+                for (size_t i = 0; i < d; i++) ys[i] = y0[i] + c4[k] * v[i];
+                if (t->invariants(m->self, ys, I) != 0) ok = 0;
+                for (size_t j = 0; ok && j < ni; j++) {
+                    if (!isfinite(I[j])) ok = 0;
+                    D[j] += w4[k] * I[j];
+                    mag[j] += fabs(I[j]);
+                }
+            }
+            for (size_t j = 0; ok && j < ni; j++)
+                if (!(fabs(D[j]) <= 1e3 * DBL_EPSILON * mag[j])) here &= ~(1ull << j);
+        }
+        if (!ok) continue;
+        valid++;
+        pass &= here;
+    }
+    dth_free(m->alloc, buf);
+    *mask = valid >= 2 ? pass : 0;
+    return DTH_OK;
+}
+
+unsigned long long dth__model_quad_mask(const dth_model *m) { return m ? m->quad_mask : 0; }
 
 int dth_model_new(const dth_model_type *type, const dth_kv *kv, size_t nkv, size_t n_hint,
                   const dth_allocator *alloc, dth_model **out, char *err, size_t errlen)
@@ -80,6 +143,15 @@ int dth_model_new(const dth_model_type *type, const dth_kv *kv, size_t nkv, size
         dth_free(alloc, m);
         if (err && errlen && !err[0]) dth__set_err(err, errlen, "model '%s': %s", type->name, dth_strerror(rc));
         return rc < 0 ? rc : DTH_EINVAL;
+    }
+    if (rc == DTH_OK && probe_quadratic(m, &m->quad_mask) != DTH_OK) {
+        dth__set_err(err, errlen, "out of memory");
+        rc = DTH_ENOMEM;
+    }
+    if (rc != DTH_OK) {
+        if (m->self && type->destroy) type->destroy(m->self, alloc);
+        dth_free(alloc, m);
+        return rc;
     }
     *out = m;
     return DTH_OK;

@@ -159,7 +159,7 @@ double dth_cubic_root(double H, double psi, double dpsi, double side)
 static size_t ks_layout(size_t n, size_t ninv, size_t *off)
 {
     size_t d = 2 * n + 1, m = 2 * n + 1, q = 2 * n;
-    size_t sz[] = {d, d, d * d, m * m, m, m, q, ninv * q, 2 * ninv + 8, d, (m + 1) / 2 + 1, ninv};
+    size_t sz[] = {d, d, d * d, m * m, m, m, q, ninv * q, 2 * ninv + 8, d, (m + 1) / 2 + 1, q};
     size_t tot = 0;
     for (size_t i = 0; i < sizeof sz / sizeof sz[0]; i++) {
         off[i] = tot;
@@ -182,42 +182,25 @@ size_t dth_kicked_segment_work_size(const dth_model *model)
 
 /*
  * Gradients over (q, p) of the invariants that are at most quadratic, by central differences
- * (exact up to round-off for such invariants), orthonormalized into G (rows). Invariants of
- * higher degree are detected by a third difference along a fixed direction and skipped: the
- * midpoint identity only keeps quadratic ones, and projecting out e.g. the Runge-Lenz vector
- * would remove the whole kick. Returns the number of rows kept.
+ * (exact up to round-off for such invariants), orthonormalized into G (rows). Which invariants
+ * are quadratic was probed once when the model was made (model.c): the midpoint identity only
+ * keeps those, projecting out e.g. the Runge-Lenz vector would remove the whole kick, and a test
+ * at the current point could switch the projection between two Newton iterations (a third
+ * difference along one direction vanishes on a hypersurface). Row j holds S grad I_j (S = diag(sc), the kick's metric) before
+ * the orthonormalization. Returns the number of rows kept.
  */
-static size_t quad_invariant_basis(const dth_model *model, const double *y, double *G, double *ys,
-                                   double *tmp, double *Ik)
+static size_t quad_invariant_basis(const dth_model *model, const double *y, const double *sc, double *G,
+                                   double *ys, double *tmp)
 {
     const dth_model_type *t = dth_model_get_type(model);
     const void *self = dth__model_self(model);
     size_t n = dth_model_dof(model), q = 2 * n, ni = model_ninv(model), kept = 0;
     if (!ni) return 0;
-    double *Ip = tmp, *Im = tmp + ni, *I4 = tmp + 2 * ni; /* I4: 4 samples, reused */
+    double *Ip = tmp, *Im = tmp + ni;
     int keep[64];
     if (ni > 64) return 0;
-    /* third difference along v = (1, .., 1) (t untouched): zero for quadratics up to round-off */
-    double ynorm = 1; /* over (q, p) only: t grows without bound and would blow the probe up */
-    for (size_t i = 0; i < 2 * n + 1; i++)
-        if (i != n) ynorm = fmax(ynorm, fabs(y[i]));
-    double e = 1e-2 * ynorm / sqrt((double)q);
-    for (size_t j = 0; j < ni; j++) keep[j] = 1;
-    double c4[4] = {-1.5, -0.5, 0.5, 1.5}, w4[4] = {-1, 3, -3, 1};
-    for (size_t j = 0; j < ni; j++) Ik[j] = 0;
-    double mag[64] = {0};
-    for (int k = 0; k < 4; k++) {
-        memcpy(ys, y, (2 * n + 1) * sizeof *ys);
-        for (size_t i = 0; i < 2 * n + 1; i++)
-            if (i != n) ys[i] += c4[k] * e;
-        if (t->invariants(self, ys, I4) != 0) return 0;
-        for (size_t j = 0; j < ni; j++) {
-            Ik[j] += w4[k] * I4[j];
-            mag[j] += fabs(I4[j]);
-        }
-    }
-    for (size_t j = 0; j < ni; j++)
-        if (!(fabs(Ik[j]) <= 1e3 * DBL_EPSILON * mag[j] + 1e-300)) keep[j] = 0;
+    unsigned long long mask = dth__model_quad_mask(model);
+    for (size_t j = 0; j < ni; j++) keep[j] = (int)((mask >> j) & 1u);
     /* gradients by central differences */
     for (size_t j = 0; j < ni; j++)
         if (keep[j])
@@ -230,7 +213,7 @@ static size_t quad_invariant_basis(const dth_model *model, const double *y, doub
         if (t->invariants(self, ys, Ip) != 0) return 0;
         ys[yi] = y[yi] - h;
         if (t->invariants(self, ys, Im) != 0) return 0;
-        for (size_t j = 0; j < ni; j++) G[j * q + i] = (Ip[j] - Im[j]) / (2 * h);
+        for (size_t j = 0; j < ni; j++) G[j * q + i] = sc[i] * (Ip[j] - Im[j]) / (2 * h);
     }
     /* modified Gram-Schmidt over the kept rows, dropping dependent ones */
     for (size_t j = 0; j < ni; j++) {
@@ -253,6 +236,44 @@ static size_t quad_invariant_basis(const dth_model *model, const double *y, doub
     return kept;
 }
 
+/*
+ * The kick's metric S = diag(s_q I, s_p I) at the midpoint, from the Hessian's blocks:
+ * s_q / s_p = rho = sqrt(|H_pp| / |H_qq|) (Frobenius norms), s_q s_p = 1. In the coordinates
+ * this metric makes Euclidean, the two blocks of the Hessian have the same size, the local
+ * frequency sqrt(|H_qq| |H_pp|); the part of dH(zbar)/dmu that the flow couples in, relative to the
+ * kick's own |P S grad H|^2, is then bounded by lambda omega / (2 sin theta), theta the angle
+ * between S grad H and the invariants' S grad I. With the Euclidean metric instead that bound grows
+ * like |H_qq| / (omega sin theta): at a Kepler pericentre (|H_qq| ~ 2/r^3) grad H and grad L are then
+ * nearly parallel (theta ~ r^1.5) and dH/dmu could pass through 0 (no kicked segment). A block
+ * that vanishes (a free particle, the pendulum at q = pi/2) falls back to rho = 1 or is clamped
+ * to [1e-6, 1e6]. Used only for models with quadratic invariants to project: with none, n = grad H
+ * and the Euclidean metric is kept (for the rotating pendulum the scaled kick triples the period
+ * error's constant). A function of the midpoint only, so the segment stays its own reverse.
+ */
+static void kick_metric(const dth_model *model, size_t n, const double *hs, double *sc)
+{
+    size_t d = 2 * n + 1;
+    double fq = 0, fp = 0;
+    if (!dth__model_quad_mask(model)) {
+        /* nothing to project: n = grad H, dH/dmu = |grad H|^2/2 + O(lambda) */
+        for (size_t i = 0; i < 2 * n; i++) sc[i] = 1;
+        return;
+    }
+    for (size_t i = 0; i < n; i++)
+        for (size_t j = 0; j < n; j++) {
+            fq += hs[i * d + j] * hs[i * d + j];
+            fp += hs[(n + 1 + i) * d + (n + 1 + j)] * hs[(n + 1 + i) * d + (n + 1 + j)];
+        }
+    double rho = 1;
+    if (fq > 0 && fp > 0 && isfinite(fq) && isfinite(fp))
+        rho = fmin(1e6, fmax(1e-6, sqrt(sqrt(fp / fq))));
+    double s_q = sqrt(rho), s_p = 1 / s_q;
+    for (size_t i = 0; i < n; i++) {
+        sc[i] = s_q;
+        sc[n + i] = s_p;
+    }
+}
+
 int dth_kicked_segment(const dth_model *model, const double *z, const double *zlo, double lambda,
                        double *dz, double *mu, double *residual, int *iters, double *work)
 {
@@ -264,7 +285,7 @@ int dth_kicked_segment(const dth_model *model, const double *z, const double *zl
     ks_layout(n, ni, off);
     double *y = work + off[0], *g = work + off[1], *hs = work + off[2], *A = work + off[3];
     double *F = work + off[4], *x = work + off[5], *nv = work + off[6], *G = work + off[7];
-    double *tmp = work + off[8], *ys = work + off[9], *Ik = work + off[11];
+    double *tmp = work + off[8], *ys = work + off[9], *sc = work + off[11];
     int *piv = (int *)(work + off[10]);
     double wp = z[N - 1] + (zlo ? zlo[N - 1] : 0);
     for (size_t i = 0; i < n; i++) {
@@ -283,17 +304,21 @@ int dth_kicked_segment(const dth_model *model, const double *z, const double *zl
         }
         int rc = dth_model_eval(model, y, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &H, g, hs);
         if (rc) return rc;
-        /* kick direction: (q, p) part of grad H, quadratic invariants projected out */
+        /* kick direction: n = S P S grad H over (q, p), with S = diag(sc) the kick's metric and
+         * P the projector off S grad I of the quadratic invariants: grad I . n = 0 (the midpoint
+         * identity keeps I) and grad H . n = |P S grad H|^2 > 0 */
+        kick_metric(model, n, hs, sc);
         for (size_t i = 0; i < n; i++) {
-            nv[i] = g[i];
-            nv[n + i] = g[n + 1 + i];
+            nv[i] = sc[i] * g[i];
+            nv[n + i] = sc[n + i] * g[n + 1 + i];
         }
-        size_t kept = quad_invariant_basis(model, y, G, ys, tmp, Ik);
+        size_t kept = quad_invariant_basis(model, y, sc, G, ys, tmp);
         for (size_t r = 0; r < kept; r++) {
             double dot = 0;
             for (size_t i = 0; i < q; i++) dot += nv[i] * G[r * q + i];
             for (size_t i = 0; i < q; i++) nv[i] -= dot * G[r * q + i];
         }
+        for (size_t i = 0; i < q; i++) nv[i] *= sc[i];
         /* F = d - (lambda/2) u - (mu/2) n, u = (dH/dp, -dH/dq); F_last = wp + H */
         double lam = lambda, kmu = x[q];
         for (size_t i = 0; i < n; i++) {
@@ -310,20 +335,21 @@ int dth_kicked_segment(const dth_model *model, const double *z, const double *zl
             for (size_t b = 0; b < q; b++) {
                 size_t yb = b < n ? b : b + 1;
                 A[a + b * (size_t)m] = (a == b ? 1.0 : 0.0) - 0.5 * lam * su * hs[ua * d + yb] -
-                                       0.5 * kmu * hs[ya * d + yb];
+                                       0.5 * kmu * sc[a] * sc[a] * hs[ya * d + yb];
             }
             A[a + q * (size_t)m] = -0.5 * nv[a];
             A[q + a * (size_t)m] = g[ya];
         }
         A[q + q * (size_t)m] = 0;
-        /* the kick's Hessian term projected like n itself, P H with P = I - G^T G (without it
-         * Newton converges only linearly where grad H is far from n, e.g. Kepler pericentres) */
+        /* the kick's Hessian term projected like n itself, S P S H with P = I - G^T G (without
+         * it Newton converges only linearly where grad H is far from n, e.g. Kepler pericentres);
+         * the derivatives of S and P are left out (they are multiplied by mu) */
         for (size_t rr = 0; rr < kept; rr++)
             for (size_t b = 0; b < q; b++) {
                 size_t yb = b < n ? b : b + 1;
                 double sb = 0;
-                for (size_t c = 0; c < q; c++) sb += G[rr * q + c] * hs[(c < n ? c : c + 1) * d + yb];
-                for (size_t a = 0; a < q; a++) A[a + b * (size_t)m] += 0.5 * kmu * G[rr * q + a] * sb;
+                for (size_t c = 0; c < q; c++) sb += G[rr * q + c] * sc[c] * hs[(c < n ? c : c + 1) * d + yb];
+                for (size_t a = 0; a < q; a++) A[a + b * (size_t)m] += 0.5 * kmu * sc[a] * G[rr * q + a] * sb;
             }
         rc = dth__lu_factor(m, A, piv);
         if (rc) return rc;
@@ -334,16 +360,16 @@ int dth_kicked_segment(const dth_model *model, const double *z, const double *zl
         double r = 0, rd = 0, zs = 1e-300;
         for (int a = 0; a < m; a++) {
             x[a] -= F[a];
-            double sc;
-            if (a == m - 1) sc = fabs(x[a]) + fabs(lam) + 1e-300; /* mu next to the flow term */
+            double scl;
+            if (a == m - 1) scl = fabs(x[a]) + fabs(lam) + 1e-300; /* mu next to the flow term */
             else {
                 size_t j = (size_t)a < n ? (size_t)a : (size_t)a + 1;
-                sc = fabs(z[j]) + fabs(y[j]) + 1e-300;
+                scl = fabs(z[j]) + fabs(y[j]) + 1e-300;
             }
-            r = fmax(r, fabs(F[a]) / sc);
+            r = fmax(r, fabs(F[a]) / scl);
             if (a < m - 1) {
                 rd = fmax(rd, fabs(F[a]));
-                zs = fmax(zs, sc);
+                zs = fmax(zs, scl);
             }
         }
         rd /= zs;
@@ -400,12 +426,63 @@ static int psi_sign_at(dth_integrator *it, const double *z, int *sign)
     return DTH_OK;
 }
 
-int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_branch br, dth_step_info *info)
+/* The event the hook sees at the current vertex (plain: the ordinary step's outcome, or NULL). */
+static dth_reg_event reg_event(dth_integrator *it, int rc, int plain_ok, const double *dd, double plain_lambda, int sb)
+{
+    dth_reg_event ev = {it->model, it->N, it->z, it->zlo, it->lam, it->dir, it->psi_sign, rc, plain_ok ? dd : NULL,
+                        plain_ok ? plain_lambda : 0.0, plain_ok ? sb : 0, it->have_prev ? it->dprev : NULL, 0};
+    return ev;
+}
+
+static int reg_apply(dth_integrator *it, const dth_reg_event *ev, dth_reg_action *act, dth_step_info *info)
+{
+    size_t N = it->N;
+    double *fix = it->rbuf + 2 * N, *ad = it->rbuf + 4 * N;
+    memset(ad, 0, DTH_REG_MAX_SEG * N * sizeof *ad);
+    memset(fix, 0, N * sizeof *fix);
+    *act = (dth_reg_action){DTH_REG_KEEP, 0, {0}, ad, fix, 0.0, 0};
+    int r = dth_regularizer_apply(it->reg, ev, act);
+    info->iters += act->iters;
+    if (r)
+        snprintf(it->errmsg, sizeof it->errmsg, "regularizer '%s' stopped the run: %s",
+                 dth_regularizer_get_type(it->reg)->name, dth_strerror(r));
+    return r;
+}
+
+static int reg_finish(dth_integrator *it, const dth_reg_action *act, int rc, int plain_ok, const dth__solution *sol,
+                      dth_branch br, dth_step_info *info);
+
+int dth__reg_replaces_all(const dth_integrator *it)
+{
+    const dth_regularizer_type *t = it->reg ? dth_regularizer_get_type(it->reg) : NULL;
+    return t && t->replaces_all && t->replaces_all(it->reg->self);
+}
+
+int dth__reg_pre(dth_integrator *it, dth_step_info *info)
+{
+    if (!it->psi_known) {
+        int r = psi_sign_at(it, it->z, &it->psi_sign);
+        if (r) return r;
+        it->psi_known = 1;
+    }
+    dth_reg_event ev = reg_event(it, DTH_EUNSUPPORTED, 0, NULL, 0, 0);
+    ev.plain_pending = 1;
+    dth_reg_action act;
+    int r = reg_apply(it, &ev, &act, info);
+    if (r) return r;
+    if (!(act.what & DTH_REG_REPLACE)) {
+        /* compute the ordinary step; dth__reg_step then takes it (with the fix-up, if any) */
+        it->reg_what = act.what;
+        return DTH__REG_PLAIN;
+    }
+    return reg_finish(it, &act, DTH_EUNSUPPORTED, 0, NULL, DTH_BRANCH_REG, info);
+}
+
+int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_branch br, dth_step_info *info, int pre)
 {
     size_t N = it->N;
     int m = it->m;
-    double *cand = it->rbuf, *dd = it->rbuf + N, *fix = it->rbuf + 2 * N, *zt = it->rbuf + 3 * N;
-    double *ad = it->rbuf + 4 * N; /* DTH_REG_MAX_SEG * N: the hook's segment offsets */
+    double *cand = it->rbuf, *dd = it->rbuf + N;
     if (rc < 0) return rc;
     int plain_ok = rc == DTH_OK && sol->lambda * it->dir > 0;
     if (rc == DTH_OK && !plain_ok) {
@@ -422,6 +499,14 @@ int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_bran
         for (size_t j = 0; j < N; j++) dd[j] = 0;
         for (int a = 0; a < m - 1; a++) dd[it->act[a]] = it->x[a];
         if (it->auton) dd[it->n] = 0.5 * sol->lambda;
+    }
+    dth_reg_action act;
+    if (pre) {
+        /* the hook was asked before the ordinary step (dth__reg_pre) and kept it */
+        act = (dth_reg_action){it->reg_what, 0, {0}, it->rbuf + 4 * N, it->rbuf + 2 * N, 0.0, 0};
+        return reg_finish(it, &act, rc, plain_ok, sol, br, info);
+    }
+    if (plain_ok) {
         for (size_t j = 0; j < N; j++) cand[j] = it->z[j] + (2 * dd[j] + it->zlo[j]);
         int r = psi_sign_at(it, cand, &sb);
         if (r) return r;
@@ -442,18 +527,21 @@ int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_bran
         }
     }
     /* the ordinary step failed or crossed psi = 0: ask the regularizer */
-    dth_reg_event ev = {it->model, N, it->z, it->zlo, it->lam, it->dir, sa, rc, plain_ok ? dd : NULL,
-                        plain_ok ? sol->lambda : 0.0, plain_ok ? sb : 0, it->have_prev ? it->dprev : NULL};
-    memset(ad, 0, DTH_REG_MAX_SEG * N * sizeof *ad);
-    memset(fix, 0, N * sizeof *fix);
-    dth_reg_action act = {DTH_REG_KEEP, 0, {0}, ad, fix, 0.0, 0};
-    int r = dth_regularizer_apply(it->reg, &ev, &act);
-    info->iters += act.iters;
-    if (r) {
-        snprintf(it->errmsg, sizeof it->errmsg, "regularizer '%s' stopped the run: %s",
-                 dth_regularizer_get_type(it->reg)->name, dth_strerror(r));
-        return r;
-    }
+    dth_reg_event ev = reg_event(it, rc, plain_ok, dd, plain_ok ? sol->lambda : 0.0, sb);
+    int r = reg_apply(it, &ev, &act, info);
+    if (r) return r;
+    return reg_finish(it, &act, rc, plain_ok, sol, br, info);
+}
+
+/* Commit the hook's answer: its segments, or the ordinary step (plain_ok), then the fix-up. Every
+ * check is done before the state is touched. */
+static int reg_finish(dth_integrator *it, const dth_reg_action *act_in, int rc, int plain_ok, const dth__solution *sol,
+                      dth_branch br, dth_step_info *info)
+{
+    size_t N = it->N;
+    int m = it->m, r, sa = it->psi_sign, sb = 0;
+    double *dd = it->rbuf + N, *fix = it->rbuf + 2 * N, *zt = it->rbuf + 3 * N, *ad = it->rbuf + 4 * N;
+    dth_reg_action act = *act_in;
     int nseg = (act.what & DTH_REG_REPLACE) ? (act.nseg > 0 ? act.nseg : 1) : 0;
     if (nseg > DTH_REG_MAX_SEG) return DTH_EREFUSED;
     if (!nseg && !plain_ok) return rc;

@@ -215,7 +215,7 @@ static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
     int iters = 0;
     int rc = solve(r, ev, &lam, &mu, &res, &iters);
     act->iters = iters;
-    if (rc > 0 && ev->plain_status == DTH_OK && r->fallback) {
+    if (rc > 0 && (ev->plain_status == DTH_OK || ev->plain_pending) && r->fallback) {
         /* no kicked segment (its Newton fails where dH(zbar)/dmu passes 0): keep the ordinary
          * DTH step, itself its own reverse; the next step returns to the law */
         r->lam_last = 0;
@@ -240,6 +240,13 @@ static int admit(void *self, const double *za, const double *zb, double lambda)
     double psa, psb;
     if (dth_model_psi(r->model, za, &psa, NULL, r->work) || dth_model_psi(r->model, zb, &psb, NULL, r->work)) return -1;
     return fabs(psa) > r->band && fabs(psb) > r->band;
+}
+
+/* Without a band every step is a kicked segment: the ordinary step need not be computed first. */
+static int replaces_all(const void *self)
+{
+    const prescribed *r = self;
+    return !(r->band > 0);
 }
 
 /* The state a checkpoint keeps: arc once fixed, and the last segment (the next solve's seed). */
@@ -286,4 +293,5 @@ const dth_regularizer_type dth_reg_prescribed = {
     .state_size = state_size,
     .save_state = save_state,
     .load_state = load_state,
+    .replaces_all = replaces_all,
 };

@@ -241,54 +241,105 @@ static void test_kick_order(void)
 }
 
 /*
- * Where the kicked segment has no solution: Kepler e = 0.99, h = 0.0125, a midpoint at the
- * first pericentre (t = pi). With L projected out of the kick, H(zbar(mu)) has a minimum above 0
- * there (dH/dmu = |n|^2/2 + (lambda/4) u^T H_zz n + ... passes 0), so fallback=no refuses and
- * fallback=yes keeps the ordinary DTH step there once and carries on (energy still exact).
+ * Existence where it used to fail: Kepler e = 0.99, h = 0.0125, alpha = 0.75, a midpoint on the
+ * first pericentre (t = pi). With L projected out of a Euclidean kick, H(zbar(mu)) had a minimum
+ * above 0 there (dH/dmu = |n|^2/2 + (lambda/4) u^T H_zz n passed 0: at a pericentre grad H and
+ * grad L are nearly parallel in the Euclidean metric). The kick's scaled metric (regularize.c,
+ * kick_metric) makes them far from parallel: with fallback=no every step through 10 pericentres is
+ * a kicked segment, wp is bit-identical and L is kept.
  */
-static void test_no_segment_at_pericentre(void)
+static void test_segment_at_pericentre(void)
 {
     double e = 0.99, q0[2] = {-(1 + e), 0}, p0[2] = {0, -sqrt((1 - e) / (1 + e))};
+    dth_model *m = NULL;
+    dth_regularizer *r = NULL;
+    dth_integrator *it = NULL;
+    char err[256], arc[64];
+    CU_ASSERT_FATAL(dth_model_new(&dth_model_kepler, NULL, 0, 2, NULL, &m, err, sizeof err) == DTH_OK);
+    dth_options o;
+    dth_options_default(&o);
+    o.h = 0.0125;
+    /* the arc measured at the first vertex after the exact first step (the configuration in
+     * which a midpoint lands on the first pericentre) */
+    CU_ASSERT_FATAL(dth_integrator_new(m, &o, &it) == DTH_OK);
+    CU_ASSERT_FATAL(dth_integrator_start(it, q0, p0, 0.0) == DTH_OK);
+    CU_ASSERT_FATAL(dth_integrator_step(it, NULL) == DTH_OK);
+    double g[5], H, I[4];
+    CU_ASSERT_FATAL(dth_model_eval(m, dth_integrator_vertex(it), DTH_EVAL_GRAD, &H, g, NULL) == DTH_OK);
+    snprintf(arc, sizeof arc, "%.17g", o.h * pow(sqrt(g[0] * g[0] + g[1] * g[1] + g[3] * g[3] + g[4] * g[4]), 0.75));
+    dth_integrator_free(it);
+    it = NULL;
+    dth_kv kv[] = {{"alpha", "0.75"}, {"fallback", "no"}, {"arc", arc}};
+    CU_ASSERT_FATAL(dth_regularizer_new(&dth_reg_prescribed, kv, 3, m, NULL, &r, err, sizeof err) == DTH_OK);
+    o.regularizer = r;
+    o.branch_check = 0;
+    CU_ASSERT_FATAL(dth_integrator_new(m, &o, &it) == DTH_OK);
+    CU_ASSERT_FATAL(dth_integrator_start(it, q0, p0, 0.0) == DTH_OK);
+    double wp0 = dth_integrator_vertex(it)[5];
+    CU_ASSERT_FATAL(dth_model_invariants(m, dth_integrator_vertex(it), I) == DTH_OK);
+    double L0 = I[0], dL = 0;
+    int peri = 0, crossings = 0;
+    long k;
+    for (k = 0; dth_integrator_vertex(it)[2] < 20 * PI; k++) {
+        dth_step_info inf;
+        int rc = dth_integrator_step(it, &inf);
+        CU_ASSERT_EQUAL_FATAL(rc, DTH_OK);
+        if (k > 0) CU_ASSERT_FATAL(inf.flags & DTH_STEP_REGULARIZED);
+        if (inf.flags & DTH_STEP_CROSSING) crossings++;
+        const double *z = dth_integrator_vertex(it);
+        if (hypot(z[0], z[1]) < 0.02) peri = 1;
+        CU_ASSERT_FATAL(dth_model_invariants(m, z, I) == DTH_OK);
+        dL = fmax(dL, fabs(I[0] - L0));
+    }
+    CU_ASSERT(peri);
+    CU_ASSERT(crossings >= 36); /* four per orbit */
+    CU_ASSERT(dth_integrator_vertex(it)[5] == wp0);
+    CU_ASSERT(dL <= 1e-15);
+    dth_integrator_free(it);
+    dth_regularizer_free(r);
+    dth_model_free(m);
+}
+
+/*
+ * Where no kicked segment can exist: the 1-D harmonic oscillator reports its energy as a
+ * (quadratic) invariant, so projecting it out leaves no kick. fallback=no refuses at the first
+ * replaced step with the state untouched; fallback=yes keeps every ordinary DTH step (energy
+ * exact, the run carries on).
+ */
+static void test_fallback(void)
+{
+    double q0 = 1, p0 = 0;
     for (int fb = 0; fb < 2; fb++) {
         dth_model *m = NULL;
         dth_regularizer *r = NULL;
         dth_integrator *it = NULL;
-        char err[256], arc[64];
-        CU_ASSERT_FATAL(dth_model_new(&dth_model_kepler, NULL, 0, 2, NULL, &m, err, sizeof err) == DTH_OK);
+        char err[256];
+        CU_ASSERT_FATAL(dth_model_new(&dth_model_harmonic, NULL, 0, 1, NULL, &m, err, sizeof err) == DTH_OK);
+        dth_kv kv[] = {{"fallback", fb ? "yes" : "no"}};
+        CU_ASSERT_FATAL(dth_regularizer_new(&dth_reg_prescribed, kv, 1, m, NULL, &r, err, sizeof err) == DTH_OK);
         dth_options o;
         dth_options_default(&o);
-        o.h = 0.0125;
-        /* the arc measured at the first vertex after the exact first step (an explicit arc= keeps
-         * this configuration, in which a midpoint lands on the first pericentre) */
-        CU_ASSERT_FATAL(dth_integrator_new(m, &o, &it) == DTH_OK);
-        CU_ASSERT_FATAL(dth_integrator_start(it, q0, p0, 0.0) == DTH_OK);
-        CU_ASSERT_FATAL(dth_integrator_step(it, NULL) == DTH_OK);
-        double g[5], H;
-        CU_ASSERT_FATAL(dth_model_eval(m, dth_integrator_vertex(it), DTH_EVAL_GRAD, &H, g, NULL) == DTH_OK);
-        snprintf(arc, sizeof arc, "%.17g", o.h * pow(sqrt(g[0] * g[0] + g[1] * g[1] + g[3] * g[3] + g[4] * g[4]), 0.75));
-        dth_integrator_free(it);
-        it = NULL;
-        dth_kv kv[] = {{"alpha", "0.75"}, {"fallback", fb ? "yes" : "no"}, {"arc", arc}};
-        CU_ASSERT_FATAL(dth_regularizer_new(&dth_reg_prescribed, kv, 3, m, NULL, &r, err, sizeof err) == DTH_OK);
+        o.h = 0.1;
+        o.start = DTH_START_MIDPOINT;
         o.regularizer = r;
-        o.branch_check = 0;
         CU_ASSERT_FATAL(dth_integrator_new(m, &o, &it) == DTH_OK);
-        CU_ASSERT_FATAL(dth_integrator_start(it, q0, p0, 0.0) == DTH_OK);
-        double wp0 = dth_integrator_vertex(it)[5];
+        CU_ASSERT_FATAL(dth_integrator_start(it, &q0, &p0, 0.0) == DTH_OK);
+        CU_ASSERT_FATAL(dth_integrator_step(it, NULL) == DTH_OK); /* the exact first step */
+        double z1[4], wp0 = dth_integrator_vertex(it)[3];
+        memcpy(z1, dth_integrator_vertex(it), sizeof z1);
         int rc = DTH_OK, kept = 0;
-        long k;
-        for (k = 0; k < 2000 && !rc; k++) {
+        for (int k = 0; k < 100 && !rc; k++) {
             dth_step_info inf;
             rc = dth_integrator_step(it, &inf);
-            if (!rc && k > 0 && !(inf.flags & DTH_STEP_REGULARIZED)) kept++;
+            if (!rc && !(inf.flags & DTH_STEP_REGULARIZED)) kept++;
         }
         if (fb) {
             CU_ASSERT_EQUAL(rc, DTH_OK);
-            CU_ASSERT_EQUAL(kept, 1);
-            CU_ASSERT(dth_integrator_vertex(it)[5] == wp0);
+            CU_ASSERT_EQUAL(kept, 100);
+            CU_ASSERT(dth_integrator_vertex(it)[3] == wp0);
         } else {
             CU_ASSERT_EQUAL(rc, DTH_EREFUSED);
-            CU_ASSERT(fabs(dth_integrator_vertex(it)[2] - PI) < 0.01);
+            CU_ASSERT(memcmp(z1, dth_integrator_vertex(it), sizeof z1) == 0);
         }
         dth_integrator_free(it);
         dth_regularizer_free(r);
@@ -326,7 +377,8 @@ static CU_TestInfo tests[] = {
     {"2-D chain: crossings, round trip, momenta", test_chain},
     {"pendulum phase: second order", test_phase_order},
     {"kick is O(h^3)", test_kick_order},
-    {"kepler e=0.99: no kicked segment at a pericentre (fallback)", test_no_segment_at_pericentre},
+    {"kepler e=0.99: a kicked segment at every step through pericentres", test_segment_at_pericentre},
+    {"no kick possible (1-D harmonic): fallback keeps the ordinary step, or refuses", test_fallback},
     {"parameters and registry", test_params},
     CU_TEST_INFO_NULL,
 };

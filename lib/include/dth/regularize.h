@@ -15,6 +15,9 @@
  * vertex. Returning a nonzero status (typically DTH_EREFUSED) ends the step with that status and
  * leaves the integrator's state untouched.
  *
+ * A type whose instance replaces every step (replaces_all) is instead called at every step, before
+ * any ordinary step is computed.
+ *
  * Attach an instance through dth_options.regularizer. A user's regularizer is just another table;
  * dth_kicked_segment() is the building block the shipped ones use.
  */
@@ -53,6 +56,9 @@ typedef struct dth_reg_event {
     int plain_psi_sign;     /**< sign of psi at the vertex it reaches (0 unless plain_status == 0) */
     const double *in_d;     /**< the incoming step's midpoint offset zbar - z_(k-1) (N): its midpoint
                                  is z_k - in_d; NULL if there is no incoming step */
+    int plain_pending;      /**< 1: the ordinary step has not been computed (the type's replaces_all
+                                 said so; plain_status is then DTH_EUNSUPPORTED): answering KEEP
+                                 computes it and takes it, or ends the step with its status */
 } dth_reg_event;
 
 /** dth_reg_action.what (bit flags). */
@@ -108,6 +114,12 @@ typedef struct dth_regularizer_type {
     size_t (*state_size)(const void *self);
     void (*save_state)(const void *self, void *buf);
     int (*load_state)(void *self, const void *buf, size_t len); /**< 0, or < 0 if invalid */
+    /**
+     * Optional: nonzero if this instance replaces every step. The integrator then calls apply at
+     * every step *before* computing the ordinary step (ev->plain_pending = 1), which saves that
+     * step's cost; admit is not called. NULL: apply is called only at the events above.
+     */
+    int (*replaces_all)(const void *self);
 } dth_regularizer_type;
 
 /** An instance: a type plus its state. Opaque. Not shared between integrators running at once. */
