@@ -441,8 +441,38 @@ int main(int argc, char **argv)
         tangent_defect(&raw, 0, 1e-7, 2, &b2n);
         printf("| pendulum raw DTH h=0.05 | - | - | - | - | - / %.1e | - / %.1e | - / %.1e |\n", dn, bn, b2n);
     }
+    /* ---- existence: a grid of Kepler runs with fallback = no (every step a kicked segment) ---- */
+    {
+        long no = (long)(100 * scale);
+        if (no < 2) no = 2;
+        printf("\n## existence: Kepler from apocentre, fallback = no; orbits completed of %ld (end status if short)\n\n", no);
+        const double es[] = {0.6, 0.9, 0.99}, hs[] = {0.1, 0.05, 0.025};
+        const char *as[] = {"0", "0.5", "0.75", "1"};
+        printf("| e | alpha | h = 0.1 | h = 0.05 | h = 0.025 |\n|---|---|---|---|---|\n");
+        long runs = 0, full = 0;
+        for (size_t ie = 0; ie < 3; ie++)
+            for (size_t ia = 0; ia < 4; ia++) {
+                printf("| %g | %s |", es[ie], as[ia]);
+                for (size_t ih = 0; ih < 3; ih++) {
+                    double e = es[ie];
+                    problem kp = {"kepler", &dth_model_kepler, {{0}}, 0, 2, {-(1 + e), 0}, {0, -sqrt((1 - e) / (1 + e))}, hs[ih],
+                                  DTH_START_MIDPOINT, {{"alpha", as[ia]}, {"fallback", "no"}}, 2, &dth_reg_prescribed, 1};
+                    run_out o = run(&kp, 2 * PI * (double)no, 1L << 40);
+                    runs++;
+                    if (!o.status) {
+                        full++;
+                        printf(" %ld |", no);
+                    } else {
+                        printf(" %.1f (%s) |", o.t_end / (2 * PI), st(o.status));
+                    }
+                    fflush(stdout);
+                }
+                printf("\n");
+            }
+        printf("\n%ld of %ld runs completed %ld orbits.\n", full, runs, no);
+    }
     /* ---- cost per step, side by side on a libration orbit (no crossing) ---- */
-    printf("\n## cost per step on the libration orbit q0 = 0, p0 = 1, h = 0.05 (same run; ratios only)\n\n| configuration | us per step |\n|---|---|\n");
+    printf("\n## cost per step with no crossing: pendulum libration q0 = 0, p0 = 1, h = 0.05; Kepler e = 0.6 (same run; ratios only)\n\n| configuration | us per step |\n|---|---|\n");
     {
         long ns = (long)(200000 * scale);
         if (ns < 2000) ns = 2000;
@@ -456,8 +486,18 @@ int main(int argc, char **argv)
         const char *lab[] = {"raw DTH", "prescribed", "prescribed, branch_check = 0", "prescribed band=1e-9 (ordinary steps kept)"};
         for (int i = 0; i < 4; i++) {
             run_out o = run(&cfg[i], INFINITY, ns);
-            printf("| %s | %.2f |\n", lab[i], 1e6 * o.secs / (double)o.steps);
+            printf("| pendulum: %s | %.2f |\n", lab[i], 1e6 * o.secs / (double)o.steps);
         }
+        /* Kepler e = 0.6 has no psi = 0 crossing: raw DTH runs too (alpha = 0: the same step law) */
+        double e = 0.6;
+        problem k6 = {"kepler", &dth_model_kepler, {{0}}, 0, 2, {-(1 + e), 0}, {0, -sqrt((1 - e) / (1 + e))}, 0.05,
+                      DTH_START_MIDPOINT, {{"alpha", "0"}}, 1, &dth_reg_prescribed, 1};
+        problem k6raw = k6;
+        k6raw.reg = NULL;
+        run_out o = run(&k6raw, INFINITY, ns);
+        printf("| kepler e=0.6 h=0.05: raw DTH (%s) | %.2f |\n", st(o.status), 1e6 * o.secs / (double)o.steps);
+        o = run(&k6, INFINITY, ns);
+        printf("| kepler e=0.6 h=0.05: prescribed alpha=0 (%s) | %.2f |\n", st(o.status), 1e6 * o.secs / (double)o.steps);
     }
     return 0;
 }

@@ -242,11 +242,13 @@ static int admit(void *self, const double *za, const double *zb, double lambda)
     return fabs(psa) > r->band && fabs(psb) > r->band;
 }
 
-/* Without a band every step is a kicked segment: the ordinary step need not be computed first. */
+/* Without a band every step is a kicked segment: the ordinary step need not be computed first,
+ * once the arc is fixed (before that, a vertex start with no incoming step takes the arc from the
+ * ordinary step's lambda). */
 static int replaces_all(const void *self)
 {
     const prescribed *r = self;
-    return !(r->band > 0);
+    return !(r->band > 0) && r->arc_fixed;
 }
 
 /* The state a checkpoint keeps: arc once fixed, and the last segment (the next solve's seed). */

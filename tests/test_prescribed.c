@@ -23,8 +23,8 @@ typedef struct setup {
     size_t N;
 } setup;
 
-static setup open_run(const dth_model_type *t, const dth_kv *mkv, size_t nmkv, size_t n, const char *alpha,
-                      const double *q0, const double *p0, double h)
+static setup open_run_start(const dth_model_type *t, const dth_kv *mkv, size_t nmkv, size_t n, const char *alpha,
+                            const double *q0, const double *p0, double h, dth_start start)
 {
     setup s = {0};
     char err[256];
@@ -34,13 +34,19 @@ static setup open_run(const dth_model_type *t, const dth_kv *mkv, size_t nmkv, s
     dth_options o;
     dth_options_default(&o);
     o.h = h;
-    o.start = DTH_START_MIDPOINT;
+    o.start = start;
     o.regularizer = s.r;
     o.branch_check = 0; /* the ordinary step is only looked at, never kept */
     CU_ASSERT_FATAL(dth_integrator_new(s.m, &o, &s.it) == DTH_OK);
     CU_ASSERT_FATAL(dth_integrator_start(s.it, q0, p0, 0.0) == DTH_OK);
     s.N = dth_integrator_dim(s.it);
     return s;
+}
+
+static setup open_run(const dth_model_type *t, const dth_kv *mkv, size_t nmkv, size_t n, const char *alpha,
+                      const double *q0, const double *p0, double h)
+{
+    return open_run_start(t, mkv, nmkv, n, alpha, q0, p0, h, DTH_START_MIDPOINT);
 }
 
 static void close_run(setup *s)
@@ -115,12 +121,17 @@ static double round_trip(setup *s, long S, double alpha, long *crossings)
 static void test_pendulum_round_trip(void)
 {
     double q0 = 0, p0 = 2.2;
-    setup s = open_run(&dth_model_pendulum, NULL, 0, 1, "0", &q0, &p0, 0.05);
-    long cr;
-    double e = round_trip(&s, 2000, 0, &cr);
-    CU_ASSERT(cr >= 10);
-    CU_ASSERT(e <= 1e-9);
-    close_run(&s);
+    /* a midpoint start (the arc from the exact first step) and a vertex start (no incoming step:
+     * the first step takes the arc from the ordinary step's lambda, later ones skip it) */
+    for (int v = 0; v < 2; v++) {
+        setup s = open_run_start(&dth_model_pendulum, NULL, 0, 1, "0", &q0, &p0, 0.05,
+                                 v ? DTH_START_VERTEX : DTH_START_MIDPOINT);
+        long cr;
+        double e = round_trip(&s, 2000, 0, &cr);
+        CU_ASSERT(cr >= 10);
+        CU_ASSERT(e <= 1e-9);
+        close_run(&s);
+    }
 }
 
 /* Kepler e = 0.9 from apocentre, alpha = 0.75: two orbits there and back; L exact throughout. */
@@ -326,16 +337,19 @@ static void test_fallback(void)
         CU_ASSERT_FATAL(dth_integrator_start(it, &q0, &p0, 0.0) == DTH_OK);
         CU_ASSERT_FATAL(dth_integrator_step(it, NULL) == DTH_OK); /* the exact first step */
         double z1[4], wp0 = dth_integrator_vertex(it)[3];
-        memcpy(z1, dth_integrator_vertex(it), sizeof z1);
         int rc = DTH_OK, kept = 0;
         for (int k = 0; k < 100 && !rc; k++) {
             dth_step_info inf;
+            memcpy(z1, dth_integrator_vertex(it), sizeof z1);
             rc = dth_integrator_step(it, &inf);
             if (!rc && !(inf.flags & DTH_STEP_REGULARIZED)) kept++;
         }
+        /* the first of these steps may be a kicked segment with mu = 0: seeded with the ordinary
+         * step (the arc is fixed there, so the law gives the ordinary step's lambda), it already
+         * solves the equations; later seeds do not, and Newton's mu column is zero */
         if (fb) {
             CU_ASSERT_EQUAL(rc, DTH_OK);
-            CU_ASSERT_EQUAL(kept, 100);
+            CU_ASSERT(kept >= 99);
             CU_ASSERT(dth_integrator_vertex(it)[3] == wp0);
         } else {
             CU_ASSERT_EQUAL(rc, DTH_EREFUSED);

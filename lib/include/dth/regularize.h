@@ -117,7 +117,8 @@ typedef struct dth_regularizer_type {
     /**
      * Optional: nonzero if this instance replaces every step. The integrator then calls apply at
      * every step *before* computing the ordinary step (ev->plain_pending = 1), which saves that
-     * step's cost; admit is not called. NULL: apply is called only at the events above.
+     * step's cost; admit is not called. Asked at every step, so the answer may change (e.g. once a
+     * constant is fixed). NULL: apply is called only at the events above.
      */
     int (*replaces_all)(const void *self);
 } dth_regularizer_type;
