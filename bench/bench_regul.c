@@ -227,6 +227,12 @@ static double tangent_defect(const problem *pb, const dth_regularizer_type *rt, 
     return defect;
 }
 
+static void fmt_or_dash(char *buf, size_t len, const char *fmt, double v)
+{
+    if (isfinite(v) && v > 0) snprintf(buf, len, fmt, v);
+    else snprintf(buf, len, "-");
+}
+
 int main(int argc, char **argv)
 {
     long steps = argc > 1 ? atol(argv[1]) : 100000;
@@ -273,9 +279,14 @@ int main(int argc, char **argv)
             char inv[32];
             if (pbs[p]->type == &dth_model_kepler) snprintf(inv, sizeof inv, "%.1e", rs.inv_err);
             else snprintf(inv, sizeof inv, "-");
-            printf("| %s | %s | %ld | %s | %.1f | %ld | %.1e | %.1e | %s | %s | %.3f | %.1e / %.1e | %.2f |\n", pbs[p]->name,
+            /* "-": not applicable (no crossing, or no ordinary step, found within the probe) */
+            char ratio[32], dcs[32], dps[32];
+            fmt_or_dash(ratio, sizeof ratio, "%.3f", rs.max_ratio);
+            fmt_or_dash(dcs, sizeof dcs, "%.1e", dc);
+            fmt_or_dash(dps, sizeof dps, "%.1e", dp);
+            printf("| %s | %s | %ld | %s | %.1f | %ld | %.1e | %.1e | %s | %s | %s | %s / %s | %.2f |\n", pbs[p]->name,
                    regs[i].label, rs.steps, rs.status ? dth_status_name(rs.status) : "ok", rs.t_end, rs.crossings, rs.energy,
-                   rs.wp_change, inv, trip, rs.max_ratio, dc, dp, rs.steps ? 1e6 * rs.secs / (double)rs.steps : 0.0);
+                   rs.wp_change, inv, trip, ratio, dcs, dps, rs.steps ? 1e6 * rs.secs / (double)rs.steps : 0.0);
             fflush(stdout);
         }
     }

@@ -385,7 +385,9 @@ int main(int argc, char **argv)
             pb.h = h;
             int s2;
             double e = mean_period(&pb, RP, &s2) - T;
-            printf("| %.5f | %+.3e | %.2f | %s |\n", h, e, isfinite(prev) ? log2(fabs(prev / e)) : NAN, st(s2));
+            char ord[32] = "-";
+            if (isfinite(prev) && isfinite(e)) snprintf(ord, sizeof ord, "%.2f", log2(fabs(prev / e)));
+            printf("| %.5f | %+.3e | %s | %s |\n", h, e, ord, st(s2));
             prev = e;
         }
     }
@@ -397,7 +399,9 @@ int main(int argc, char **argv)
             problem pb = pend;
             pb.h = h;
             double k = max_kick(&pb, 20);
-            printf("| %.5f | %.3e | %.2f |\n", h, k, isfinite(prev) ? log2(prev / k) : NAN);
+            char ord[32] = "-";
+            if (isfinite(prev)) snprintf(ord, sizeof ord, "%.2f", log2(prev / k));
+            printf("| %.5f | %.3e | %s |\n", h, k, ord);
             prev = k;
         }
     }

@@ -77,8 +77,10 @@ int main(int argc, char **argv)
             int st;
             double P = mean_period(regs[i].t, regs[i].scaled ? step : NULL, h, R, &st);
             double e = P - T;
-            printf("| %s | %.5f | %+.3e | %s%.2f | %s |\n", regs[i].label, h, e, "", isfinite(prev) ? log2(fabs(prev / e)) : NAN,
-                   st ? dth_status_name(st) : "ok");
+            char err[32] = "-", ord[32] = "-";
+            if (isfinite(e)) snprintf(err, sizeof err, "%+.3e", e);
+            if (isfinite(prev) && isfinite(e)) snprintf(ord, sizeof ord, "%.2f", log2(fabs(prev / e)));
+            printf("| %s | %.5f | %s | %s | %s |\n", regs[i].label, h, err, ord, st ? dth_status_name(st) : "ok");
             prev = e;
         }
     }
