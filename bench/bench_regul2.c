@@ -482,13 +482,19 @@ int main(int argc, char **argv)
         if (ns < 2000) ns = 2000;
         problem lib = pend;
         lib.p0[0] = 1;
-        problem cfg[4] = {lib, lib, lib, lib};
+        problem cfg[7] = {lib, lib, lib, lib, lib, lib, lib};
         cfg[0].reg = NULL;
-        cfg[2].no_branch_check = 1;
+        cfg[1].no_branch_check = 0;
         cfg[3].rkv[1] = (dth_kv){"band", "1e-9"};
         cfg[3].nrkv = 2;
-        const char *lab[] = {"raw DTH", "prescribed", "prescribed, branch_check = 0", "prescribed band=1e-9 (ordinary steps kept)"};
-        for (int i = 0; i < 4; i++) {
+        const dth_regularizer_type *others[] = {&dth_reg_none, &dth_reg_reseed, &dth_reg_symkick};
+        for (int i = 4; i < 7; i++) {
+            cfg[i].reg = others[i - 4];
+            cfg[i].nrkv = 0;
+        }
+        const char *lab[] = {"raw DTH (branch_check = 0)", "prescribed, branch_check = 1", "prescribed", "prescribed band=1e-9 (ordinary steps kept)",
+                             "none (one psi per step, for the sign)", "reseed (the same)", "symkick (its admit screen: psi, psi' at both ends of every step)"};
+        for (int i = 0; i < 7; i++) {
             run_out o = run(&cfg[i], INFINITY, ns);
             printf("| pendulum: %s | %.2f |\n", lab[i], 1e6 * o.secs / (double)o.steps);
         }
