@@ -290,5 +290,16 @@ int main(int argc, char **argv)
             fflush(stdout);
         }
     }
+    /* symkick's round trips through 1, 2, 4 pendulum crossings: each crossing is its own reverse,
+     * but the crossing map expands perturbations, round-off included */
+    printf("\n## symkick round trips, pendulum (S steps after the first, reverse, S back)\n\n| S | crossings | round trip (rel.) |\n|---|---|---|\n");
+    const long Ss[] = {30, 60, 150};
+    for (size_t i = 0; i < 3; i++) {
+        long cr;
+        int st;
+        double rt = round_trip(&pend, &dth_reg_symkick, NULL, 0, Ss[i], &cr, &st);
+        if (st) printf("| %ld | %ld | (%s) |\n", Ss[i], cr, dth_status_name(st));
+        else printf("| %ld | %ld | %.1e |\n", Ss[i], cr, rt);
+    }
     return 0;
 }
