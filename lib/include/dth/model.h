@@ -107,7 +107,12 @@ typedef struct dth_model_type {
     size_t (*n_invariants)(const void *self);
     /** Name of invariant i, e.g. "L" (used as a CSV column). */
     const char *(*invariant_name)(const void *self, size_t i);
-    /** Evaluate the invariants at y into out[0 .. n_invariants-1]. */
+    /**
+     * Evaluate the invariants at y into out[0 .. n_invariants-1] (nonzero: y is outside the
+     * domain). Those that are at most quadratic in (q, p) are kept exactly by the regularizers'
+     * kicked segments (regularize.h); dth_model_new finds them once, by third differences at six
+     * points with (q, p) in [0.25, 1.25] and [-1, 1] (at least two must evaluate).
+     */
     int (*invariants)(const void *self, const double *y, double *out);
     /** Exact solution: from y0 (whose t is y0[n]) to time t; writes y (length 2n+1). */
     int (*exact)(const void *self, const double *y0, double t, double *y);
