@@ -440,12 +440,12 @@ static int reg_apply(dth_integrator *it, const dth_reg_event *ev, dth_reg_action
     double *fix = it->rbuf + 2 * N, *ad = it->rbuf + 4 * N;
     memset(ad, 0, DTH_REG_MAX_SEG * N * sizeof *ad);
     memset(fix, 0, N * sizeof *fix);
-    *act = (dth_reg_action){DTH_REG_KEEP, 0, {0}, ad, fix, 0.0, 0};
+    *act = (dth_reg_action){DTH_REG_KEEP, 0, {0}, ad, fix, 0.0, 0, NULL};
     int r = dth_regularizer_apply(it->reg, ev, act);
     info->iters += act->iters;
     if (r)
         snprintf(it->errmsg, sizeof it->errmsg, "regularizer '%s' stopped the run: %s",
-                 dth_regularizer_get_type(it->reg)->name, dth_strerror(r));
+                 dth_regularizer_get_type(it->reg)->name, act->why ? act->why : dth_strerror(r));
     return r;
 }
 
@@ -471,8 +471,10 @@ int dth__reg_pre(dth_integrator *it, dth_step_info *info)
     int r = reg_apply(it, &ev, &act, info);
     if (r) return r;
     if (!(act.what & DTH_REG_REPLACE)) {
-        /* compute the ordinary step; dth__reg_step then takes it (with the fix-up, if any) */
+        /* compute the ordinary step; dth__reg_step then takes it (with the fix-up, if any). Its
+         * failure, if any, writes the message afresh */
         it->reg_what = act.what;
+        it->errmsg[0] = '\0';
         return DTH__REG_PLAIN;
     }
     return reg_finish(it, &act, DTH_EUNSUPPORTED, 0, NULL, DTH_BRANCH_REG, info);
@@ -503,7 +505,16 @@ int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_bran
     dth_reg_action act;
     if (pre) {
         /* the hook was asked before the ordinary step (dth__reg_pre) and kept it */
-        act = (dth_reg_action){it->reg_what, 0, {0}, it->rbuf + 4 * N, it->rbuf + 2 * N, 0.0, 0};
+        act = (dth_reg_action){it->reg_what, 0, {0}, it->rbuf + 4 * N, it->rbuf + 2 * N, 0.0, 0, NULL};
+        if (!plain_ok) {
+            /* say that the hook had no step of its own here */
+            const char *name = dth_regularizer_get_type(it->reg)->name;
+            if (!it->errmsg[0]) snprintf(it->errmsg, sizeof it->errmsg, "%s", dth_strerror(rc));
+            size_t len = strlen(it->errmsg);
+            snprintf(it->errmsg + len, sizeof it->errmsg - len, " (regularizer '%s' had no step here and kept the ordinary one)", name);
+        } else if (!it->errmsg[0]) {
+            snprintf(it->errmsg, sizeof it->errmsg, "no error");
+        }
         return reg_finish(it, &act, rc, plain_ok, sol, br, info);
     }
     if (plain_ok) {

@@ -222,6 +222,10 @@ static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
         act->what = DTH_REG_KEEP;
         return DTH_OK;
     }
+    if (rc > 0)
+        act->why = r->alpha == 0
+                       ? "no kicked segment of the constant step here (a step law that resolves the motion, alpha > 0, may pass)"
+                       : "no kicked segment of the step law's length here (a smaller arc, or a larger alpha, may pass)";
     if (rc) return rc < 0 ? rc : DTH_EREFUSED;
     memcpy(act->d, r->d, ev->N * sizeof *act->d);
     act->lambda[0] = lam;

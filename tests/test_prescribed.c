@@ -354,6 +354,9 @@ static void test_fallback(void)
         } else {
             CU_ASSERT_EQUAL(rc, DTH_EREFUSED);
             CU_ASSERT(memcmp(z1, dth_integrator_vertex(it), sizeof z1) == 0);
+            /* the message says why, and what may help */
+            CU_ASSERT(strstr(dth_integrator_errmsg(it), "no kicked segment") != NULL);
+            CU_ASSERT(strstr(dth_integrator_errmsg(it), "alpha") != NULL);
         }
         dth_integrator_free(it);
         dth_regularizer_free(r);

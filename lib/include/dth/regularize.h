@@ -85,6 +85,8 @@ typedef struct dth_reg_action {
     double *fix;     /**< change added to the new vertex (N), with DTH_REG_FIXUP */
     double residual; /**< |H(zbar)| at the replacing segment's midpoint */
     int iters;       /**< iterations spent (for the step record) */
+    const char *why; /**< with a nonzero return: why, in a few words (static storage), or NULL;
+                          dth_integrator_errmsg() then includes it */
 } dth_reg_action;
 
 /** A regularizer type: a static table of callbacks. */
