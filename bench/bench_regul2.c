@@ -360,15 +360,22 @@ int main(int argc, char **argv)
      * the start (transverse stiffness k (1 - L/r) < 0), > 0 once the springs stretch */
     problem chain = {"chain 3 particles 2-D", &dth_model_coupled, {{"preset", "chain"}, {"size", "3"}, {"dim", "2"}, {"L", "1"}}, 4, 6,
                      {0, 0, 0.5, 0, 1.0, 0}, {0, 1, 0, -2, 0, 1.5}, 0.02, DTH_START_MIDPOINT, {{"alpha", "0"}}, 1, &dth_reg_prescribed, 1};
-    {
-        run_out o = run(&chain, 200 * scale + 1, 1L << 40);
-        printf("| %s | 0 | %.3g | %ld | %s | %.1f | - | %ld | %.1e | %.1e | %.1e | - | %.4f / %.4f | [%.2g, %.2g] | %ld | %.2f |\n", chain.name, chain.h, o.steps,
+    /* the same with 10 particles (spacing 0.5, transverse momenta of zero sum) */
+    problem chain10 = {"chain 10 particles 2-D", &dth_model_coupled, {{"preset", "chain"}, {"size", "10"}, {"dim", "2"}, {"L", "1"}}, 4, 20,
+                       {0}, {0, -1.2661, 0, 1.5869, 0, 1.2519, 0, -0.7831, 0, 0.1789, 0, -0.0051, 0, 0.8029, 0, 1.3519, 0, -1.4281, 0, -1.6901},
+                       0.02, DTH_START_MIDPOINT, {{"alpha", "0"}}, 1, &dth_reg_prescribed, 1};
+    for (int i = 0; i < 10; i++) chain10.q0[2 * i] = 0.5 * i;
+    const problem *chains[] = {&chain, &chain10};
+    for (int c = 0; c < 2; c++) {
+        const problem *ch = chains[c];
+        run_out o = run(ch, 200 * scale + 1, 1L << 40);
+        printf("| %s | 0 | %.3g | %ld | %s | %.1f | - | %ld | %.1e | %.1e | %.1e | - | %.4f / %.4f | [%.2g, %.2g] | %ld | %.2f |\n", ch->name, ch->h, o.steps,
                st(o.status), o.t_end, o.crossings, o.energy, o.wp_change, o.L_err, o.max_ratio, o.max_ratio_cross, o.psi_min, o.psi_max,
                o.kept, 1e6 * o.secs / (double)o.steps);
-        problem raw = chain;
+        problem raw = *ch;
         raw.reg = NULL;
         run_out r0 = run(&raw, 200, 1L << 40);
-        printf("| %s, raw DTH | - | %.3g | %ld | %s | %.1f | - | %ld | - | - | - | - | - | - | - | %.2f |\n", chain.name, chain.h, r0.steps, st(r0.status),
+        printf("| %s, raw DTH | - | %.3g | %ld | %s | %.1f | - | %ld | - | - | - | - | - | - | - | %.2f |\n", ch->name, ch->h, r0.steps, st(r0.status),
                r0.t_end, r0.crossings, 1e6 * r0.secs / (double)(r0.steps ? r0.steps : 1));
         fflush(stdout);
     }
@@ -421,13 +428,14 @@ int main(int argc, char **argv)
         pend4.name = "pendulum";
         pend2.name = "pendulum";
         problem kp2 = kps[0], kp3 = kps[1], kp4 = kps[1];
-        /* a midpoint on the first pericentre, where no kicked segment exists: one fallback step */
+        /* a midpoint on the first pericentre, where the Euclidean kick had no kicked segment (the
+         * scaled one has: no fallback step is taken) */
         kp4.h = 0.0125;
         kp4.rkv[0] = (dth_kv){"alpha", "0.75"};
         kp4.rkv[1] = (dth_kv){"fallback", "yes"};
         kp4.name = "kepler e=0.99 alpha=0.75 fallback=yes";
-        const problem *rt[] = {&pend, &pend2, &pend4, &band, &kp2, &kp3, &kp4, &chain};
-        long S[] = {2000, 4000, 8000, 2000, 4000, 20000, 4000, 2000};
+        const problem *rt[] = {&pend, &pend2, &pend4, &band, &kp2, &kp3, &kp4, &chain, &chain10};
+        long S[] = {2000, 4000, 8000, 2000, 4000, 20000, 4000, 2000, 2000};
         for (size_t i = 0; i < sizeof rt / sizeof rt[0]; i++) {
             long cr;
             int s2;
@@ -435,8 +443,15 @@ int main(int argc, char **argv)
             double bc, bn, b2c, b2n, dc = tangent_defect(rt[i], 1, 1e-7, 1, &bc), dn = tangent_defect(rt[i], 0, 1e-7, 1, &bn);
             tangent_defect(rt[i], 1, 1e-7, 2, &b2c);
             tangent_defect(rt[i], 0, 1e-7, 2, &b2n);
-            printf("| %s, h=%g | %ld | %ld | %.1e | %s | %.1e / %.1e | %.1e / %.1e | %.1e / %.1e |\n", rt[i]->name, rt[i]->h, S[i], cr, e, st(s2), dc, dn,
-                   bc, bn, b2c, b2n);
+            /* "-": not measured (the finite-difference probe handles up to 16 extended dimensions) */
+            double v[6] = {dc, dn, bc, bn, b2c, b2n};
+            char f[6][16];
+            for (int j = 0; j < 6; j++) {
+                if (isfinite(v[j])) snprintf(f[j], sizeof f[j], "%.1e", v[j]);
+                else snprintf(f[j], sizeof f[j], "-");
+            }
+            printf("| %s, h=%g | %ld | %ld | %.1e | %s | %s / %s | %s / %s | %s / %s |\n", rt[i]->name, rt[i]->h, S[i], cr, e, st(s2), f[0], f[1],
+                   f[2], f[3], f[4], f[5]);
             fflush(stdout);
         }
         problem raw = pend;
