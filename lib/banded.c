@@ -6,11 +6,17 @@
  * In the interleaved order x = (q_1, p_1, ..., q_n, p_n) the step Jacobian is
  *     [ B    c ]    B = I - (lambda/2) D,  D = J H_xx (row q_i is H row p_i, row p_i is -H row q_i),
  *     [ g^T  0 ]    c = -(1/2) u,  u = J grad H,  g = grad H,
- * and B has half-bandwidth w + 1 when H_xx has w. B is factored by banded LU (LAPACK dgbtrf)
- * and the border by block elimination: y2 = B^{-1} c, Schur complement s = -g^T y2, then
+ * and the border is eliminated by blocks: y2 = B^{-1} c, Schur complement s = -g^T y2, then
  *     dlambda = (F_last - g^T B^{-1} F) / s,   dx = B^{-1} F - y2 dlambda.
  * s is small (about lambda psi / 4) because g^T u = 0: it is computed without cancellation as
  * y2 = c + e, B e = -(lambda/4) D u, s = -g^T e (g^T c = 0 exactly, pair by pair).
+ *
+ * B itself is solved one of two ways:
+ *  - separable H = T(p) + V(q) with diagonal T'' (springs, particles): eliminating dp leaves
+ *        K x_q = T''^-1 r_q + (lambda/2) r_p,   K = T''^-1 + (lambda^2/4) V'',   x_p = r_p - (lambda/2) V'' x_q,
+ *    K symmetric with half the unknowns and half the bandwidth: banded Cholesky (LAPACK dpbtrf),
+ *    or banded LU (dgbtrf) of K where it is not positive definite (V'' indefinite, large lambda);
+ *  - otherwise banded LU of B (dgbtrf, half-bandwidth w + 1), allocated at the first such step.
  */
 #include <limits.h>
 #include <lapacke.h>
@@ -21,16 +27,24 @@
 _Static_assert(sizeof(lapack_int) == sizeof(int), "pivots are stored as int");
 
 struct dth__band {
+    const dth_allocator *al;
     size_t n, w, bw;   /* dof, Hessian half-bandwidth, 2w+1 */
     int nn, kb, ldab;  /* 2n, half-bandwidth of B (w+1), LAPACK leading dimension 3kb+1 */
     double *hb;        /* model Hessian band, nn x bw */
-    double *ab;        /* LU factors of B in LAPACK band storage, ldab x nn */
+    double *ab;        /* LU factors of B in LAPACK band storage, ldab x nn (allocated when first needed) */
+    int *ipiv;         /* nn pivots of B */
+    int kq, ldk;       /* Schur path: half-bandwidth of K (w/2), leading dimension (3 kq + 1) */
+    double *kab;       /* factors of K (n columns); tinv: T''^-1 (n); vx: V'' x_q scratch (n) */
+    double *tinv, *vx;
+    int *kpiv;         /* n pivots (LU of K) */
+    int mode;          /* of the last factorization: SCHUR_CHOL, SCHUR_LU or GENERAL */
     double *g, *y2;    /* border row g and B^{-1} c (interleaved) */
     double *r, *grad;  /* scratch: right-hand side (nn); gradient over y (2n+1), then nn+1 */
-    int *ipiv;         /* nn pivots */
     double s;          /* Schur complement -g^T B^{-1} c */
     double lam;        /* lambda of the factorization */
 };
+
+enum { SCHUR_CHOL = 1, SCHUR_LU, GENERAL };
 
 int dth__band_new(const dth_model *m, const dth_allocator *al, dth__band **out)
 {
@@ -41,21 +55,30 @@ int dth__band_new(const dth_model *m, const dth_allocator *al, dth__band **out)
     if (w >= 2 * n || n > INT_MAX / 2 || (3 * (w + 1) + 1) > INT_MAX / (2 * n)) return DTH_EINVAL;
     dth__band *b = dth_calloc(al, 1, sizeof *b);
     if (!b) return DTH_ENOMEM;
+    b->al = al;
     b->n = n;
     b->w = w;
     b->bw = 2 * w + 1;
     b->nn = (int)(2 * n);
     b->kb = (int)w + 1;
     b->ldab = 3 * b->kb + 1;
+    b->kq = (int)(w / 2);
+    b->ldk = 3 * b->kq + 1;
     size_t nn = 2 * n;
     /* overflow of the products is caught by dth_calloc */
     b->hb = dth_calloc(al, nn, b->bw * sizeof(double));
-    b->ab = dth_calloc(al, nn, (size_t)b->ldab * sizeof(double));
     b->g = dth_calloc(al, 5 * nn + 2, sizeof(double));
-    b->ipiv = dth_calloc(al, nn, sizeof(int));
-    if (!b->hb || !b->ab || !b->g || !b->ipiv) {
+    if (info->separable) {
+        b->kab = dth_calloc(al, n, ((size_t)b->ldk + 2) * sizeof(double));
+        b->kpiv = dth_calloc(al, n, sizeof(int));
+    }
+    if (!b->hb || !b->g || (info->separable && (!b->kab || !b->kpiv))) {
         dth__band_free(b, al);
         return DTH_ENOMEM;
+    }
+    if (b->kab) {
+        b->tinv = b->kab + n * (size_t)b->ldk;
+        b->vx = b->tinv + n;
     }
     b->y2 = b->g + nn;
     b->r = b->y2 + nn;
@@ -69,8 +92,10 @@ void dth__band_free(dth__band *b, const dth_allocator *al)
     if (!b) return;
     dth_free(al, b->hb);
     dth_free(al, b->ab);
-    dth_free(al, b->g);
     dth_free(al, b->ipiv);
+    dth_free(al, b->kab);
+    dth_free(al, b->kpiv);
+    dth_free(al, b->g);
     dth_free(al, b);
 }
 
@@ -88,12 +113,77 @@ static double d_times(const dth__band *b, size_t r, const double *v)
     return (r & 1) ? -acc : acc;
 }
 
-int dth__band_factor(dth__band *b, const dth_model *m, const double *zb, const double *grad, double lam)
+/* Separable with diagonal positive T'' (T''^-1 into tinv): the Schur path applies. */
+static int schur_applies(dth__band *b)
 {
-    size_t n = b->n, w = b->w, nn = (size_t)b->nn, ldab = (size_t)b->ldab, kb = (size_t)b->kb;
-    int rc = dth__model_hess_band(m, zb, b->hb);
-    if (rc) return rc;
-    /* B = I - (lambda/2) D into band storage: A(r, l) at ab[2kb + r - l + l ldab] */
+    if (!b->kab) return 0;
+    size_t w = b->w, nn = (size_t)b->nn, bw = b->bw;
+    for (size_t r = 0; r < nn; r++) {
+        const double *row = b->hb + r * bw + w - r; /* row[l] = H(r, l) */
+        size_t lo = r > w ? r - w : 0, hi = r + w < nn - 1 ? r + w : nn - 1;
+        for (size_t l = lo; l <= hi; l++) {
+            if (l == r || ((r | l) & 1) == 0) continue; /* the diagonal and q-q entries */
+            if (row[l] != 0) return 0;                 /* q-p coupling, or T'' not diagonal */
+        }
+        if (r & 1) {
+            double t = row[r];
+            if (!(t > 0)) return 0;
+            b->tinv[r / 2] = 1.0 / t;
+        }
+    }
+    return 1;
+}
+
+/* K = T''^-1 + (lambda^2/4) V'' (q order), factored: Cholesky, else LU. */
+static int schur_factor(dth__band *b, double lam)
+{
+    size_t n = b->n, w = b->w, bw = b->bw, kq = (size_t)b->kq;
+    double c = 0.25 * lam * lam;
+    /* upper band for dpbtrf (ldab kq + 1): K(i, j) at kab[kq + i - j + j (kq + 1)], i <= j */
+    size_t ld = kq + 1;
+    for (size_t j = 0; j < n; j++) {
+        size_t lo = j > kq ? j - kq : 0;
+        for (size_t i = lo; i <= j; i++) {
+            double v = c * b->hb[(2 * i) * bw + (2 * j) + w - 2 * i];
+            if (i == j) v += b->tinv[i];
+            b->kab[kq + i - j + j * ld] = v;
+        }
+    }
+    lapack_int info = LAPACKE_dpbtrf_work(LAPACK_COL_MAJOR, 'U', (lapack_int)n, (lapack_int)kq, b->kab, (lapack_int)ld);
+    if (info < 0) return DTH_ELAPACK;
+    if (info == 0) {
+        b->mode = SCHUR_CHOL;
+        return DTH_OK;
+    }
+    /* not positive definite: general band LU of K (kl = ku = kq, ldab 3 kq + 1) */
+    size_t ldk = (size_t)b->ldk;
+    memset(b->kab, 0, n * ldk * sizeof *b->kab);
+    for (size_t j = 0; j < n; j++) {
+        size_t lo = j > kq ? j - kq : 0, hi = j + kq < n - 1 ? j + kq : n - 1;
+        for (size_t i = lo; i <= hi; i++) {
+            double v = c * b->hb[(2 * i) * bw + (2 * j) + w - 2 * i];
+            if (i == j) v += b->tinv[i];
+            b->kab[2 * kq + i - j + j * ldk] = v;
+        }
+    }
+    info = LAPACKE_dgbtrf_work(LAPACK_COL_MAJOR, (lapack_int)n, (lapack_int)n, (lapack_int)kq, (lapack_int)kq, b->kab,
+                               (lapack_int)ldk, b->kpiv);
+    if (info < 0) return DTH_ELAPACK;
+    if (info > 0) return DTH_ESINGULAR;
+    b->mode = SCHUR_LU;
+    return DTH_OK;
+}
+
+/* B = I - (lambda/2) D into band storage (A(r, l) at ab[2kb + r - l + l ldab]), factored by LU. */
+static int general_factor(dth__band *b, double lam)
+{
+    size_t w = b->w, nn = (size_t)b->nn, ldab = (size_t)b->ldab, kb = (size_t)b->kb;
+    if (!b->ab) {
+        /* first step through this path: the only allocation after creation */
+        b->ab = dth_calloc(b->al, nn, ldab * sizeof(double));
+        b->ipiv = dth_calloc(b->al, nn, sizeof(int));
+        if (!b->ab || !b->ipiv) return DTH_ENOMEM;
+    }
     memset(b->ab, 0, nn * ldab * sizeof *b->ab);
     for (size_t r = 0; r < nn; r++) {
         size_t s = r ^ 1;
@@ -103,6 +193,51 @@ int dth__band_factor(dth__band *b, const dth_model *m, const double *zb, const d
         for (size_t l = lo; l <= hi; l++) b->ab[2 * kb + r - l + l * ldab] = sg * row[l];
         b->ab[2 * kb + r * ldab] += 1.0;
     }
+    lapack_int info = LAPACKE_dgbtrf_work(LAPACK_COL_MAJOR, b->nn, b->nn, b->kb, b->kb, b->ab, b->ldab, b->ipiv);
+    if (info < 0) return DTH_ELAPACK;
+    if (info > 0) return DTH_ESINGULAR;
+    b->mode = GENERAL;
+    return DTH_OK;
+}
+
+/* x = B^{-1} x in place (interleaved, length nn), with the factors of the last factorization. */
+static int b_solve(dth__band *b, double *x)
+{
+    lapack_int info;
+    if (b->mode == GENERAL) {
+        info = LAPACKE_dgbtrs_work(LAPACK_COL_MAJOR, 'N', b->nn, b->kb, b->kb, 1, b->ab, b->ldab, b->ipiv, x, b->nn);
+        return info < 0 ? DTH_ELAPACK : DTH_OK;
+    }
+    size_t n = b->n, w = b->w, bw = b->bw, kq = (size_t)b->kq;
+    double *rq = b->vx, hl = 0.5 * b->lam;
+    for (size_t i = 0; i < n; i++) rq[i] = b->tinv[i] * x[2 * i] + hl * x[2 * i + 1];
+    if (b->mode == SCHUR_CHOL)
+        info = LAPACKE_dpbtrs_work(LAPACK_COL_MAJOR, 'U', (lapack_int)n, (lapack_int)kq, 1, b->kab, (lapack_int)(kq + 1), rq,
+                                   (lapack_int)n);
+    else
+        info = LAPACKE_dgbtrs_work(LAPACK_COL_MAJOR, 'N', (lapack_int)n, (lapack_int)kq, (lapack_int)kq, 1, b->kab,
+                                   (lapack_int)b->ldk, b->kpiv, rq, (lapack_int)n);
+    if (info < 0) return DTH_ELAPACK;
+    /* x_q = K^-1 (...), x_p = r_p - (lambda/2) V'' x_q */
+    for (size_t i = 0; i < n; i++) {
+        size_t r = 2 * i, lo = i > kq ? i - kq : 0, hi = i + kq < n - 1 ? i + kq : n - 1;
+        const double *row = b->hb + r * bw + w - r;
+        double acc = 0;
+        for (size_t j = lo; j <= hi; j++) acc += row[2 * j] * rq[j];
+        x[r + 1] -= hl * acc;
+    }
+    for (size_t i = 0; i < n; i++) x[2 * i] = rq[i];
+    return DTH_OK;
+}
+
+int dth__band_factor(dth__band *b, const dth_model *m, const double *zb, const double *grad, double lam)
+{
+    size_t n = b->n, nn = (size_t)b->nn;
+    int rc = dth__model_hess_band(m, zb, b->hb);
+    if (rc) return rc;
+    b->lam = lam;
+    rc = schur_applies(b) ? schur_factor(b, lam) : general_factor(b, lam);
+    if (rc) return rc;
     /* u and g interleaved: u = (dH/dp_i, -dH/dq_i), g = (dH/dq_i, dH/dp_i) */
     double *u = b->r, *e = b->y2;
     for (size_t i = 0; i < n; i++) {
@@ -112,11 +247,8 @@ int dth__band_factor(dth__band *b, const dth_model *m, const double *zb, const d
         u[2 * i + 1] = -grad[i];
     }
     for (size_t r = 0; r < nn; r++) e[r] = -0.25 * lam * d_times(b, r, u);
-    lapack_int info = LAPACKE_dgbtrf_work(LAPACK_COL_MAJOR, b->nn, b->nn, b->kb, b->kb, b->ab, b->ldab, b->ipiv);
-    if (info < 0) return DTH_ELAPACK;
-    if (info > 0) return DTH_ESINGULAR;
-    info = LAPACKE_dgbtrs_work(LAPACK_COL_MAJOR, 'N', b->nn, b->kb, b->kb, 1, b->ab, b->ldab, b->ipiv, e, b->nn);
-    if (info < 0) return DTH_ELAPACK;
+    rc = b_solve(b, e);
+    if (rc) return rc;
     double s = 0;
     for (size_t r = 0; r < nn; r++) {
         s -= b->g[r] * e[r];
@@ -124,7 +256,6 @@ int dth__band_factor(dth__band *b, const dth_model *m, const double *zb, const d
     }
     if (!(s != 0) || !isfinite(s)) return DTH_ESINGULAR;
     b->s = s;
-    b->lam = lam;
     return DTH_OK;
 }
 
@@ -136,8 +267,8 @@ int dth__band_solve(dth__band *b, double *x)
         r[2 * i] = x[i];
         r[2 * i + 1] = x[n + i];
     }
-    lapack_int info = LAPACKE_dgbtrs_work(LAPACK_COL_MAJOR, 'N', b->nn, b->kb, b->kb, 1, b->ab, b->ldab, b->ipiv, r, b->nn);
-    if (info < 0) return DTH_ELAPACK;
+    int rc = b_solve(b, r);
+    if (rc) return rc;
     double gr = 0;
     for (size_t k = 0; k < nn; k++) gr += b->g[k] * r[k];
     double dl = (x[nn] - gr) / b->s;

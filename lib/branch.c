@@ -213,11 +213,11 @@ static int solve_at(dth_rootfinder *rf, const double *z, double lam, double *zb,
             for (int b = 0; b < M; b++)
                 rf->A[a + b * M] = (a == b ? 1.0 : 0.0) - 0.5 * lam * dudz(rf, j, (size_t)rf->act[b]);
         }
-        rc = dth__lu_factor(M, rf->A, rf->piv);
+        rc = dth__lu_factor(DTH_LINSOLVE_AUTO, M, rf->A, rf->piv);
         if (rc) return rc == DTH_ESINGULAR ? DTH_ENOCONV : rc;
         if (iter > 1 && r_prev <= 4 * DBL_EPSILON) break; /* converged: A and grad belong to zb */
         if (iter > rf->opt.max_iter) return DTH_ENOCONV;
-        rc = dth__lu_solve(M, rf->A, rf->piv, 1, rf->F);
+        rc = dth__lu_solve(DTH_LINSOLVE_AUTO, M, rf->A, rf->piv, 1, rf->F);
         if (rc) return rc;
         double r = 0;
         for (int a = 0; a < M; a++) {
@@ -240,7 +240,7 @@ static int solve_at(dth_rootfinder *rf, const double *z, double lam, double *zb,
         int j = rf->act[a];
         rf->F[a] = 0.5 * rf->u[j] + 0.25 * lam * dudz(rf, j, n);
     }
-    rc = dth__lu_solve(M, rf->A, rf->piv, 1, rf->F);
+    rc = dth__lu_solve(DTH_LINSOLVE_AUTO, M, rf->A, rf->piv, 1, rf->F);
     if (rc) return rc;
     memset(rf->v, 0, N * sizeof *rf->v);
     rf->v[n] = 0.5;

@@ -144,11 +144,15 @@ static void put_state(wr *w, const dth_integrator *it)
     put_f64s(w, it->zlo, N);
     put_f64s(w, it->zbar, N);
     put_f64s(w, it->dprev, N);
+    put_f64s(w, it->dprev2, N);
+    put_f64s(w, it->dprev3, N);
     put_f64(w, it->lam);
+    put_f64(w, it->lam2);
+    put_f64(w, it->lam3);
+    put_u32(w, (uint32_t)it->nhist);
     put_f64(w, it->lam_hint);
     put_f64(w, it->dir);
     put_f64(w, it->opt.h);
-    put_f64(w, it->lam_fact);
     put_u32(w, (uint32_t)it->have_prev);
     put_u32(w, (uint32_t)it->have_mid);
     put_u32(w, (uint32_t)it->pending_exact);
@@ -156,11 +160,6 @@ static void put_state(wr *w, const dth_integrator *it)
     put_u64(w, (uint64_t)it->steps);
     put_u32(w, (uint32_t)it->psi_known);
     put_u32(w, (uint32_t)(it->psi_sign + 1)); /* -1, 0, 1 stored as 0, 1, 2 */
-    put_u32(w, (uint32_t)(it->fact_valid && !it->band)); /* dense factors follow */
-    if (it->fact_valid && !it->band) {
-        put_f64s(w, it->Af, m * m);
-        for (size_t i = 0; i < m; i++) put_u32(w, (uint32_t)it->pivf[i]);
-    }
     /* the regularizer's own state (a constant fixed at its first step, seeds), as its bytes */
     size_t rl = dth__reg_state_size(it->reg);
     put_u64(w, rl);
@@ -247,10 +246,10 @@ typedef struct st {
     const char *name;
     size_t name_len;
     uint64_t n;
-    uint32_t m, auton, have_prev, have_mid, pending_exact, fact_valid, psi_known, psi_sign, factors;
-    double lam, lam_hint, dir, h, lam_fact;
+    uint32_t m, auton, have_prev, have_mid, pending_exact, fact_valid, psi_known, psi_sign, nhist;
+    double lam, lam2, lam3, lam_hint, dir, h;
     uint64_t steps;
-    size_t pos_z, pos_af; /* reader positions of the vectors */
+    size_t pos_z;         /* reader position of the vectors */
     uint64_t reg_len;     /* bytes of regularizer state */
     size_t pos_reg;
 } st;
@@ -267,15 +266,17 @@ static int read_state(rd *r, st *s, char *err, size_t errlen)
     }
     size_t N = 2 * (size_t)s->n + 2;
     s->pos_z = r->pos;
-    for (size_t i = 0; i < 4 * N; i++) {
+    for (size_t i = 0; i < 6 * N; i++) {
         double x = get_f64(r);
         if (!isfinite(x)) r->bad = 1;
     }
     s->lam = get_f64(r);
+    s->lam2 = get_f64(r);
+    s->lam3 = get_f64(r);
+    s->nhist = get_u32(r);
     s->lam_hint = get_f64(r);
     s->dir = get_f64(r);
     s->h = get_f64(r);
-    s->lam_fact = get_f64(r);
     s->have_prev = get_u32(r);
     s->have_mid = get_u32(r);
     s->pending_exact = get_u32(r);
@@ -283,25 +284,12 @@ static int read_state(rd *r, st *s, char *err, size_t errlen)
     s->steps = get_u64(r);
     s->psi_known = get_u32(r);
     s->psi_sign = get_u32(r);
-    s->factors = get_u32(r);
-    if (r->bad || s->psi_known > 1 || s->psi_sign > 2 || s->factors > s->fact_valid || !isfinite(s->lam) || !isfinite(s->lam_hint) || !isfinite(s->lam_fact) ||
+    if (r->bad || s->psi_known > 1 || s->psi_sign > 2 || s->nhist > 3 || !isfinite(s->lam) || !isfinite(s->lam2) ||
+        !isfinite(s->lam3) || !isfinite(s->lam_hint) ||
         !(s->dir == 1.0 || s->dir == -1.0) || !isfinite(s->h) || s->h == 0 || s->have_prev > 1 ||
         s->have_mid > 1 || s->pending_exact > 1 || s->fact_valid > 1 || s->steps > (uint64_t)LONG_MAX) {
         dth__set_err(err, errlen, "checkpoint state is invalid (non-finite value or bad flag)");
         return DTH_EPARSE;
-    }
-    s->pos_af = r->pos;
-    if (s->factors) {
-        size_t m = s->m;
-        get_bytes(r, 8 * m * m);
-        for (size_t i = 0; i < m; i++) {
-            uint32_t pv = get_u32(r);
-            if (pv < 1 || pv > m) r->bad = 1;
-        }
-        if (r->bad) {
-            dth__set_err(err, errlen, "checkpoint factors are invalid");
-            return DTH_EPARSE;
-        }
     }
     s->reg_len = get_u64(r);
     s->pos_reg = r->pos;
@@ -371,10 +359,6 @@ int dth_checkpoint_restore(dth_integrator *it, const void *buf, size_t len, char
                 (int)s.name_len, s.name, (unsigned long long)s.n, mname, it->n);
         return DTH_EINVAL;
     }
-    if ((int)s.factors != (s.fact_valid && !it->band)) {
-        dth__set_err(err, errlen, "checkpoint factors do not match this integrator's (dense/banded) solve");
-        return DTH_EPARSE;
-    }
     if (s.reg_len != dth__reg_state_size(it->reg)) {
         dth__set_err(err, errlen, "checkpoint holds %llu bytes of regularizer state, this integrator's regularizer %zu",
                      (unsigned long long)s.reg_len, dth__reg_state_size(it->reg));
@@ -386,16 +370,18 @@ int dth_checkpoint_restore(dth_integrator *it, const void *buf, size_t len, char
         return DTH_EPARSE;
     }
     /* everything is valid: commit */
-    size_t N = it->N, m = (size_t)it->m;
+    size_t N = it->N;
     rd v = {r.p, r.len, s.pos_z, 0};
-    double *vec[] = {it->z, it->zlo, it->zbar, it->dprev};
-    for (int k = 0; k < 4; k++)
+    double *vec[] = {it->z, it->zlo, it->zbar, it->dprev, it->dprev2, it->dprev3};
+    for (int k = 0; k < 6; k++)
         for (size_t j = 0; j < N; j++) vec[k][j] = get_f64(&v);
     it->lam = s.lam;
+    it->lam2 = s.lam2;
+    it->lam3 = s.lam3;
+    it->nhist = (int)s.nhist;
     it->lam_hint = s.lam_hint;
     it->dir = s.dir;
     it->opt.h = s.h;
-    it->lam_fact = s.lam_fact;
     it->have_prev = (int)s.have_prev;
     it->have_mid = (int)s.have_mid;
     it->pending_exact = (int)s.pending_exact;
@@ -403,11 +389,6 @@ int dth_checkpoint_restore(dth_integrator *it, const void *buf, size_t len, char
     it->steps = (long)s.steps;
     it->psi_known = (int)s.psi_known;
     it->psi_sign = (int)s.psi_sign - 1;
-    if (s.factors) {
-        v.pos = s.pos_af;
-        for (size_t k = 0; k < m * m; k++) it->Af[k] = get_f64(&v);
-        for (size_t i = 0; i < m; i++) it->pivf[i] = (int)get_u32(&v);
-    }
     snprintf(it->errmsg, sizeof it->errmsg, "no error");
     return DTH_OK;
 }

@@ -28,16 +28,54 @@ void dth__set_err(char *err, size_t len, const char *fmt, ...) __attribute__((fo
 /** Parse a comma-separated list of finite doubles; 0 on success. */
 int dth__parse_list(const char *v, double *out, size_t max, size_t *count);
 
-/* ---- dense LU through LAPACKE (linsolve.c is the only file that calls LAPACK) ---- */
+/* ---- dense LU (linsolve.c: LAPACK, or written out for m <= DTH__SMALL_MAX) ---- */
 
-/** Factor the column-major m x m matrix a in place; piv gets m pivots.
+/** Largest system the small path factors itself (no library call). */
+#define DTH__SMALL_MAX 8
+/** 1 if dth__lu_* take the small path for this choice and size. */
+int dth__lu_small(dth_linsolve k, int m);
+/** Factor the column-major m x m matrix a in place; piv gets m (1-based) pivots.
  *  @return DTH_OK, DTH_ESINGULAR, DTH_ELAPACK. */
-int dth__lu_factor(int m, double *a, int *piv);
+int dth__lu_factor(dth_linsolve k, int m, double *a, int *piv);
 /** Solve with the factors for nrhs column-major right-hand sides in b (ldb = m). */
-int dth__lu_solve(int m, const double *a, const int *piv, int nrhs, double *b);
+int dth__lu_solve(dth_linsolve k, int m, const double *a, const int *piv, int nrhs, double *b);
+/** Sign of the determinant from the factors (0 if a pivot is zero or NaN). */
+int dth__lu_det_sign(int m, const double *a, const int *piv);
+
+/* ---- the Newton driver (newton.c) ---- */
+
+/** Verdicts of a Newton iteration. */
+enum { DTH__NT_MORE = 0, DTH__NT_DONE, DTH__NT_CHORD, DTH__NT_STALLED, DTH__NT_DIVERGED, DTH__NT_MAXITER };
+/** Progress of a Newton solve: iteration, its relative correction and the previous one. */
+typedef struct dth__newton_track {
+    int iter;
+    double r, r_prev;
+    int verdict;
+} dth__newton_track;
+/** A Newton problem. */
+typedef struct dth__newton_ops {
+    /** Residual F at x; with jac != 0 also assemble and factor the Jacobian there. */
+    int (*eval)(void *ctx, const double *x, double *F, int jac);
+    /** b = J^-1 b in place, with the factors of the last eval(jac = 1). */
+    int (*solve)(void *ctx, double *b);
+    /** After the update x -= dx (F: the residual before it): set tr->r and *verdict to
+     *  DTH__NT_DONE, DTH__NT_CHORD (finish with one chord step) or DTH__NT_MORE; a nonzero
+     *  return ends the solve with that status. */
+    int (*judge)(void *ctx, const double *x, const double *dx, const double *F, dth__newton_track *tr, int *verdict);
+} dth__newton_ops;
+/** Verdict from the relative correction r: DONE (r <= tol), CHORD (the quadratic rate predicts
+ *  the next correction below eps), STALLED (r >= r_prev / 2), DIVERGED (not finite) or MORE. */
+int dth__newton_rate(double r, double r_prev, int iter, double tol);
+/** Iterate from x (m unknowns) until the judge says done (then DTH_OK), a callback fails (its
+ *  status) or max_iter passes (DTH_ENOCONV). F and dx are m doubles of workspace. */
+int dth__newton_run(const dth__newton_ops *ops, void *ctx, int m, int max_iter, double *x, double *F,
+                    double *dx, dth__newton_track *tr);
 
 /* ---- banded step solve (banded.c, which calls LAPACK's banded LU) ---- */
 
+/** dth_model_eval without the NaN/Inf sweep of the Hessian (H and the gradient are checked): for
+ *  Newton loops, which see a non-finite Hessian entry in their correction. */
+int dth__model_eval_raw(const dth_model *m, const double *y, unsigned what, double *H, double *grad, double *hess);
 /** 1 if the integrator and psi use the model's banded Hessian (DTH_HESS_BANDED with hess_band,
  *  autonomous); the dense Hessian is then never evaluated by them. */
 int dth__model_banded(const dth_model *m);

@@ -17,6 +17,7 @@ void dth_options_default(dth_options *o)
     o->start = DTH_START_MIDPOINT;
     o->max_iter = 30;
     o->branch_check = 1;
+    o->linsolve = DTH_LINSOLVE_AUTO;
 }
 
 const char *dth_region_name(dth_region r)
@@ -62,50 +63,60 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     *out = NULL;
     if (!model || !opt || !isfinite(opt->h) || opt->h == 0 || opt->max_iter < 1 ||
         !isfinite(opt->K) || (opt->has_wp && !isfinite(opt->wp)) ||
-        (opt->start != DTH_START_MIDPOINT && opt->start != DTH_START_VERTEX))
+        (opt->start != DTH_START_MIDPOINT && opt->start != DTH_START_VERTEX) || !dth_linsolve_name(opt->linsolve))
         return DTH_EINVAL;
+    size_t n = dth_model_dof(model);
+    /* every buffer below is O(n) or O(n^2) doubles: refuse sizes whose products overflow */
+    if (n == 0 || n > ((size_t)1 << 40)) return DTH_EINVAL;
+    int banded_model = dth__model_banded(model);
+    dth_linsolve kind = opt->linsolve;
+    if (kind == DTH_LINSOLVE_BANDED && !banded_model) return DTH_EUNSUPPORTED;
+    int auton = dth_model_get_info(model)->autonomous;
+    size_t msz = auton ? 2 * n + 1 : 2 * n + 3;
+    if (kind == DTH_LINSOLVE_AUTO)
+        kind = banded_model ? DTH_LINSOLVE_BANDED : msz <= DTH__SMALL_MAX ? DTH_LINSOLVE_SMALL : DTH_LINSOLVE_DENSE;
+    if (kind != DTH_LINSOLVE_BANDED && msz > (size_t)1 << 15) return DTH_EUNSUPPORTED; /* a dense m x m would not fit */
     const dth_allocator *al = opt->alloc;
     dth_integrator *it = dth_calloc(al, 1, sizeof *it);
     if (!it) return DTH_ENOMEM;
     it->model = model;
     it->opt = *opt;
     it->alloc = al;
-    it->n = dth_model_dof(model);
-    it->N = 2 * it->n + 2;
-    it->d = 2 * it->n + 1;
-    it->auton = dth_model_get_info(model)->autonomous;
-    it->m = (int)(it->auton ? 2 * it->n + 1 : 2 * it->n + 3);
-    size_t N = it->N, d = it->d, m = (size_t)it->m;
-    size_t nd = 0, dense = !dth__model_banded(model); /* banded: no O(n^2) buffers */
+    it->kind = kind;
+    it->n = n;
+    it->N = 2 * n + 2;
+    it->d = 2 * n + 1;
+    it->auton = auton;
+    it->m = (int)msz;
+    size_t N = it->N, d = it->d, m = msz;
+    size_t nd = 0, dense = kind != DTH_LINSOLVE_BANDED; /* banded: no O(n^2) buffers */
     /* one block of doubles, carved below */
-    size_t sizes[] = {N, N, N, N, N, N, N, d, dense * d * d, d, d, dense * m * m, dense * m * m, m, m, m, m,
-                      dth_model_work_size(model), dense * N * N};
+    size_t sizes[] = {N, N, N, N, N, N, N, N, N, d, dense * d * d, d, d, dense * m * m, m, m, m, m,
+                      dth_model_work_size(model), dense * m * N};
     for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) nd += sizes[i];
     it->block = dth_calloc(al, nd, sizeof(double));
-    it->ipiv = dth_calloc(al, 2 * m + m, sizeof(int));
-    if (!it->block || !it->ipiv) {
+    it->piv = dth_calloc(al, 2 * m, sizeof(int));
+    if (!it->block || !it->piv) {
         dth_integrator_free(it);
         return DTH_ENOMEM;
     }
     double *p = it->block;
-    double **slots[] = {&it->z, &it->zlo, &it->zbar, &it->dprev, &it->znew, &it->znewlo,
-                        &it->zb, &it->grad, &it->hess, &it->u, &it->ybar, &it->A, &it->Af,
-                        &it->F, &it->x, &it->x0, &it->dx, &it->work, &it->B};
+    double **slots[] = {&it->z, &it->zlo, &it->zbar, &it->dprev, &it->dprev2, &it->dprev3, &it->znew, &it->znewlo,
+                        &it->zb, &it->grad, &it->hess, &it->u, &it->ybar, &it->A, &it->F, &it->x, &it->x0, &it->dx,
+                        &it->work, &it->B};
     for (size_t i = 0; i < sizeof slots / sizeof slots[0]; i++) {
         *slots[i] = p;
         p += sizes[i];
     }
     if (!dense) {
-        it->hess = it->A = it->Af = it->B = NULL;
+        it->hess = it->A = it->B = NULL;
         int rc = dth__band_new(model, al, &it->band);
         if (rc) {
             dth_integrator_free(it);
             return rc;
         }
     }
-    it->piv = it->ipiv;
-    it->pivf = it->ipiv + m;
-    it->act = it->ipiv + 2 * m;
+    it->act = it->piv + m;
     /* unknowns: the z-components that Newton solves for, then lambda */
     int a = 0;
     for (size_t j = 0; j < N; j++) {
@@ -130,7 +141,7 @@ void dth_integrator_free(dth_integrator *it)
 {
     if (!it) return;
     dth_free(it->alloc, it->block);
-    dth_free(it->alloc, it->ipiv);
+    dth_free(it->alloc, it->piv);
     dth__band_free(it->band, it->alloc);
     dth__branch_free(it);
     dth_free(it->alloc, it->rbuf);
@@ -162,6 +173,7 @@ static void flow_z(size_t n, const double *grad, double *u)
 
 static void reset_history(dth_integrator *it)
 {
+    it->nhist = 0;
     it->have_prev = 0;
     it->have_mid = 0;
     it->fact_valid = 0;
@@ -254,6 +266,7 @@ void dth_integrator_reverse(dth_integrator *it)
     it->lam_hint = -it->lam_hint;
     it->dir = -it->dir;
     it->opt.h = -it->opt.h;
+    if (it->nhist > 1) it->nhist = 1; /* the offsets before the last one lie ahead now */
     if (it->pending_exact) {
         /* not stepped yet from a midpoint start: reversing means the exact step goes backward */
         it->pending_exact = 0;
@@ -265,49 +278,81 @@ void dth_integrator_reverse(dth_integrator *it)
 /* zbar = (z + zlo) + d for the unknowns x; passive t, wp in closed form (autonomous). */
 static void midpoint_from_x(const dth_integrator *it, const double *x, double *zb)
 {
-    size_t N = it->N;
+    size_t n = it->n, N = it->N;
     int m = it->m;
-    double lam = x[m - 1];
-    for (size_t j = 0; j < N; j++) zb[j] = it->z[j] + it->zlo[j];
-    for (int a = 0; a < m - 1; a++) {
-        int j = it->act[a];
-        zb[j] = it->z[j] + (it->zlo[j] + x[a]);
+    if (it->auton) {
+        /* unknowns (d_q, d_p, lambda) */
+        for (size_t i = 0; i < n; i++) {
+            zb[i] = it->z[i] + (it->zlo[i] + x[i]);
+            zb[n + 1 + i] = it->z[n + 1 + i] + (it->zlo[n + 1 + i] + x[n + i]);
+        }
+        zb[n] = it->z[n] + (it->zlo[n] + 0.5 * x[m - 1]);
+        zb[N - 1] = it->z[N - 1] + it->zlo[N - 1];
+        return;
     }
-    if (it->auton) zb[it->n] = it->z[it->n] + (it->zlo[it->n] + 0.5 * lam);
+    for (int a = 0; a < m - 1; a++) zb[a] = it->z[a] + (it->zlo[a] + x[a]);
+}
+
+/* d u_j / d z_l over the Hessian of H_phys (rows of J H_zz; the wp column is zero). */
+static double dudz(const dth_integrator *it, size_t j, size_t l)
+{
+    size_t n = it->n, d = it->d, N = it->N;
+    const double *Hy = it->hess;
+    if (l >= d) return 0;
+    if (j < n) return Hy[(n + 1 + j) * d + l];
+    if (j >= n + 1 && j < d) return -Hy[(j - n - 1) * d + l];
+    if (j == N - 1) return -Hy[n * d + l];
+    return 0;
 }
 
 /*
- * Residual F and Jacobian A (column-major) at the unknowns x, given grad and hess of H_phys
- * at the midpoint zb. F_a = d_j - (lambda/2) u_j(zbar); F_last = H(zbar).
+ * Residual F and, if A != NULL, the Jacobian A (column-major m x m) at the unknowns x, given
+ * grad and hess of H_phys at the midpoint zb. F_a = d_j - (lambda/2) u_j(zbar); F_last = H(zbar).
  */
-static void assemble(const dth_integrator *it, const double *x, const double *zb, double Hphys,
-                     double *F, double *A)
+static void assemble(const dth_integrator *it, const double *x, const double *zb, double Hphys, double *F, double *A)
 {
     size_t n = it->n, d = it->d, N = it->N;
     int m = it->m;
     const double *g = it->grad, *Hy = it->hess;
-    double lam = x[m - 1];
+    double lam = x[m - 1], hl = 0.5 * lam;
+    F[m - 1] = zb[N - 1] + Hphys;
+    if (it->auton) {
+        /* rows q_i: d_q - (lambda/2) dH/dp_i;  rows p_i: d_p + (lambda/2) dH/dq_i */
+        size_t mm = (size_t)m;
+        for (size_t i = 0; i < n; i++) {
+            F[i] = x[i] - hl * g[n + 1 + i];
+            F[n + i] = x[n + i] + hl * g[i];
+        }
+        if (!A) return;
+        for (size_t i = 0; i < n; i++) {
+            const double *hp = Hy + (n + 1 + i) * d, *hq = Hy + i * d;
+            for (size_t k = 0; k < n; k++) {
+                A[i + k * mm] = -hl * hp[k];               /* dF_qi / d d_qk */
+                A[i + (n + k) * mm] = -hl * hp[n + 1 + k]; /* dF_qi / d d_pk */
+                A[n + i + k * mm] = hl * hq[k];
+                A[n + i + (n + k) * mm] = hl * hq[n + 1 + k];
+            }
+            A[i + i * mm] += 1.0;
+            A[n + i + (n + i) * mm] += 1.0;
+            A[i + 2 * n * mm] = -0.5 * g[n + 1 + i];       /* dF / d lambda = -u/2 */
+            A[n + i + 2 * n * mm] = 0.5 * g[i];
+            A[2 * n + i * mm] = g[i];                      /* border: grad H */
+            A[2 * n + (n + i) * mm] = g[n + 1 + i];
+        }
+        A[2 * n + 2 * n * mm] = 0.0;
+        return;
+    }
     double *u = it->u;
     flow_z(n, g, u);
     for (int a = 0; a < m - 1; a++) {
-        int j = it->act[a];
-        F[a] = x[a] - 0.5 * lam * u[j];
-        if (!A) continue; /* banded path: banded.c assembles the matrix */
-        for (int b = 0; b < m - 1; b++) {
-            int l = it->act[b];
-            double dudz = 0; /* d u_j / d z_l: rows of J H_zz; the wp column is zero */
-            if (l < (int)d) {
-                if (j < (int)n) dudz = Hy[(n + 1 + (size_t)j) * d + (size_t)l];
-                else if (j >= (int)n + 1 && j < (int)d) dudz = -Hy[((size_t)j - n - 1) * d + (size_t)l];
-                else if (j == (int)N - 1) dudz = -Hy[n * d + (size_t)l];
-            }
-            A[a + b * m] = (a == b ? 1.0 : 0.0) - 0.5 * lam * dudz;
-        }
+        size_t j = (size_t)it->act[a];
+        F[a] = x[a] - hl * u[j];
+        if (!A) continue;
+        for (int b = 0; b < m - 1; b++) A[a + b * m] = (a == b ? 1.0 : 0.0) - hl * dudz(it, j, (size_t)it->act[b]);
         A[a + (m - 1) * m] = -0.5 * u[j];
-        A[(m - 1) + a * m] = (j == (int)N - 1) ? 1.0 : g[j];
+        A[(m - 1) + a * m] = (j == N - 1) ? 1.0 : g[j];
     }
     if (A) A[(m - 1) + (m - 1) * m] = 0.0;
-    F[m - 1] = zb[N - 1] + Hphys;
 }
 
 /* Scale of the terms of H at the midpoint, for round-off judgements. */
@@ -364,98 +409,122 @@ static void block_scales(const dth_integrator *it, const double *zb, double bs[4
         if (bs[b] == 0) bs[b] = top > 0 ? top : 1.0;
 }
 
+/* ---- the step as a Newton problem (newton.c) ---- */
+
+/* Factor the step Jacobian assembled at it->zb with the integrator's linear solver. */
+static int step_factor(dth_integrator *it, double lam)
+{
+    if (it->band) return dth__band_factor(it->band, it->model, it->zb, it->grad, lam);
+    return dth__lu_factor(it->kind, it->m, it->A, it->piv);
+}
+
+static int step_eval(void *ctx, const double *x, double *F, int jac)
+{
+    dth_integrator *it = ctx;
+    int m = it->m;
+    midpoint_from_x(it, x, it->zb);
+    /* the model's outputs are not swept for NaN/Inf here (the Hessian alone is (2n+1)^2): a
+     * non-finite value shows in the correction, and step_judge finds out why */
+    unsigned what = DTH_EVAL_H | DTH_EVAL_GRAD | (jac && !it->band ? DTH_EVAL_HESS : 0u);
+    int rc = dth__model_eval_raw(it->model, it->zb, what, &it->Hphys, it->grad, it->hess);
+    if (rc) {
+        seterr(it, "model evaluation failed at a trial midpoint (iteration %d): %s", it->nt.iter, dth_strerror(rc));
+        return rc;
+    }
+    assemble(it, x, it->zb, it->Hphys, F, jac && !it->band ? it->A : NULL);
+    if (!jac) return DTH_OK;
+    rc = step_factor(it, x[m - 1]);
+    if (rc == DTH_ESINGULAR || rc == DTH_ELAPACK)
+        seterr(it, "bordered Jacobian is singular at iteration %d (lambda = %.17g)", it->nt.iter, x[m - 1]);
+    else if (rc)
+        seterr(it, "model evaluation failed at a trial midpoint (iteration %d): %s", it->nt.iter, dth_strerror(rc));
+    return rc;
+}
+
+static int step_solve(void *ctx, double *b)
+{
+    dth_integrator *it = ctx;
+    if (it->band) return dth__band_solve(it->band, b);
+    return dth__lu_solve(it->kind, it->m, it->A, it->piv, 1, b);
+}
+
+static int step_judge(void *ctx, const double *x, const double *dx, const double *F, dth__newton_track *tr, int *verdict)
+{
+    dth_integrator *it = ctx;
+    int m = it->m;
+    double bs[4];
+    block_scales(it, it->zb, bs);
+    double r = 0;
+    for (int a = 0; a < m; a++) {
+        double sc = a == m - 1 ? fabs(x[a]) : bs[block_of(it, it->act[a])];
+        double ra = fabs(dx[a]) / (sc > 0 ? sc : 1e-300);
+        if (!(ra <= r)) r = ra; /* NaN propagates */
+    }
+    tr->r = r;
+    int v = dth__newton_rate(r, tr->r_prev, tr->iter, 4 * DBL_EPSILON);
+    if (v == DTH__NT_DIVERGED || !isfinite(x[m - 1])) {
+        /* a non-finite model output (not swept in step_eval) is the model's domain, not Newton's */
+        int rc = dth_model_eval(it->model, it->zb, DTH_EVAL_H | DTH_EVAL_GRAD | (it->band ? 0u : DTH_EVAL_HESS),
+                                &it->Hphys, it->grad, it->hess);
+        if (!rc && it->band) rc = dth__model_hess_band(it->model, it->zb, it->work);
+        if (rc) {
+            seterr(it, "model evaluation failed at a trial midpoint (iteration %d): %s", tr->iter, dth_strerror(rc));
+            return rc;
+        }
+        seterr(it, "Newton diverged at iteration %d", tr->iter);
+        return DTH_ENOCONV;
+    }
+    if (v == DTH__NT_STALLED) {
+        /* The correction stopped decreasing: accept only if the energy residual is at
+         * round-off and the state residual at round-off or below what the noise of lambda
+         * itself causes (lambda is fixed by a second-order effect, so its correction can
+         * stall well above eps: paper, Lemma g_taylor; a residual d - (lambda/2) u then
+         * carries (dlambda/2) u). */
+        double fs = 0, ds = 0, rl = fabs(dx[m - 1]) / fabs(x[m - 1]);
+        for (int a = 0; a < m - 1; a++) {
+            int j = it->act[a];
+            fs = fmax(fs, fabs(F[a]) / bs[block_of(it, j)]);
+            ds = fmax(ds, fabs(x[a]) / bs[block_of(it, j)]);
+        }
+        double hs = h_scale(it, it->zb, it->Hphys);
+        if (fs <= 1e3 * DBL_EPSILON + 2 * fmin(rl, 1e-6) * ds && fabs(F[m - 1]) <= 1e3 * DBL_EPSILON * hs) {
+            *verdict = DTH__NT_DONE;
+            return DTH_OK;
+        }
+        if (tr->iter >= 8) {
+            seterr(it, "Newton stalled at relative correction %.3g (residual %.3g)", r, fabs(F[m - 1]));
+            return DTH_ENOCONV;
+        }
+        v = DTH__NT_MORE;
+    }
+    *verdict = v;
+    return DTH_OK;
+}
+
+static const dth__newton_ops step_ops = {step_eval, step_solve, step_judge};
+
 int dth__newton(dth_integrator *it, double lam0, const double *d0, dth__solution *sol)
 {
     size_t N = it->N;
-    int m = it->m, rc = DTH_OK;
-    double *x = it->x, *F = it->F, *A = it->A, *zb = it->zb, Hphys = 0;
+    int m = it->m;
+    double *x = it->x, *zb = it->zb;
     for (int a = 0; a < m - 1; a++) x[a] = d0[it->act[a]];
     x[m - 1] = lam0;
-    double r_prev = INFINITY;
     sol->iters = 0;
     sol->residual = NAN;
-    for (int iter = 1; iter <= it->opt.max_iter; iter++) {
-        midpoint_from_x(it, x, zb);
-        rc = dth_model_eval(it->model, zb, DTH_EVAL_H | DTH_EVAL_GRAD | (it->band ? 0u : DTH_EVAL_HESS),
-                            &Hphys, it->grad, it->hess);
-        if (rc) {
-            seterr(it, "model evaluation failed at a trial midpoint (iteration %d): %s", iter, dth_strerror(rc));
-            return rc;
-        }
-        assemble(it, x, zb, Hphys, F, A);
-        rc = it->band ? dth__band_factor(it->band, it->model, zb, it->grad, x[m - 1]) : dth__lu_factor(m, A, it->piv);
-        if (rc) {
-            seterr(it, "bordered Jacobian is singular at iteration %d (lambda = %.17g)", iter, x[m - 1]);
-            return rc;
-        }
-        memcpy(it->dx, F, (size_t)m * sizeof *F);
-        rc = it->band ? dth__band_solve(it->band, it->dx) : dth__lu_solve(m, A, it->piv, 1, it->dx);
-        if (rc) return rc;
-        double bs[4];
-        block_scales(it, zb, bs);
-        double r = 0;
-        for (int a = 0; a < m; a++) {
-            x[a] -= it->dx[a];
-            double sc = a == m - 1 ? fabs(x[a]) : bs[block_of(it, it->act[a])];
-            double ra = fabs(it->dx[a]) / (sc > 0 ? sc : 1e-300);
-            if (!(ra <= r)) r = ra; /* NaN propagates */
-        }
-        sol->iters = iter;
-        if (!isfinite(r) || !isfinite(x[m - 1])) {
-            seterr(it, "Newton diverged at iteration %d", iter);
-            return DTH_ENOCONV;
-        }
-        if (r <= 4 * DBL_EPSILON) break;
-        /* Quadratic rate r_(k+1) ~ r_k^3 / r_(k-1)^2: when the next correction is predicted below
-         * round-off, finish with one chord step (the factors at hand, no new Jacobian) instead of
-         * a full iteration. Without it the last residual keeps one sign from step to step and
-         * quadratic invariants drift like N instead of Brouwer's sqrt(N). */
-        if (iter >= 2 && r < 1e-6 && r * (r / r_prev) * (r / r_prev) <= DBL_EPSILON) {
-            midpoint_from_x(it, x, zb);
-            rc = dth_model_eval(it->model, zb, DTH_EVAL_H | DTH_EVAL_GRAD, &Hphys, it->grad, NULL);
-            if (rc) {
-                seterr(it, "model evaluation failed at a trial midpoint (chord step): %s", dth_strerror(rc));
-                return rc;
-            }
-            assemble(it, x, zb, Hphys, it->dx, NULL); /* residual only: the factors stay */
-            rc = it->band ? dth__band_solve(it->band, it->dx) : dth__lu_solve(m, A, it->piv, 1, it->dx);
-            if (rc) return rc;
-            for (int a = 0; a < m; a++) x[a] -= it->dx[a];
-            break;
-        }
-        if (r >= 0.5 * r_prev) {
-            /* The correction stopped decreasing: accept only if the energy residual is at
-             * round-off and the state residual at round-off or below what the noise of lambda
-             * itself causes (lambda is fixed by a second-order effect, so its correction can
-             * stall well above eps: paper, Lemma g_taylor; a residual d - (lambda/2) u then
-             * carries (dlambda/2) u). */
-            double fs = 0, ds = 0, rl = fabs(it->dx[m - 1]) / fabs(x[m - 1]);
-            for (int a = 0; a < m - 1; a++) {
-                int j = it->act[a];
-                fs = fmax(fs, fabs(F[a]) / bs[block_of(it, j)]);
-                ds = fmax(ds, fabs(x[a]) / bs[block_of(it, j)]);
-            }
-            double hs = h_scale(it, zb, Hphys);
-            if (fs <= 1e3 * DBL_EPSILON + 2 * fmin(rl, 1e-6) * ds && fabs(F[m - 1]) <= 1e3 * DBL_EPSILON * hs) break;
-            if (iter >= 8) {
-                seterr(it, "Newton stalled at relative correction %.3g (residual %.3g)", r, fabs(F[m - 1]));
-                return DTH_ENOCONV;
-            }
-        }
-        r_prev = r;
-        if (iter == it->opt.max_iter) {
-            seterr(it, "Newton did not converge in %d iterations (last correction %.3g)", iter, r);
-            return DTH_ENOCONV;
-        }
-    }
+    int rc = dth__newton_run(&step_ops, it, m, it->opt.max_iter, x, it->F, it->dx, &it->nt);
+    sol->iters = it->nt.iter;
+    if (rc == DTH_ENOCONV && it->nt.verdict == DTH__NT_MAXITER)
+        seterr(it, "Newton did not converge in %d iterations (last correction %.3g)", it->nt.iter, it->nt.r);
+    if (rc) return rc;
     /* the accepted midpoint and its energy residual */
     midpoint_from_x(it, x, zb);
-    rc = dth_model_eval(it->model, zb, DTH_EVAL_H, &Hphys, NULL, NULL);
+    rc = dth_model_eval(it->model, zb, DTH_EVAL_H, &it->Hphys, NULL, NULL);
     if (rc) {
         seterr(it, "model evaluation failed at the converged midpoint");
         return rc;
     }
-    sol->residual = fabs(zb[N - 1] + Hphys);
+    sol->residual = fabs(zb[N - 1] + it->Hphys);
     sol->lambda = x[m - 1];
     return DTH_OK;
 }
@@ -475,24 +544,23 @@ static int commit(dth_integrator *it, double lam)
             seterr(it, "the new vertex overflows (component %zu)", j);
             return DTH_EDOMAIN;
         }
+    /* the predictor's history: the last three offsets and steps */
+    double *t3 = it->dprev3;
+    it->dprev3 = it->dprev2;
+    it->dprev2 = it->dprev;
+    it->dprev = t3;
+    it->lam3 = it->lam2;
+    it->lam2 = it->lam;
+    it->nhist = it->nhist < 3 ? it->nhist + 1 : 3;
     for (size_t j = 0; j < N; j++) {
         double e, s = two_sum(it->z[j], 2 * d[j] + it->zlo[j], &e);
+        it->dprev[j] = d[j];
         if (it->auton && j == N - 1) continue; /* wp carried bit for bit */
         it->z[j] = s;
         it->zlo[j] = e;
-        it->dprev[j] = d[j];
     }
-    it->dprev[N - 1] = d[N - 1];
     memcpy(it->zbar, it->zb, N * sizeof *it->zb);
-    /* keep the factors of this step for the tangent map */
-    double *t = it->Af;
-    it->Af = it->A;
-    it->A = t;
-    int *tp = it->pivf;
-    it->pivf = it->piv;
-    it->piv = tp;
-    it->fact_valid = 1; /* a tangent map exists: dense factors in Af; the banded one refactors at zbar */
-    it->lam_fact = lam;
+    it->fact_valid = 1; /* an ordinary step: a tangent map exists (a regularizer's step clears it) */
     it->lam = lam;
     it->have_prev = 1;
     it->have_mid = 1;
@@ -501,6 +569,21 @@ static int commit(dth_integrator *it, double lam)
 }
 
 int dth__integrator_commit(dth_integrator *it, double lam) { return commit(it, lam); }
+
+/* The predictor of the next step: quadratic extrapolation of (d, lambda) over the last three
+ * ordinary steps, else the reflection of the last offset (the next midpoint offset mirrors it). */
+static const double *predict(dth_integrator *it, double *lam0)
+{
+    size_t N = it->N;
+    *lam0 = it->lam;
+    if (it->nhist < 3) return it->dprev;
+    double l = 3 * (it->lam - it->lam2) + it->lam3;
+    if (!(l * it->dir > 0) || !(fabs(l) <= 2 * fabs(it->lam)) || !(2 * fabs(l) >= fabs(it->lam))) return it->dprev;
+    double *d = it->znewlo;
+    for (size_t j = 0; j < N; j++) d[j] = 3 * (it->dprev[j] - it->dprev2[j]) + it->dprev3[j];
+    *lam0 = l;
+    return d;
+}
 
 int dth_integrator_step(dth_integrator *it, dth_step_info *info)
 {
@@ -512,26 +595,22 @@ int dth_integrator_step(dth_integrator *it, dth_step_info *info)
     int m = it->m;
     if (it->pending_exact) {
         /* Midpoint start: zbar_0 and lambda = h solve the step equations exactly. */
-        double lam = it->lam_hint, Hphys;
+        double lam = it->lam_hint;
         for (int a = 0; a < m - 1; a++) it->x[a] = it->dprev[it->act[a]];
         it->x[m - 1] = lam;
         memcpy(it->zb, it->zbar, N * sizeof *it->zb);
-        int rc = dth_model_eval(it->model, it->zb, DTH_EVAL_H | DTH_EVAL_GRAD | (it->band ? 0u : DTH_EVAL_HESS),
-                                &Hphys, it->grad, it->hess);
-        if (!rc) {
-            assemble(it, it->x, it->zb, Hphys, it->F, it->A);
-            rc = it->band ? dth__band_factor(it->band, it->model, it->zb, it->grad, lam) : dth__lu_factor(m, it->A, it->piv);
-        }
+        int rc = dth_model_eval(it->model, it->zb, DTH_EVAL_H, &it->Hphys, NULL, NULL);
         if (rc) {
-            seterr(it, "cannot factor the first (exact) step");
+            seterr(it, "model evaluation failed at the first (exact) midpoint");
             return rc;
         }
         rc = commit(it, lam);
         if (rc) return rc;
+        it->nhist = 1;
         it->pending_exact = 0;
         info->lambda = lam;
         info->iters = 0;
-        info->residual = fabs(it->zbar[N - 1] + Hphys);
+        info->residual = fabs(it->zbar[N - 1] + it->Hphys);
         info->branch = DTH_BRANCH_EXACT;
         return DTH_OK;
     }
@@ -546,9 +625,7 @@ int dth_integrator_step(dth_integrator *it, dth_step_info *info)
     double lam0;
     const double *d0;
     if (it->have_prev) {
-        /* reflection predictor: the next midpoint offset mirrors the last one */
-        lam0 = it->lam;
-        d0 = it->dprev;
+        d0 = predict(it, &lam0);
     } else {
         double Hphys, psi, dpsi;
         int rc = dth_model_eval(it->model, it->z, DTH_EVAL_H | DTH_EVAL_GRAD, &Hphys, it->grad, NULL);
@@ -591,33 +668,27 @@ int dth_integrator_tangent(dth_integrator *it, double *M)
 {
     if (!it || !M) return DTH_EINVAL;
     if (!it->fact_valid) return DTH_EINVAL; /* no step yet, or a regularizer's step */
-    if (it->band) return dth__band_tangent(it->band, it->model, it->zbar, it->lam_fact, M);
-    size_t n = it->n, N = it->N, d = it->d;
+    if (it->band) return dth__band_tangent(it->band, it->model, it->zbar, it->lam, M);
+    size_t n = it->n, N = it->N;
     int m = it->m;
-    double Hphys, lam = it->lam_fact;
-    int rc = dth_model_eval(it->model, it->zbar, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS,
-                            &Hphys, it->grad, it->hess);
+    double lam = it->lam;
+    /* the Jacobian at the converged midpoint (not at Newton's last iterate), factored afresh */
+    int rc = dth_model_eval(it->model, it->zbar, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &it->Hphys, it->grad,
+                            it->hess);
+    if (rc) return rc;
+    for (int a = 0; a < m - 1; a++) it->x[a] = it->dprev[it->act[a]];
+    it->x[m - 1] = lam;
+    assemble(it, it->x, it->zbar, it->Hphys, it->F, it->A);
+    rc = dth__lu_factor(it->kind, m, it->A, it->piv);
     if (rc) return rc;
     /* B = dF/dz_k (m x N, column-major): rows of -(lambda/2) J H_zz, last row grad H. */
     double *B = it->B;
-    double *u = it->u;
-    flow_z(n, it->grad, u);
     for (size_t l = 0; l < N; l++) {
-        for (int a = 0; a < m - 1; a++) {
-            int j = it->act[a];
-            double dudz = 0;
-            if (l < d) {
-                if (j < (int)n) dudz = it->hess[(n + 1 + (size_t)j) * d + l];
-                else if (j >= (int)n + 1 && j < (int)d) dudz = -it->hess[((size_t)j - n - 1) * d + l];
-                else if (j == (int)N - 1) dudz = -it->hess[n * d + l];
-            }
-            B[(size_t)a + l * (size_t)m] = -0.5 * lam * dudz;
-        }
-        B[(size_t)(m - 1) + l * (size_t)m] = l == N - 1 ? 1.0 : it->grad[l];
+        for (int a = 0; a < m - 1; a++) B[(size_t)a + l * (size_t)m] = 0.5 * lam * dudz(it, (size_t)it->act[a], l);
+        B[(size_t)(m - 1) + l * (size_t)m] = l == N - 1 ? -1.0 : -it->grad[l];
     }
-    /* X = -A^{-1} B: derivatives of the unknowns (d, lambda) with respect to z_k. */
-    for (size_t k = 0; k < (size_t)m * N; k++) B[k] = -B[k];
-    rc = dth__lu_solve(m, it->Af, it->pivf, (int)N, B);
+    /* X = -A^{-1} B: derivatives of the unknowns (d, lambda) with respect to z_k (B holds -B). */
+    rc = dth__lu_solve(it->kind, m, it->A, it->piv, (int)N, B);
     if (rc) return rc;
     /* M = I + 2 dd/dz_k; autonomous: d_t = lambda/2, d_wp = 0. */
     memset(M, 0, N * N * sizeof *M);

@@ -5,6 +5,7 @@
 
 #include <stdarg.h>
 #include "dth/integrator.h"
+#include "dth_internal.h"
 
 struct dth_integrator {
     const dth_model *model;
@@ -14,20 +15,25 @@ struct dth_integrator {
     int auton;        /* autonomous model: t and wp rows in closed form */
     int m;            /* Newton unknowns: active components of d, then lambda */
     int *act;         /* z-index of each active unknown (m-1 of them) */
+    dth_linsolve kind; /* the linear solver in use (never AUTO) */
     /* state: vertex in double-double, last step */
     double *z, *zlo;  /* vertex z_k = z + zlo */
     double *zbar;     /* midpoint of the last step */
     double *dprev;    /* offset zbar - z_{k-1} of the last step (predictor) */
+    double *dprev2, *dprev3; /* the two offsets before it (quadratic predictor) */
     double lam;       /* last step (0 if none) */
+    double lam2, lam3; /* the steps before it */
+    int nhist;        /* consecutive ordinary steps in dprev.. (0..3) */
     double lam_hint;  /* step size to aim for when there is no history */
     double dir;       /* +1 forward, -1 backward */
     int have_prev, have_mid, pending_exact;
     long steps;
     /* workspace */
-    double *znew, *znewlo, *zb, *grad, *hess, *u, *ybar, *A, *Af, *F, *x, *x0, *dx, *work, *B;
-    int *ipiv, *piv, *pivf;
-    int fact_valid;   /* Af/pivf hold the factors of the last step's Jacobian */
-    double lam_fact;
+    double *znew, *znewlo, *zb, *grad, *hess, *u, *ybar, *A, *F, *x, *x0, *dx, *work, *B;
+    double Hphys;     /* H_phys at it->zb after the last step evaluation */
+    int *piv;
+    int fact_valid;   /* the last step was an ordinary DTH step: a tangent map exists */
+    dth__newton_track nt; /* progress of the current Newton solve (messages) */
     double *block;
     struct dth__band *band; /* banded step solve (banded.c), NULL for the dense path */
     struct dth_rootfinder *rf; /* branch selection (branch.c), NULL when opt.branch_check is off */

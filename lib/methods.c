@@ -331,12 +331,12 @@ static int step_gauss(dth_fixed *f, int *iters)
                         f->A[(i * d + j) + (l * d + k) * M] = v;
                     }
             }
-        rc = dth__lu_factor((int)M, f->A, f->piv);
+        rc = dth__lu_factor(DTH_LINSOLVE_AUTO, (int)M, f->A, f->piv);
         if (rc) {
             seterr(f, "stage Jacobian is singular at iteration %d", iter);
             return rc;
         }
-        rc = dth__lu_solve((int)M, f->A, f->piv, 1, f->F);
+        rc = dth__lu_solve(DTH_LINSOLVE_AUTO, (int)M, f->A, f->piv, 1, f->F);
         if (rc) return rc;
         /* norm-wise relative correction: a componentwise one never reaches round-off on
          * components that are themselves round-off (p = 0 at rest, say) */

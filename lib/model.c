@@ -215,6 +215,16 @@ int dth_model_eval(const dth_model *m, const double *y, unsigned what, double *H
     return DTH_OK;
 }
 
+int dth__model_eval_raw(const dth_model *m, const double *y, unsigned what, double *H, double *grad, double *hess)
+{
+    int rc = m->type->eval(m->self, y, what, H, grad, hess);
+    if (rc > 0) return DTH_EDOMAIN;
+    if (rc < 0) return DTH_EMODEL;
+    if ((what & DTH_EVAL_H) && !isfinite(*H)) return DTH_EDOMAIN;
+    if ((what & DTH_EVAL_GRAD) && !all_finite(grad, 2 * m->info.n + 1)) return DTH_EDOMAIN;
+    return DTH_OK;
+}
+
 int dth__model_banded(const dth_model *m)
 {
     return m->info.hess_kind == DTH_HESS_BANDED && m->type->hess_band && m->info.autonomous;

@@ -347,9 +347,9 @@ int dth_kicked_segment(const dth_model *model, const double *z, const double *zl
                 for (size_t c = 0; c < q; c++) sb += G[rr * q + c] * sc[c] * hs[(c < n ? c : c + 1) * d + yb];
                 for (size_t a = 0; a < q; a++) A[a + b * (size_t)m] += 0.5 * kmu * sc[a] * G[rr * q + a] * sb;
             }
-        rc = dth__lu_factor(m, A, piv);
+        rc = dth__lu_factor(DTH_LINSOLVE_AUTO, m, A, piv);
         if (rc) return rc;
-        rc = dth__lu_solve(m, A, piv, 1, F);
+        rc = dth__lu_solve(DTH_LINSOLVE_AUTO, m, A, piv, 1, F);
         if (rc) return rc;
         /* rd: the offsets only (mu inherits H's round-off, magnified), against the size of the
          * whole (q, p) state (a component near 0 only sees the round-off of the others) */

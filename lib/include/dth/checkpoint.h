@@ -5,7 +5,7 @@
  * A checkpoint holds the complete dynamic state of an integrator (the vertex in double-double,
  * the last midpoint, the predictor's offset and step, direction, flags (including the sign of psi
  * at the vertex that regularizers keep), step counter and the
- * factors of the last step's Jacobian for the tangent map) plus named blobs the caller supplies
+ * predictor's last three offsets) plus named blobs the caller supplies
  * (for example the scene text and output counters), with a format version and an FNV-1a 64
  * checksum. Restoring it into an integrator created for the same model with the same options
  * continues the run exactly: N steps, save, restore, N steps gives the same bits as 2N steps.
@@ -27,7 +27,7 @@ extern "C" {
 #endif
 
 /** Format version written by this library. */
-#define DTH_CHECKPOINT_VERSION 2 /* 2: the sign of psi at the vertex (regularizers' flag) */
+#define DTH_CHECKPOINT_VERSION 3 /* 3: the predictor's three offsets; no LU factors (the tangent refactors) */
 
 /** A named blob of caller data stored alongside the state. */
 typedef struct dth_blob {

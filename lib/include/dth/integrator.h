@@ -31,6 +31,22 @@ typedef enum dth_start {
     DTH_START_VERTEX = 1
 } dth_start;
 
+/**
+ * Linear solver of the step's Newton system (and of its tangent map). All paths solve the same
+ * equations and agree to round-off; they differ in cost.
+ */
+typedef enum dth_linsolve {
+    DTH_LINSOLVE_AUTO = 0,   /**< banded for banded models, else small for m <= 8 unknowns, else dense */
+    DTH_LINSOLVE_DENSE = 1,  /**< LAPACK dgetrf/dgetrs on the bordered system: the reference path */
+    DTH_LINSOLVE_SMALL = 2,  /**< LU with partial pivoting written out (no library call, no lock) */
+    DTH_LINSOLVE_BANDED = 3  /**< banded models only: LAPACK banded Cholesky of the Schur complement
+                                  M^-1 + (lambda^2/4) V'' for separable H with diagonal mass (banded LU
+                                  when it is not positive definite), else banded LU of the step matrix */
+} dth_linsolve;
+
+/** Name of a linear-solver choice ("auto", "dense", "small", "banded"), NULL if unknown. */
+DTH_API const char *dth_linsolve_name(dth_linsolve k);
+
 /** Options of an integrator. Initialize with dth_options_default(). */
 typedef struct dth_options {
     double h;                   /**< first step; its sign is the direction of travel */
@@ -44,9 +60,11 @@ typedef struct dth_options {
                                      default 1 (dense models; banded models skip the check) */
     dth_regularizer *regularizer; /**< called where the ordinary step fails or crosses psi = 0
                                        (regularize.h); borrowed; NULL: raw DTH */
+    dth_linsolve linsolve;      /**< linear solver of the Newton system (default AUTO) */
 } dth_options;
 
-/** Fill `o` with defaults: h = 0.01, midpoint start, max_iter = 30, K = 0, branch_check = 1. */
+/** Fill `o` with defaults: h = 0.01, midpoint start, max_iter = 30, K = 0, branch_check = 1,
+ *  linsolve = DTH_LINSOLVE_AUTO. */
 DTH_API void dth_options_default(dth_options *o);
 
 /** Which root a step took (filled by the branch logic; see branch.h). */
@@ -126,8 +144,9 @@ DTH_API const char *dth_integrator_errmsg(const dth_integrator *it);
 
 /**
  * Tangent map of the last step, M = d z_{k+1} / d z_k ((2n+2)^2, row-major), by implicit
- * differentiation of the bordered system with the step's LU factors.
- * @return DTH_OK, DTH_EINVAL before any step.
+ * differentiation of the bordered system, factored afresh at the converged midpoint.
+ * @return DTH_OK; DTH_EINVAL before any step or after a regularizer's step (no tangent map);
+ *         the model's status.
  */
 DTH_API int dth_integrator_tangent(dth_integrator *it, double *M);
 
