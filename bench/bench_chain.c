@@ -1,9 +1,11 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Benchmark (not a test): cost per DTH step (paper, Theorem "DTH Equations") of a nonlinear 2-D
- * chain of N particles (coupled model, L = 1) for the banded step solve (N = 10 .. 10^4) and the
- * dense one (N <= 200), with the ratios between successive N: banded should grow ~linearly.
- * Usage: OPENBLAS_NUM_THREADS=1 bench_chain [max_dense_N]   (default 200; median of 3 repeats)
+ * chain of N particles (coupled model, L = 1): the banded solve through the Schur complement
+ * (linsolve = banded, the default) next to the banded LU of the whole step matrix (banded-lu, the
+ * path before the Schur complement) in the same run, N = 10 .. 10^5, with the bytes the model and
+ * integrator allocate per particle; then the dense solve (N <= 200).
+ * Usage: OPENBLAS_NUM_THREADS=1 bench_chain [max_dense_N [max_N]]   (defaults 200, 100000; median of 3)
  */
 #include <math.h>
 #include <stdio.h>
@@ -15,21 +17,45 @@
 
 enum { REPEATS = 3 };
 
+/* Counting allocator: bytes the model and the integrator hold (a header keeps each block's size). */
+static size_t live, peak;
+static void *count_alloc(void *ctx, size_t n)
+{
+    (void)ctx;
+    size_t *p = malloc(n + 16);
+    if (!p) return NULL;
+    p[0] = n;
+    live += n;
+    if (live > peak) peak = live;
+    return (char *)p + 16;
+}
+static void count_free(void *ctx, void *ptr)
+{
+    (void)ctx;
+    if (!ptr) return;
+    size_t *p = (size_t *)((char *)ptr - 16);
+    live -= p[0];
+    free(p);
+}
+static const dth_allocator counting = {count_alloc, count_free, NULL};
+
 typedef struct result {
     double us_step, iters; /* median microseconds per step, Newton iterations per step */
+    double bytes;          /* peak bytes held by the model and integrator */
     int ok;
 } result;
 
-/* Time `steps` steps of an N-particle chain (structure "auto" = banded, or "dense"). */
-static result run(size_t N, const char *structure, long steps)
+/* Time `steps` steps of an N-particle chain (structure "auto" = banded, or "dense") with a solver. */
+static result run(size_t N, const char *structure, dth_linsolve ls, long steps)
 {
-    result res = {0, 0, 0};
+    result res = {0, 0, 0, 0};
+    live = peak = 0;
     char size[32];
     snprintf(size, sizeof size, "%zu", N);
     dth_kv kv[] = {{"preset", "chain"}, {"size", size}, {"dim", "2"}, {"L", "1"}, {"k", "1"}, {"structure", structure}};
     dth_model *m;
     char err[256];
-    if (dth_model_new(&dth_model_coupled, kv, 6, 0, NULL, &m, err, sizeof err)) {
+    if (dth_model_new(&dth_model_coupled, kv, 6, 0, &counting, &m, err, sizeof err)) {
         fprintf(stderr, "%s\n", err);
         return res;
     }
@@ -47,6 +73,8 @@ static result run(size_t N, const char *structure, long steps)
     dth_options o;
     dth_options_default(&o);
     o.h = 0.05;
+    o.linsolve = ls;
+    o.alloc = &counting;
     double t[REPEATS];
     long iters = 0;
     res.ok = 1;
@@ -75,6 +103,7 @@ static result run(size_t N, const char *structure, long steps)
     qsort(t, REPEATS, sizeof t[0], bench_cmp_double);
     res.us_step = t[REPEATS / 2];
     res.iters = (double)iters / (double)steps;
+    res.bytes = (double)peak;
     free(q);
     free(p);
     dth_model_free(m);
@@ -83,22 +112,29 @@ static result run(size_t N, const char *structure, long steps)
 
 int main(int argc, char **argv)
 {
-    size_t max_dense = argc > 1 ? (size_t)atol(argv[1]) : 200;
-    const size_t Ns[] = {10, 100, 1000, 10000};
+    size_t max_dense = argc > 1 ? (size_t)atol(argv[1]) : 200, max_n = argc > 2 ? (size_t)atol(argv[2]) : 100000;
+    const size_t Ns[] = {10, 100, 1000, 10000, 100000};
     const size_t Nd[] = {10, 20, 50, 100, 200};
     printf("# coupled chain, d = 2, L = 1, h = 0.05, midpoint start; microseconds per step (median of %d)\n", REPEATS);
-    printf("# path     N       n   steps   us/step  iters/step  us/iter  ratio(us/step to previous N)\n");
-    double prev = 0;
+    printf("# banded: Schur complement (Cholesky); banded-lu: LU of the whole step matrix; same run\n");
+    printf("# path        N       n   steps   us/step  iters/step  us/iter  bytes/particle  ratio\n");
+    double prev = 0, banded_at[2] = {0};
     size_t prevN = 0;
-    double banded_at[5] = {0};
-    for (size_t i = 0; i < sizeof Ns / sizeof Ns[0]; i++) {
+    for (size_t i = 0; i < sizeof Ns / sizeof Ns[0] && Ns[i] <= max_n; i++) {
         long steps = (long)(20000 / Ns[i]);
-        if (steps < 20) steps = 20;
-        result r = run(Ns[i], "auto", steps);
+        if (steps < 5) steps = 5;
+        result r = run(Ns[i], "auto", DTH_LINSOLVE_BANDED, steps);
         if (!r.ok) return 1;
-        printf("banded %6zu %7zu %7ld %9.1f %11.2f %8.2f", Ns[i], 2 * Ns[i], steps, r.us_step, r.iters, r.us_step / r.iters);
+        printf("banded    %6zu %7zu %7ld %9.1f %11.2f %8.2f %15.0f", Ns[i], 2 * Ns[i], steps, r.us_step, r.iters,
+               r.us_step / r.iters, r.bytes / (double)Ns[i]);
         if (prev > 0) printf("  %.2f (N x%.0f)", r.us_step / prev, (double)Ns[i] / (double)prevN);
         printf("\n");
+        if (Ns[i] <= 10000) {
+            result l = run(Ns[i], "auto", DTH_LINSOLVE_BANDED_LU, steps);
+            if (!l.ok) return 1;
+            printf("banded-lu %6zu %7zu %7ld %9.1f %11.2f %8.2f %15.0f  banded/banded-lu %.2f\n", Ns[i], 2 * Ns[i], steps,
+                   l.us_step, l.iters, l.us_step / l.iters, l.bytes / (double)Ns[i], r.us_step / l.us_step);
+        }
         prev = r.us_step;
         prevN = Ns[i];
         if (i < 2) banded_at[i] = r.us_step;
@@ -106,9 +142,10 @@ int main(int argc, char **argv)
     prev = 0;
     for (size_t i = 0; i < sizeof Nd / sizeof Nd[0] && Nd[i] <= max_dense; i++) {
         long steps = Nd[i] <= 50 ? 200 : Nd[i] <= 100 ? 20 : 5;
-        result r = run(Nd[i], "dense", steps);
+        result r = run(Nd[i], "dense", DTH_LINSOLVE_AUTO, steps);
         if (!r.ok) return 1;
-        printf("dense  %6zu %7zu %7ld %9.1f %11.2f %8.2f", Nd[i], 2 * Nd[i], steps, r.us_step, r.iters, r.us_step / r.iters);
+        printf("dense     %6zu %7zu %7ld %9.1f %11.2f %8.2f %15.0f", Nd[i], 2 * Nd[i], steps, r.us_step, r.iters,
+               r.us_step / r.iters, r.bytes / (double)Nd[i]);
         if (prev > 0) printf("  %.2f (N x%.1f)", r.us_step / prev, (double)Nd[i] / (double)prevN);
         if (Nd[i] == 10) printf("  dense/banded %.1f", r.us_step / banded_at[0]);
         if (Nd[i] == 100) printf("  dense/banded %.1f", r.us_step / banded_at[1]);

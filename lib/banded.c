@@ -46,7 +46,7 @@ struct dth__band {
 
 enum { SCHUR_CHOL = 1, SCHUR_LU, GENERAL };
 
-int dth__band_new(const dth_model *m, const dth_allocator *al, dth__band **out)
+int dth__band_new(const dth_model *m, int schur, const dth_allocator *al, dth__band **out)
 {
     *out = NULL;
     const dth_model_info *info = dth_model_get_info(m);
@@ -68,11 +68,11 @@ int dth__band_new(const dth_model *m, const dth_allocator *al, dth__band **out)
     /* overflow of the products is caught by dth_calloc */
     b->hb = dth_calloc(al, nn, b->bw * sizeof(double));
     b->g = dth_calloc(al, 5 * nn + 2, sizeof(double));
-    if (info->separable) {
+    if (schur && info->separable) {
         b->kab = dth_calloc(al, n, ((size_t)b->ldk + 2) * sizeof(double));
         b->kpiv = dth_calloc(al, n, sizeof(int));
     }
-    if (!b->hb || !b->g || (info->separable && (!b->kab || !b->kpiv))) {
+    if (!b->hb || !b->g || (schur && info->separable && (!b->kab || !b->kpiv))) {
         dth__band_free(b, al);
         return DTH_ENOMEM;
     }
@@ -113,23 +113,21 @@ static double d_times(const dth__band *b, size_t r, const double *v)
     return (r & 1) ? -acc : acc;
 }
 
-/* Separable with diagonal positive T'' (T''^-1 into tinv): the Schur path applies. */
+/* Separable (no q-p coupling, the model says so) with diagonal positive T'': T''^-1 into tinv,
+ * and the Schur path applies. Checks the p-p entries only. */
 static int schur_applies(dth__band *b)
 {
     if (!b->kab) return 0;
     size_t w = b->w, nn = (size_t)b->nn, bw = b->bw;
-    for (size_t r = 0; r < nn; r++) {
+    for (size_t r = 1; r < nn; r += 2) {
         const double *row = b->hb + r * bw + w - r; /* row[l] = H(r, l) */
         size_t lo = r > w ? r - w : 0, hi = r + w < nn - 1 ? r + w : nn - 1;
-        for (size_t l = lo; l <= hi; l++) {
-            if (l == r || ((r | l) & 1) == 0) continue; /* the diagonal and q-q entries */
-            if (row[l] != 0) return 0;                 /* q-p coupling, or T'' not diagonal */
-        }
-        if (r & 1) {
-            double t = row[r];
-            if (!(t > 0)) return 0;
-            b->tinv[r / 2] = 1.0 / t;
-        }
+        lo |= 1;
+        for (size_t l = lo; l <= hi; l += 2)
+            if (l != r && row[l] != 0) return 0; /* T'' not diagonal */
+        double t = row[r];
+        if (!(t > 0)) return 0;
+        b->tinv[r / 2] = 1.0 / t;
     }
     return 1;
 }
@@ -233,10 +231,12 @@ static int b_solve(dth__band *b, double *x)
 int dth__band_factor(dth__band *b, const dth_model *m, const double *zb, const double *grad, double lam)
 {
     size_t n = b->n, nn = (size_t)b->nn;
-    int rc = dth__model_hess_band(m, zb, b->hb);
+    /* not swept for NaN/Inf (nn (2w+1) entries): a non-finite entry shows in the solution */
+    int rc = dth__model_hess_band_raw(m, zb, b->hb);
     if (rc) return rc;
     b->lam = lam;
-    rc = schur_applies(b) ? schur_factor(b, lam) : general_factor(b, lam);
+    int schur = schur_applies(b);
+    rc = schur ? schur_factor(b, lam) : general_factor(b, lam);
     if (rc) return rc;
     /* u and g interleaved: u = (dH/dp_i, -dH/dq_i), g = (dH/dq_i, dH/dp_i) */
     double *u = b->r, *e = b->y2;
@@ -246,7 +246,20 @@ int dth__band_factor(dth__band *b, const dth_model *m, const double *zb, const d
         u[2 * i] = grad[n + 1 + i];
         u[2 * i + 1] = -grad[i];
     }
-    for (size_t r = 0; r < nn; r++) e[r] = -0.25 * lam * d_times(b, r, u);
+    if (schur) {
+        /* D u: q rows T''_ii u_p_i, p rows -sum_j V''_ij u_q_j (the q-q band only) */
+        size_t w = b->w, bw = b->bw, kq = (size_t)b->kq;
+        for (size_t i = 0; i < n; i++) {
+            size_t r = 2 * i, lo = i > kq ? i - kq : 0, hi = i + kq < n - 1 ? i + kq : n - 1;
+            const double *row = b->hb + r * bw + w - r;
+            double acc = 0;
+            for (size_t j = lo; j <= hi; j++) acc += row[2 * j] * u[2 * j];
+            e[r] = -0.25 * lam * (u[r + 1] / b->tinv[i]);
+            e[r + 1] = 0.25 * lam * acc;
+        }
+    } else {
+        for (size_t r = 0; r < nn; r++) e[r] = -0.25 * lam * d_times(b, r, u);
+    }
     rc = b_solve(b, e);
     if (rc) return rc;
     double s = 0;

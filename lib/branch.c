@@ -26,7 +26,10 @@ struct dth_rootfinder {
     int *act, *piv;       /* z-index of each unknown; LU pivots */
     dth_integrator *host; /* polish with this integrator's Newton (its current vertex) */
     dth_integrator *own;  /* or with our own integrator (standalone finder) */
-    double *z, *grad, *hess, *u, *A, *F, *v, *work, *seed, *ze, *zf, *rz, *rb1, *rb2, *rb3;
+    double *z, *grad, *hess, *u, *A, *F, *v, *work, *seed, *ze, *zf, *rz, *rb1, *rb2, *rb3, *nx, *ndx;
+    /* the decoupled solve in progress (solve_at): vertex, lambda, midpoint */
+    const double *sz;
+    double slam, *szb, sHp; /* ... and H_phys at the last evaluated midpoint */
     double blo[DTH_MAX_ROOTS], bhi[DTH_MAX_ROOTS]; /* bracket of each root (for polishing) */
     size_t cap;           /* grid capacity (both sides and 0) */
     double *gl, *gg, *gd, *gz, *tmp; /* grid: lambda, g, g', zbar (cap x N); sort keys */
@@ -78,10 +81,10 @@ static int rf_create(const dth_model *model, const dth_root_options *opt, const 
     size_t N = rf->N, d = rf->d, M = (size_t)rf->M;
     rf->cap = 2 * ((size_t)o.n_uniform + (size_t)o.n_geom + 8) + 1;
     size_t sizes[] = {N, d, d * d, N, M * M, M, N, dth_model_work_size(model), N, N, N, N, N, N,
-                      DTH_MAX_ROOTS * N, rf->cap, rf->cap, rf->cap, rf->cap * N, rf->cap};
+                      DTH_MAX_ROOTS * N, rf->cap, rf->cap, rf->cap, rf->cap * N, rf->cap, M, M};
     double **slots[] = {&rf->z, &rf->grad, &rf->hess, &rf->u, &rf->A, &rf->F, &rf->v, &rf->work,
                         &rf->seed, &rf->ze, &rf->zf, &rf->rb1, &rf->rb2, &rf->rb3, &rf->rz,
-                        &rf->gl, &rf->gg, &rf->gd, &rf->gz, &rf->tmp};
+                        &rf->gl, &rf->gg, &rf->gd, &rf->gz, &rf->tmp, &rf->nx, &rf->ndx};
     size_t nd = 0;
     for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) nd += sizes[i];
     rf->block = dth_calloc(alloc, nd, sizeof(double));
@@ -163,7 +166,8 @@ static int vertex_quantities(dth_rootfinder *rf, const double *z, double *H, dou
 {
     size_t n = rf->n, d = rf->d, N = rf->N;
     double Hp;
-    int rc = dth_model_eval(rf->model, z, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &Hp, rf->grad, rf->hess);
+    /* the Hessian is not swept for NaN/Inf: psi and psi' are checked instead */
+    int rc = dth__model_eval_raw(rf->model, z, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &Hp, rf->grad, rf->hess);
     if (rc) return rc;
     *H = z[N - 1] + Hp;
     dth__flow_y(n, rf->grad, rf->u);
@@ -179,6 +183,7 @@ static int vertex_quantities(dth_rootfinder *rf, const double *z, double *H, dou
     }
     *psi = s;
     *pabs = sa;
+    if (!isfinite(s) || !isfinite(sa)) return DTH_EDOMAIN;
     const dth_model_type *t = dth_model_get_type(rf->model);
     if (t->third) {
         int r3 = t->third(dth__model_self(rf->model), z, rf->u, dpsi);
@@ -187,6 +192,62 @@ static int vertex_quantities(dth_rootfinder *rf, const double *z, double *H, dou
     }
     return dth_model_psi(rf->model, z, NULL, dpsi, rf->work);
 }
+
+/* ---- the decoupled solve as a Newton problem (newton.c): unknowns the active components of zb */
+
+static int dec_eval(void *ctx, const double *x, double *F, int jac)
+{
+    dth_rootfinder *rf = ctx;
+    size_t n = rf->n;
+    int M = rf->M;
+    double *zb = rf->szb, Hp, lam = rf->slam;
+    for (int a = 0; a < M; a++) zb[rf->act[a]] = x[a];
+    int rc = dth__model_eval_raw(rf->model, zb, DTH_EVAL_H | DTH_EVAL_GRAD | (jac ? DTH_EVAL_HESS : 0u), &Hp, rf->grad,
+                                 rf->hess);
+    if (rc) return rc;
+    rf->sHp = Hp;
+    flow_z(n, rf->grad, rf->u);
+    for (int a = 0; a < M; a++) {
+        int j = rf->act[a];
+        F[a] = zb[j] - rf->sz[j] - 0.5 * lam * rf->u[j];
+        if (jac)
+            for (int b = 0; b < M; b++) rf->A[a + b * M] = (a == b ? 1.0 : 0.0) - 0.5 * lam * dudz(rf, j, (size_t)rf->act[b]);
+    }
+    if (!jac) return DTH_OK;
+    rc = dth__lu_factor(DTH_LINSOLVE_AUTO, M, rf->A, rf->piv);
+    return rc == DTH_ESINGULAR ? DTH_ENOCONV : rc;
+}
+
+static int dec_solve(void *ctx, double *b)
+{
+    dth_rootfinder *rf = ctx;
+    return dth__lu_solve(DTH_LINSOLVE_AUTO, rf->M, rf->A, rf->piv, 1, b);
+}
+
+static int dec_judge(void *ctx, const double *x, const double *dx, const double *F, dth__newton_track *tr, int *verdict)
+{
+    dth_rootfinder *rf = ctx;
+    (void)F;
+    double r = 0;
+    for (int a = 0; a < rf->M; a++) {
+        double sc = fabs(rf->sz[rf->act[a]]) + fabs(x[a]);
+        double ra = fabs(dx[a]) / (sc > 0 ? sc : 1e-300);
+        if (!(ra <= r)) r = ra;
+    }
+    tr->r = r;
+    int v = dth__newton_rate(r, tr->r_prev, tr->iter, 4 * DBL_EPSILON);
+    if (v == DTH__NT_DIVERGED || r > 1e3) return DTH_ENOCONV;
+    if (v == DTH__NT_STALLED) {
+        /* a stalled correction at round-off is converged; a stalled larger one is not */
+        if (r <= 1e3 * DBL_EPSILON) v = DTH__NT_DONE;
+        else if (tr->iter >= 6) return DTH_ENOCONV;
+        else v = DTH__NT_MORE;
+    }
+    *verdict = v;
+    return DTH_OK;
+}
+
+static const dth__newton_ops dec_ops = {dec_eval, dec_solve, dec_judge};
 
 /*
  * The decoupled solve at lambda (Theorem "Decoupling"): zb (in: seed, out: solution) solves
@@ -199,55 +260,31 @@ static int solve_at(dth_rootfinder *rf, const double *z, double lam, double *zb,
 {
     size_t n = rf->n, N = rf->N, d = rf->d;
     int M = rf->M, rc;
-    double Hp = 0, r_prev = INFINITY;
+    double Hp = 0;
     rf->evals++;
     zb[n] = z[n] + 0.5 * lam;
     if (rf->auton) zb[N - 1] = z[N - 1];
-    for (int iter = 1;; iter++) {
-        rc = dth_model_eval(rf->model, zb, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &Hp, rf->grad, rf->hess);
-        if (rc) return rc;
-        flow_z(n, rf->grad, rf->u);
-        for (int a = 0; a < M; a++) {
-            int j = rf->act[a];
-            rf->F[a] = zb[j] - z[j] - 0.5 * lam * rf->u[j];
-            for (int b = 0; b < M; b++)
-                rf->A[a + b * M] = (a == b ? 1.0 : 0.0) - 0.5 * lam * dudz(rf, j, (size_t)rf->act[b]);
-        }
-        rc = dth__lu_factor(DTH_LINSOLVE_AUTO, M, rf->A, rf->piv);
-        if (rc) return rc == DTH_ESINGULAR ? DTH_ENOCONV : rc;
-        if (iter > 1 && r_prev <= 4 * DBL_EPSILON) break; /* converged: A and grad belong to zb */
-        if (iter > rf->opt.max_iter) return DTH_ENOCONV;
-        rc = dth__lu_solve(DTH_LINSOLVE_AUTO, M, rf->A, rf->piv, 1, rf->F);
-        if (rc) return rc;
-        double r = 0;
-        for (int a = 0; a < M; a++) {
-            int j = rf->act[a];
-            zb[j] -= rf->F[a];
-            double sc = fabs(z[j]) + fabs(zb[j]);
-            double ra = fabs(rf->F[a]) / (sc > 0 ? sc : 1e-300);
-            if (!(ra <= r)) r = ra;
-        }
-        if (!isfinite(r) || r > 1e3) return DTH_ENOCONV;
-        /* a stalled correction at round-off is converged; a stalled larger one is not */
-        if (iter >= 6 && r >= 0.5 * r_prev) {
-            if (r <= 1e3 * DBL_EPSILON) r = 0;
-            else return DTH_ENOCONV;
-        }
-        r_prev = r;
-    }
+    rf->sz = z;
+    rf->slam = lam;
+    rf->szb = zb;
+    for (int a = 0; a < M; a++) rf->nx[a] = zb[rf->act[a]];
+    dth__newton_track tr;
+    rc = dth__newton_run(&dec_ops, rf, M, rf->opt.max_iter + 1, rf->nx, rf->F, rf->ndx, &tr);
+    if (rc) return rc == DTH_ESINGULAR ? DTH_ENOCONV : rc;
+    /* the Jacobian and gradient at the solution itself */
+    rc = dec_eval(rf, rf->nx, rf->F, 1);
+    if (rc) return rc;
+    Hp = rf->sHp;
     /* dzb/dlambda: the t column of Du enters through d t_bar / d lambda = 1/2 */
     for (int a = 0; a < M; a++) {
         int j = rf->act[a];
         rf->F[a] = 0.5 * rf->u[j] + 0.25 * lam * dudz(rf, j, n);
     }
-    rc = dth__lu_solve(DTH_LINSOLVE_AUTO, M, rf->A, rf->piv, 1, rf->F);
+    rc = dec_solve(rf, rf->F);
     if (rc) return rc;
     memset(rf->v, 0, N * sizeof *rf->v);
     rf->v[n] = 0.5;
     for (int a = 0; a < M; a++) rf->v[rf->act[a]] = rf->F[a];
-    if (!rf->auton) {
-        /* wp is an unknown then; nothing else to add */
-    }
     double s = 0, sc = fabs(zb[N - 1]) + fabs(Hp);
     for (size_t l = 0; l < d; l++) {
         s += rf->grad[l] * rf->v[l];

@@ -82,10 +82,13 @@ int dth__model_banded(const dth_model *m);
 /** The model's banded Hessian at y (interleaved layout, model.h), checked for NaN/Inf.
  *  @return DTH_OK, DTH_EDOMAIN, DTH_EMODEL. */
 int dth__model_hess_band(const dth_model *m, const double *y, double *band);
+/** The same without the NaN/Inf sweep (Newton loops see non-finite entries in their correction). */
+int dth__model_hess_band_raw(const dth_model *m, const double *y, double *band);
 /** Workspace and factors of the banded bordered solve. */
 typedef struct dth__band dth__band;
-/** Allocate for a banded model. @return DTH_OK, DTH_EINVAL, DTH_ENOMEM. */
-int dth__band_new(const dth_model *m, const dth_allocator *al, dth__band **out);
+/** Allocate for a banded model; schur: use the Schur complement where H is separable with diagonal
+ *  T'' (else always the banded LU of the whole step matrix). @return DTH_OK, DTH_EINVAL, DTH_ENOMEM. */
+int dth__band_new(const dth_model *m, int schur, const dth_allocator *al, dth__band **out);
 /** Free; NULL is a no-op. */
 void dth__band_free(dth__band *b, const dth_allocator *al);
 /** Assemble and factor the step Jacobian at midpoint zb (gradient `grad` over y there) and lam.

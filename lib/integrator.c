@@ -9,6 +9,7 @@
 #include <string.h>
 #include "dth_internal.h"
 #include "integrator_impl.h"
+#include "lu_small.h"
 
 void dth_options_default(dth_options *o)
 {
@@ -70,12 +71,13 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     if (n == 0 || n > ((size_t)1 << 40)) return DTH_EINVAL;
     int banded_model = dth__model_banded(model);
     dth_linsolve kind = opt->linsolve;
-    if (kind == DTH_LINSOLVE_BANDED && !banded_model) return DTH_EUNSUPPORTED;
+    if ((kind == DTH_LINSOLVE_BANDED || kind == DTH_LINSOLVE_BANDED_LU) && !banded_model) return DTH_EUNSUPPORTED;
     int auton = dth_model_get_info(model)->autonomous;
     size_t msz = auton ? 2 * n + 1 : 2 * n + 3;
     if (kind == DTH_LINSOLVE_AUTO)
         kind = banded_model ? DTH_LINSOLVE_BANDED : msz <= DTH__SMALL_MAX ? DTH_LINSOLVE_SMALL : DTH_LINSOLVE_DENSE;
-    if (kind != DTH_LINSOLVE_BANDED && msz > (size_t)1 << 15) return DTH_EUNSUPPORTED; /* a dense m x m would not fit */
+    int dense = kind != DTH_LINSOLVE_BANDED && kind != DTH_LINSOLVE_BANDED_LU; /* banded: no O(n^2) buffers */
+    if (dense && msz > (size_t)1 << 15) return DTH_EUNSUPPORTED; /* a dense m x m would not fit */
     const dth_allocator *al = opt->alloc;
     dth_integrator *it = dth_calloc(al, 1, sizeof *it);
     if (!it) return DTH_ENOMEM;
@@ -89,10 +91,10 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     it->auton = auton;
     it->m = (int)msz;
     size_t N = it->N, d = it->d, m = msz;
-    size_t nd = 0, dense = kind != DTH_LINSOLVE_BANDED; /* banded: no O(n^2) buffers */
+    size_t nd = 0;
     /* one block of doubles, carved below */
-    size_t sizes[] = {N, N, N, N, N, N, N, N, N, d, dense * d * d, d, d, dense * m * m, m, m, m, m,
-                      dth_model_work_size(model), dense * m * N};
+    size_t sizes[] = {N, N, N, N, N, N, N, N, N, N, d, (size_t)dense * d * d, d, d, (size_t)dense * m * m, m, m, m,
+                      dth_model_work_size(model), (size_t)dense * m * N};
     for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) nd += sizes[i];
     it->block = dth_calloc(al, nd, sizeof(double));
     it->piv = dth_calloc(al, 2 * m, sizeof(int));
@@ -101,8 +103,8 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
         return DTH_ENOMEM;
     }
     double *p = it->block;
-    double **slots[] = {&it->z, &it->zlo, &it->zbar, &it->dprev, &it->dprev2, &it->dprev3, &it->znew, &it->znewlo,
-                        &it->zb, &it->grad, &it->hess, &it->u, &it->ybar, &it->A, &it->F, &it->x, &it->x0, &it->dx,
+    double **slots[] = {&it->z, &it->zlo, &it->zbar, &it->dprev, &it->dprev2, &it->dprev3, &it->dnew, &it->znew, &it->znewlo,
+                        &it->zb, &it->grad, &it->hess, &it->u, &it->ybar, &it->A, &it->F, &it->x, &it->dx,
                         &it->work, &it->B};
     for (size_t i = 0; i < sizeof slots / sizeof slots[0]; i++) {
         *slots[i] = p;
@@ -110,7 +112,7 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     }
     if (!dense) {
         it->hess = it->A = it->B = NULL;
-        int rc = dth__band_new(model, al, &it->band);
+        int rc = dth__band_new(model, kind == DTH_LINSOLVE_BANDED, al, &it->band);
         if (rc) {
             dth_integrator_free(it);
             return rc;
@@ -275,12 +277,16 @@ void dth_integrator_reverse(dth_integrator *it)
     }
 }
 
+/* Inline kernels take nc: the number of degrees of freedom when it is a compile-time constant
+ * (the small path instantiates them for n = 1, 2, 3, so their loops unroll), else 0 (it->n). */
+#define AI static inline __attribute__((always_inline))
+
 /* zbar = (z + zlo) + d for the unknowns x; passive t, wp in closed form (autonomous). */
-static void midpoint_from_x(const dth_integrator *it, const double *x, double *zb)
+AI void midpoint_n(const dth_integrator *it, const size_t nc, const double *x, double *zb)
 {
-    size_t n = it->n, N = it->N;
-    int m = it->m;
-    if (it->auton) {
+    size_t n = nc ? nc : it->n, N = 2 * n + 2;
+    int m = nc ? (int)(2 * nc + 1) : it->m;
+    if (nc || it->auton) {
         /* unknowns (d_q, d_p, lambda) */
         for (size_t i = 0; i < n; i++) {
             zb[i] = it->z[i] + (it->zlo[i] + x[i]);
@@ -292,6 +298,8 @@ static void midpoint_from_x(const dth_integrator *it, const double *x, double *z
     }
     for (int a = 0; a < m - 1; a++) zb[a] = it->z[a] + (it->zlo[a] + x[a]);
 }
+
+static void midpoint_from_x(const dth_integrator *it, const double *x, double *zb) { midpoint_n(it, 0, x, zb); }
 
 /* d u_j / d z_l over the Hessian of H_phys (rows of J H_zz; the wp column is zero). */
 static double dudz(const dth_integrator *it, size_t j, size_t l)
@@ -309,14 +317,15 @@ static double dudz(const dth_integrator *it, size_t j, size_t l)
  * Residual F and, if A != NULL, the Jacobian A (column-major m x m) at the unknowns x, given
  * grad and hess of H_phys at the midpoint zb. F_a = d_j - (lambda/2) u_j(zbar); F_last = H(zbar).
  */
-static void assemble(const dth_integrator *it, const double *x, const double *zb, double Hphys, double *F, double *A)
+AI void assemble_n(const dth_integrator *it, const size_t nc, const double *x, const double *zb, double Hphys, double *F,
+                   double *A)
 {
-    size_t n = it->n, d = it->d, N = it->N;
-    int m = it->m;
+    size_t n = nc ? nc : it->n, d = 2 * n + 1, N = 2 * n + 2;
+    int m = nc ? (int)(2 * nc + 1) : it->m;
     const double *g = it->grad, *Hy = it->hess;
     double lam = x[m - 1], hl = 0.5 * lam;
     F[m - 1] = zb[N - 1] + Hphys;
-    if (it->auton) {
+    if (nc || it->auton) {
         /* rows q_i: d_q - (lambda/2) dH/dp_i;  rows p_i: d_p + (lambda/2) dH/dq_i */
         size_t mm = (size_t)m;
         for (size_t i = 0; i < n; i++) {
@@ -353,6 +362,11 @@ static void assemble(const dth_integrator *it, const double *x, const double *zb
         A[(m - 1) + a * m] = (j == N - 1) ? 1.0 : g[j];
     }
     if (A) A[(m - 1) + (m - 1) * m] = 0.0;
+}
+
+static void assemble(const dth_integrator *it, const double *x, const double *zb, double Hphys, double *F, double *A)
+{
+    assemble_n(it, 0, x, zb, Hphys, F, A);
 }
 
 /* Scale of the terms of H at the midpoint, for round-off judgements. */
@@ -396,14 +410,24 @@ static int block_of(const dth_integrator *it, int j)
  * component: a component that is itself round-off sized (a particle at rest) has no relative
  * precision to reach. An all-zero block falls back to the largest block scale.
  */
+static double block_max(const double *z, const double *zb, size_t lo, size_t hi)
+{
+    double s = 0;
+    for (size_t j = lo; j < hi; j++) {
+        double v = fabs(z[j]) + fabs(zb[j]);
+        if (v > s) s = v;
+    }
+    return s;
+}
+
 static void block_scales(const dth_integrator *it, const double *zb, double bs[4])
 {
+    size_t n = it->n;
     double top = 0;
-    for (int b = 0; b < 4; b++) bs[b] = 0;
-    for (size_t j = 0; j < it->N; j++) {
-        int b = block_of(it, (int)j);
-        bs[b] = fmax(bs[b], fabs(it->z[j]) + fabs(zb[j]));
-    }
+    bs[0] = block_max(it->z, zb, 0, n);
+    bs[1] = block_max(it->z, zb, n, n + 1);
+    bs[2] = block_max(it->z, zb, n + 1, 2 * n + 1);
+    bs[3] = block_max(it->z, zb, 2 * n + 1, 2 * n + 2);
     for (int b = 0; b < 4; b++) top = fmax(top, bs[b]);
     for (int b = 0; b < 4; b++)
         if (bs[b] == 0) bs[b] = top > 0 ? top : 1.0;
@@ -418,11 +442,11 @@ static int step_factor(dth_integrator *it, double lam)
     return dth__lu_factor(it->kind, it->m, it->A, it->piv);
 }
 
-static int step_eval(void *ctx, const double *x, double *F, int jac)
+/* nc > 0: the small path for an autonomous model with n = nc (its own inlined LU, no library call) */
+AI int eval_n(dth_integrator *it, const size_t nc, const double *x, double *F, int jac)
 {
-    dth_integrator *it = ctx;
-    int m = it->m;
-    midpoint_from_x(it, x, it->zb);
+    int m = nc ? (int)(2 * nc + 1) : it->m;
+    midpoint_n(it, nc, x, it->zb);
     /* the model's outputs are not swept for NaN/Inf here (the Hessian alone is (2n+1)^2): a
      * non-finite value shows in the correction, and step_judge finds out why */
     unsigned what = DTH_EVAL_H | DTH_EVAL_GRAD | (jac && !it->band ? DTH_EVAL_HESS : 0u);
@@ -431,15 +455,17 @@ static int step_eval(void *ctx, const double *x, double *F, int jac)
         seterr(it, "model evaluation failed at a trial midpoint (iteration %d): %s", it->nt.iter, dth_strerror(rc));
         return rc;
     }
-    assemble(it, x, it->zb, it->Hphys, F, jac && !it->band ? it->A : NULL);
+    assemble_n(it, nc, x, it->zb, it->Hphys, F, jac && !it->band ? it->A : NULL);
     if (!jac) return DTH_OK;
-    rc = step_factor(it, x[m - 1]);
+    rc = nc ? lu_factor_m((int)(2 * nc + 1), it->A, it->piv) : step_factor(it, x[m - 1]);
     if (rc == DTH_ESINGULAR || rc == DTH_ELAPACK)
         seterr(it, "bordered Jacobian is singular at iteration %d (lambda = %.17g)", it->nt.iter, x[m - 1]);
     else if (rc)
         seterr(it, "model evaluation failed at a trial midpoint (iteration %d): %s", it->nt.iter, dth_strerror(rc));
     return rc;
 }
+
+static int step_eval(void *ctx, const double *x, double *F, int jac) { return eval_n(ctx, 0, x, F, jac); }
 
 static int step_solve(void *ctx, double *b)
 {
@@ -448,20 +474,30 @@ static int step_solve(void *ctx, double *b)
     return dth__lu_solve(it->kind, it->m, it->A, it->piv, 1, b);
 }
 
-static int step_judge(void *ctx, const double *x, const double *dx, const double *F, dth__newton_track *tr, int *verdict)
+/* The relative correction of an autonomous step: the q block, the p block (never zero:
+ * block_scales), lambda. NaN propagates. */
+AI double correction_n(const dth_integrator *it, const size_t nc, const double *x, const double *dx)
 {
-    dth_integrator *it = ctx;
-    int m = it->m;
-    double bs[4];
-    block_scales(it, it->zb, bs);
-    double r = 0;
-    for (int a = 0; a < m; a++) {
-        double sc = a == m - 1 ? fabs(x[a]) : bs[block_of(it, it->act[a])];
-        double ra = fabs(dx[a]) / (sc > 0 ? sc : 1e-300);
-        if (!(ra <= r)) r = ra; /* NaN propagates */
+    size_t n = nc ? nc : it->n;
+    double cq = 0, cp = 0;
+    for (size_t i = 0; i < n; i++) {
+        double a = fabs(dx[i]), b = fabs(dx[n + i]);
+        if (!(a <= cq)) cq = a;
+        if (!(b <= cp)) cp = b;
     }
-    tr->r = r;
-    int v = dth__newton_rate(r, tr->r_prev, tr->iter, 4 * DBL_EPSILON);
+    double l = fabs(x[2 * n]), rq = cq / it->bs[0], rp = cp / it->bs[2], rl = fabs(dx[2 * n]) / (l > 0 ? l : 1e-300);
+    double r = rq;
+    if (!(rp <= r)) r = rp;
+    if (!(rl <= r)) r = rl;
+    return r;
+}
+
+/* What step_judge does beyond the rate: divergence (is it the model's domain?) and a stall. */
+static int judge_slow(dth_integrator *it, int v, const double *x, const double *dx, const double *F,
+                      dth__newton_track *tr, int *verdict)
+{
+    int m = it->m;
+    const double *bs = it->bs;
     if (v == DTH__NT_DIVERGED || !isfinite(x[m - 1])) {
         /* a non-finite model output (not swept in step_eval) is the model's domain, not Newton's */
         int rc = dth_model_eval(it->model, it->zb, DTH_EVAL_H | DTH_EVAL_GRAD | (it->band ? 0u : DTH_EVAL_HESS),
@@ -474,34 +510,83 @@ static int step_judge(void *ctx, const double *x, const double *dx, const double
         seterr(it, "Newton diverged at iteration %d", tr->iter);
         return DTH_ENOCONV;
     }
-    if (v == DTH__NT_STALLED) {
-        /* The correction stopped decreasing: accept only if the energy residual is at
-         * round-off and the state residual at round-off or below what the noise of lambda
-         * itself causes (lambda is fixed by a second-order effect, so its correction can
-         * stall well above eps: paper, Lemma g_taylor; a residual d - (lambda/2) u then
-         * carries (dlambda/2) u). */
-        double fs = 0, ds = 0, rl = fabs(dx[m - 1]) / fabs(x[m - 1]);
-        for (int a = 0; a < m - 1; a++) {
-            int j = it->act[a];
-            fs = fmax(fs, fabs(F[a]) / bs[block_of(it, j)]);
-            ds = fmax(ds, fabs(x[a]) / bs[block_of(it, j)]);
-        }
-        double hs = h_scale(it, it->zb, it->Hphys);
-        if (fs <= 1e3 * DBL_EPSILON + 2 * fmin(rl, 1e-6) * ds && fabs(F[m - 1]) <= 1e3 * DBL_EPSILON * hs) {
-            *verdict = DTH__NT_DONE;
-            return DTH_OK;
-        }
-        if (tr->iter >= 8) {
-            seterr(it, "Newton stalled at relative correction %.3g (residual %.3g)", r, fabs(F[m - 1]));
-            return DTH_ENOCONV;
-        }
-        v = DTH__NT_MORE;
+    /* The correction stopped decreasing: accept only if the energy residual is at
+     * round-off and the state residual at round-off or below what the noise of lambda
+     * itself causes (lambda is fixed by a second-order effect, so its correction can
+     * stall well above eps: paper, Lemma g_taylor; a residual d - (lambda/2) u then
+     * carries (dlambda/2) u). */
+    double fs = 0, ds = 0, rl = fabs(dx[m - 1]) / fabs(x[m - 1]);
+    for (int a = 0; a < m - 1; a++) {
+        int j = it->act[a];
+        fs = fmax(fs, fabs(F[a]) / bs[block_of(it, j)]);
+        ds = fmax(ds, fabs(x[a]) / bs[block_of(it, j)]);
     }
+    double hs = h_scale(it, it->zb, it->Hphys);
+    if (!isfinite(fs)) fs = INFINITY;
+    if (fs <= 1e3 * DBL_EPSILON + 2 * fmin(rl, 1e-6) * ds && fabs(F[m - 1]) <= 1e3 * DBL_EPSILON * hs) {
+        *verdict = DTH__NT_DONE;
+        return DTH_OK;
+    }
+    if (tr->iter >= 8) {
+        seterr(it, "Newton stalled at relative correction %.3g (residual %.3g)", tr->r, fabs(F[m - 1]));
+        return DTH_ENOCONV;
+    }
+    *verdict = DTH__NT_MORE;
+    return DTH_OK;
+}
+
+AI int judge_n(dth_integrator *it, const size_t nc, const double *x, const double *dx, const double *F,
+               dth__newton_track *tr, int *verdict)
+{
+    int m = nc ? (int)(2 * nc + 1) : it->m;
+    double r = 0;
+    if (nc || it->auton) {
+        r = correction_n(it, nc, x, dx);
+    } else {
+        for (int a = 0; a < m; a++) {
+            double sc = a == m - 1 ? fabs(x[a]) : it->bs[block_of(it, it->act[a])];
+            double ra = fabs(dx[a]) / (sc > 0 ? sc : 1e-300);
+            if (!(ra <= r)) r = ra; /* NaN propagates */
+        }
+    }
+    tr->r = r;
+    int v = dth__newton_rate(r, tr->r_prev, tr->iter, 4 * DBL_EPSILON);
+    if (v == DTH__NT_DIVERGED || v == DTH__NT_STALLED || !isfinite(x[m - 1])) return judge_slow(it, v, x, dx, F, tr, verdict);
     *verdict = v;
     return DTH_OK;
 }
 
+static int step_judge(void *ctx, const double *x, const double *dx, const double *F, dth__newton_track *tr, int *verdict)
+{
+    return judge_n(ctx, 0, x, dx, F, tr, verdict);
+}
+
 static const dth__newton_ops step_ops = {step_eval, step_solve, step_judge};
+
+/* The small path's instances for n = 1, 2, 3 (m = 3, 5, 7). */
+#define SMALL_OPS(N)                                                                                            \
+    static int eval_##N(void *c, const double *x, double *F, int jac) { return eval_n(c, N, x, F, jac); }         \
+    static int solve_##N(void *c, double *b)                                                                      \
+    {                                                                                                             \
+        dth_integrator *it = c;                                                                                   \
+        lu_solve_m(2 * N + 1, it->A, it->piv, b);                                                                  \
+        return DTH_OK;                                                                                            \
+    }                                                                                                             \
+    static int judge_##N(void *c, const double *x, const double *dx, const double *F, dth__newton_track *tr, int *v) \
+    {                                                                                                             \
+        return judge_n(c, N, x, dx, F, tr, v);                                                                    \
+    }
+SMALL_OPS(1)
+SMALL_OPS(2)
+SMALL_OPS(3)
+static const dth__newton_ops small_ops[3] = {{eval_1, solve_1, judge_1}, {eval_2, solve_2, judge_2}, {eval_3, solve_3, judge_3}};
+
+/* The Newton problem of this integrator's step. */
+static const dth__newton_ops *ops_of(const dth_integrator *it)
+{
+    if (it->auton && !it->band && dth__lu_small(it->kind, it->m) && it->n <= 3) return &small_ops[it->n - 1];
+    return &step_ops;
+}
 
 int dth__newton(dth_integrator *it, double lam0, const double *d0, dth__solution *sol)
 {
@@ -512,7 +597,9 @@ int dth__newton(dth_integrator *it, double lam0, const double *d0, dth__solution
     x[m - 1] = lam0;
     sol->iters = 0;
     sol->residual = NAN;
-    int rc = dth__newton_run(&step_ops, it, m, it->opt.max_iter, x, it->F, it->dx, &it->nt);
+    midpoint_from_x(it, x, zb);
+    block_scales(it, zb, it->bs);
+    int rc = dth__newton_run(ops_of(it), it, m, it->opt.max_iter, x, it->F, it->dx, &it->nt);
     sol->iters = it->nt.iter;
     if (rc == DTH_ENOCONV && it->nt.verdict == DTH__NT_MAXITER)
         seterr(it, "Newton did not converge in %d iterations (last correction %.3g)", it->nt.iter, it->nt.r);
@@ -532,33 +619,43 @@ int dth__newton(dth_integrator *it, double lam0, const double *d0, dth__solution
 /* Commit the solution in it->x / it->zb: new vertex z + 2 d in double-double. */
 static int commit(dth_integrator *it, double lam)
 {
-    size_t N = it->N;
+    size_t n = it->n, N = it->N;
     int m = it->m;
-    double *d = it->znew; /* reuse as the full offset vector */
-    for (size_t j = 0; j < N; j++) d[j] = 0;
-    for (int a = 0; a < m - 1; a++) d[it->act[a]] = it->x[a];
-    if (it->auton) d[it->n] = 0.5 * lam;
-    /* a finite midpoint can still give an overflowing vertex z + 2 d: refuse, state untouched */
-    for (size_t j = 0; j < N; j++)
-        if (!isfinite(it->z[j] + (2 * d[j] + it->zlo[j]))) {
+    /* new vertex into scratch first (znew: the full offset d, then z + 2 d): a finite midpoint can
+     * still give an overflowing vertex, and then the state stays untouched */
+    double *zn = it->znew, *zl = it->znewlo;
+    if (it->auton) {
+        /* autonomous: t advances by lambda/2, wp stays */
+        memcpy(zn, it->x, n * sizeof *zn);
+        zn[n] = 0.5 * lam;
+        memcpy(zn + n + 1, it->x + n, n * sizeof *zn);
+        zn[N - 1] = 0;
+    } else {
+        for (int a = 0; a < m - 1; a++) zn[it->act[a]] = it->x[a];
+    }
+    double *d = it->dnew; /* scratch: becomes the newest history slot */
+    for (size_t j = 0; j < N; j++) {
+        d[j] = zn[j];
+        zn[j] = two_sum(it->z[j], 2 * d[j] + it->zlo[j], &zl[j]);
+        if (!isfinite(zn[j])) {
             seterr(it, "the new vertex overflows (component %zu)", j);
             return DTH_EDOMAIN;
         }
-    /* the predictor's history: the last three offsets and steps */
-    double *t3 = it->dprev3;
+    }
+    if (it->auton) { /* wp carried bit for bit */
+        zn[N - 1] = it->z[N - 1];
+        zl[N - 1] = it->zlo[N - 1];
+    }
+    memcpy(it->z, zn, N * sizeof *zn);
+    memcpy(it->zlo, zl, N * sizeof *zl);
+    /* the predictor's history: the last three offsets and steps (the oldest slot is the next scratch) */
+    it->dnew = it->dprev3;
     it->dprev3 = it->dprev2;
     it->dprev2 = it->dprev;
-    it->dprev = t3;
+    it->dprev = d;
     it->lam3 = it->lam2;
     it->lam2 = it->lam;
     it->nhist = it->nhist < 3 ? it->nhist + 1 : 3;
-    for (size_t j = 0; j < N; j++) {
-        double e, s = two_sum(it->z[j], 2 * d[j] + it->zlo[j], &e);
-        it->dprev[j] = d[j];
-        if (it->auton && j == N - 1) continue; /* wp carried bit for bit */
-        it->z[j] = s;
-        it->zlo[j] = e;
-    }
     memcpy(it->zbar, it->zb, N * sizeof *it->zb);
     it->fact_valid = 1; /* an ordinary step: a tangent map exists (a regularizer's step clears it) */
     it->lam = lam;

@@ -21,6 +21,7 @@ struct dth_integrator {
     double *zbar;     /* midpoint of the last step */
     double *dprev;    /* offset zbar - z_{k-1} of the last step (predictor) */
     double *dprev2, *dprev3; /* the two offsets before it (quadratic predictor) */
+    double *dnew;     /* scratch for the next offset (the four buffers rotate) */
     double lam;       /* last step (0 if none) */
     double lam2, lam3; /* the steps before it */
     int nhist;        /* consecutive ordinary steps in dprev.. (0..3) */
@@ -29,8 +30,9 @@ struct dth_integrator {
     int have_prev, have_mid, pending_exact;
     long steps;
     /* workspace */
-    double *znew, *znewlo, *zb, *grad, *hess, *u, *ybar, *A, *F, *x, *x0, *dx, *work, *B;
+    double *znew, *znewlo, *zb, *grad, *hess, *u, *ybar, *A, *F, *x, *dx, *work, *B;
     double Hphys;     /* H_phys at it->zb after the last step evaluation */
+    double bs[4];     /* block scales (q, t, p, wp) of the Newton solve in progress (step_judge) */
     int *piv;
     int fact_valid;   /* the last step was an ordinary DTH step: a tangent map exists */
     dth__newton_track nt; /* progress of the current Newton solve (messages) */

@@ -9,6 +9,7 @@
 #include <math.h>
 #include <lapacke.h>
 #include "dth_internal.h"
+#include "lu_small.h"
 
 _Static_assert(sizeof(lapack_int) == sizeof(int), "pivots are stored as int");
 
@@ -19,61 +20,33 @@ const char *dth_linsolve_name(dth_linsolve k)
     case DTH_LINSOLVE_DENSE: return "dense";
     case DTH_LINSOLVE_SMALL: return "small";
     case DTH_LINSOLVE_BANDED: return "banded";
+    case DTH_LINSOLVE_BANDED_LU: return "banded-lu";
     default: return NULL;
     }
 }
 
 int dth__lu_small(dth_linsolve k, int m) { return k == DTH_LINSOLVE_SMALL || (k != DTH_LINSOLVE_DENSE && m <= DTH__SMALL_MAX); }
 
-/* Doolittle LU with partial pivoting, column-major, in place; piv 1-based like LAPACK. */
+#define SIZES(F) F(1) F(2) F(3) F(4) F(5) F(6) F(7) F(8)
+#define FACT_CASE(M) case M: return lu_factor_m(M, a, piv);
+#define SOLVE_CASE(M) case M: lu_solve_m(M, a, piv, x); break;
+_Static_assert(DTH__SMALL_MAX == 8, "the cases below cover m = 1 .. 8");
+
 static int small_factor(int m, double *a, int *piv)
 {
-    for (int k = 0; k < m; k++) {
-        int p = k;
-        double best = fabs(a[k + k * m]);
-        for (int i = k + 1; i < m; i++) {
-            double v = fabs(a[i + k * m]);
-            if (v > best) best = v, p = i;
-        }
-        piv[k] = p + 1;
-        if (!(best > 0)) return best == 0 ? DTH_ESINGULAR : DTH_OK; /* NaN: the solve shows it */
-        if (p != k)
-            for (int j = 0; j < m; j++) {
-                double t = a[k + j * m];
-                a[k + j * m] = a[p + j * m];
-                a[p + j * m] = t;
-            }
-        double inv = 1.0 / a[k + k * m];
-        for (int i = k + 1; i < m; i++) a[i + k * m] *= inv;
-        for (int j = k + 1; j < m; j++) {
-            double akj = a[k + j * m];
-            if (akj == 0) continue;
-            for (int i = k + 1; i < m; i++) a[i + j * m] -= a[i + k * m] * akj;
-        }
+    switch (m) {
+        SIZES(FACT_CASE)
+    default: return lu_factor_m(m, a, piv);
     }
-    return DTH_OK;
 }
 
 static void small_solve(int m, const double *a, const int *piv, int nrhs, double *b)
 {
     for (int r = 0; r < nrhs; r++) {
         double *x = b + (size_t)r * (size_t)m;
-        for (int k = 0; k < m; k++) {
-            int p = piv[k] - 1;
-            if (p != k) {
-                double t = x[k];
-                x[k] = x[p];
-                x[p] = t;
-            }
-        }
-        for (int j = 0; j < m; j++) {
-            double xj = x[j];
-            for (int i = j + 1; i < m; i++) x[i] -= a[i + j * m] * xj;
-        }
-        for (int j = m - 1; j >= 0; j--) {
-            x[j] /= a[j + j * m];
-            double xj = x[j];
-            for (int i = 0; i < j; i++) x[i] -= a[i + j * m] * xj;
+        switch (m) {
+            SIZES(SOLVE_CASE)
+        default: lu_solve_m(m, a, piv, x);
         }
     }
 }

@@ -57,7 +57,8 @@ struct dth_fixed {
     double *Z, *Zp;   /* stage offsets Y_i - y (s*d); Zp: last step's, the predictor */
     double *Y, *K;    /* a stage point (d); stage slopes (s*d) */
     double *grad, *hess, *Jf; /* d, d*d, s*d*d (df/dy at each stage) */
-    double *A, *F, *delta, *fq; /* Newton matrix M*M, residual M, update d, Verlet force n */
+    double *A, *F, *dZ, *delta, *fq; /* Newton matrix M*M, residual M, correction M, update d, Verlet force n */
+    dth__newton_track nt;
     int *piv;
     double E0;        /* initial energy (projection) */
     int started, have_prev, have_force;
@@ -142,8 +143,8 @@ int dth_fixed_new(const dth_model *model, const char *name, double h, const dth_
     f->d = 2 * f->n + 1;
     size_t s = (size_t)f->m->s, d = f->d;
     f->M = f->m->k == KIND_GAUSS ? s * d : 0;
-    size_t M = f->M;
-    size_t sizes[] = {d, d, s * d, s * d, d, s * d, d, d * d, s * d * d, M * M, M, d, f->n};
+    size_t M = f->M, gauss = f->m->k == KIND_GAUSS; /* only the implicit methods need Jacobians */
+    size_t sizes[] = {d, d, s * d, s * d, d, s * d, d, gauss * d * d, gauss * s * d * d, M * M, M, M, d, f->n};
     size_t nd = 0;
     for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) nd += sizes[i];
     f->block = dth_calloc(alloc, nd, sizeof(double));
@@ -154,7 +155,7 @@ int dth_fixed_new(const dth_model *model, const char *name, double h, const dth_
     }
     double *p = f->block;
     double **slots[] = {&f->y, &f->ylo, &f->Z, &f->Zp, &f->Y, &f->K, &f->grad, &f->hess, &f->Jf,
-                        &f->A, &f->F, &f->delta, &f->fq};
+                        &f->A, &f->F, &f->dZ, &f->delta, &f->fq};
     for (size_t i = 0; i < sizeof slots / sizeof slots[0]; i++) {
         *slots[i] = p;
         p += sizes[i];
@@ -281,10 +282,91 @@ static int step_erk(dth_fixed *f)
     return DTH_OK;
 }
 
+/* ---- Gauss collocation stages as a Newton problem (newton.c): unknowns Z (s*d) ---- */
+
+static int gauss_eval(void *ctx, const double *Z, double *F, int jac)
+{
+    dth_fixed *f = ctx;
+    const method *m = f->m;
+    size_t d = f->d, s = (size_t)m->s, M = f->M;
+    double h = f->h;
+    for (size_t i = 0; i < s; i++) {
+        point(f, Z + i * d, f->Y);
+        int rc = slope(f, f->Y, f->K + i * d, jac ? f->Jf + i * d * d : NULL);
+        if (rc) {
+            seterr(f, "model evaluation failed at stage %zu (iteration %d): %s", i + 1, f->nt.iter, dth_strerror(rc));
+            return rc;
+        }
+    }
+    /* residual and column-major Jacobian */
+    for (size_t i = 0; i < s; i++)
+        for (size_t j = 0; j < d; j++) {
+            double acc = 0;
+            for (size_t l = 0; l < s; l++) acc += m->A[i * s + l] * f->K[l * d + j];
+            F[i * d + j] = Z[i * d + j] - h * acc;
+        }
+    if (!jac) return DTH_OK;
+    for (size_t i = 0; i < s; i++)
+        for (size_t l = 0; l < s; l++) {
+            double ha = h * m->A[i * s + l];
+            const double *Jl = f->Jf + l * d * d;
+            for (size_t j = 0; j < d; j++)
+                for (size_t k = 0; k < d; k++) {
+                    double v = -ha * Jl[j * d + k] + (i == l && j == k ? 1.0 : 0.0);
+                    f->A[(i * d + j) + (l * d + k) * M] = v;
+                }
+        }
+    int rc = dth__lu_factor(DTH_LINSOLVE_AUTO, (int)M, f->A, f->piv);
+    if (rc) seterr(f, "stage Jacobian is singular at iteration %d", f->nt.iter);
+    return rc;
+}
+
+static int gauss_solve(void *ctx, double *b)
+{
+    dth_fixed *f = ctx;
+    return dth__lu_solve(DTH_LINSOLVE_AUTO, (int)f->M, f->A, f->piv, 1, b);
+}
+
+static int gauss_judge(void *ctx, const double *Z, const double *dZ, const double *F, dth__newton_track *tr, int *verdict)
+{
+    dth_fixed *f = ctx;
+    (void)F;
+    /* norm-wise relative correction: a componentwise one never reaches round-off on components
+     * that are themselves round-off (p = 0 at rest, say) */
+    double cmax = 0, smax = 0;
+    for (size_t k = 0; k < f->M; k++) {
+        double c = fabs(dZ[k]), sc = fabs(f->y[k % f->d]) + fabs(Z[k]);
+        if (!(c <= cmax)) cmax = c; /* NaN propagates */
+        if (sc > smax) smax = sc;
+    }
+    double r = cmax / (smax > 0 ? smax : 1e-300);
+    tr->r = r;
+    int v = dth__newton_rate(r, tr->r_prev, tr->iter, 4 * DBL_EPSILON);
+    if (v == DTH__NT_DIVERGED) {
+        seterr(f, "Newton diverged at iteration %d", tr->iter);
+        return DTH_ENOCONV;
+    }
+    /* the chord finish of the DTH step, without the extra residual: this baseline stops at the
+     * predicted-converged iterate (as it always has), so both pay for the same accuracy */
+    if (v == DTH__NT_CHORD) v = DTH__NT_DONE;
+    if (v == DTH__NT_STALLED) {
+        if (r <= 1e3 * DBL_EPSILON && tr->iter >= 8) v = DTH__NT_DONE; /* stalled at round-off */
+        else if (tr->iter >= 8) {
+            seterr(f, "Newton stalled at relative correction %.3g", r);
+            return DTH_ENOCONV;
+        } else v = DTH__NT_MORE;
+    }
+    *verdict = v;
+    return DTH_OK;
+}
+
+static const dth__newton_ops gauss_ops = {gauss_eval, gauss_solve, gauss_judge};
+
 /*
  * Gauss collocation step: Newton on F_i = Z_i - h sum_j a_ij f(y + Z_j) = 0 with the exact
- * Jacobian (delta_ij I - h a_ij df/dy(Y_j)), LU through LAPACK, and the stopping rule of the
- * DTH step (so both pay for the same accuracy). Predictor: the last step's stage offsets.
+ * Jacobian (delta_ij I - h a_ij df/dy(Y_j)) and the stopping rule of the DTH step (so both pay
+ * for the same accuracy), through the library's Newton driver. Predictor: the last step's stage
+ * offsets.
  */
 static int step_gauss(dth_fixed *f, int *iters)
 {
@@ -303,69 +385,11 @@ static int step_gauss(dth_fixed *f, int *iters)
         for (size_t i = 0; i < s; i++)
             for (size_t j = 0; j < d; j++) f->Z[i * d + j] = m->c[i] * h * f->K[j];
     }
-    double r_prev = INFINITY;
-    for (int iter = 1; iter <= MAX_ITER; iter++) {
-        for (size_t i = 0; i < s; i++) {
-            point(f, f->Z + i * d, f->Y);
-            rc = slope(f, f->Y, f->K + i * d, f->Jf + i * d * d);
-            if (rc) {
-                seterr(f, "model evaluation failed at stage %zu (iteration %d): %s", i + 1, iter,
-                       dth_strerror(rc));
-                return rc;
-            }
-        }
-        /* residual and column-major Jacobian */
-        for (size_t i = 0; i < s; i++)
-            for (size_t j = 0; j < d; j++) {
-                double acc = 0;
-                for (size_t l = 0; l < s; l++) acc += m->A[i * s + l] * f->K[l * d + j];
-                f->F[i * d + j] = f->Z[i * d + j] - h * acc;
-            }
-        for (size_t i = 0; i < s; i++)
-            for (size_t l = 0; l < s; l++) {
-                double ha = h * m->A[i * s + l];
-                const double *Jl = f->Jf + l * d * d;
-                for (size_t j = 0; j < d; j++)
-                    for (size_t k = 0; k < d; k++) {
-                        double v = -ha * Jl[j * d + k] + (i == l && j == k ? 1.0 : 0.0);
-                        f->A[(i * d + j) + (l * d + k) * M] = v;
-                    }
-            }
-        rc = dth__lu_factor(DTH_LINSOLVE_AUTO, (int)M, f->A, f->piv);
-        if (rc) {
-            seterr(f, "stage Jacobian is singular at iteration %d", iter);
-            return rc;
-        }
-        rc = dth__lu_solve(DTH_LINSOLVE_AUTO, (int)M, f->A, f->piv, 1, f->F);
-        if (rc) return rc;
-        /* norm-wise relative correction: a componentwise one never reaches round-off on
-         * components that are themselves round-off (p = 0 at rest, say) */
-        double cmax = 0, smax = 0;
-        for (size_t k = 0; k < M; k++) {
-            f->Z[k] -= f->F[k];
-            double c = fabs(f->F[k]), sc = fabs(f->y[k % d]) + fabs(f->Z[k]);
-            if (!(c <= cmax)) cmax = c; /* NaN propagates */
-            if (sc > smax) smax = sc;
-        }
-        double r = cmax / (smax > 0 ? smax : 1e-300);
-        *iters = iter;
-        if (!isfinite(r)) {
-            seterr(f, "Newton diverged at iteration %d", iter);
-            return DTH_ENOCONV;
-        }
-        if (r <= 4 * DBL_EPSILON) break;
-        if (iter >= 2 && r < 1e-6 && r * (r / r_prev) * (r / r_prev) <= DBL_EPSILON) break;
-        if (r >= 0.5 * r_prev && iter >= 8) {
-            if (r <= 1e3 * DBL_EPSILON) break; /* stalled at round-off */
-            seterr(f, "Newton stalled at relative correction %.3g", r);
-            return DTH_ENOCONV;
-        }
-        r_prev = r;
-        if (iter == MAX_ITER) {
-            seterr(f, "Newton did not converge in %d iterations (last correction %.3g)", iter, r);
-            return DTH_ENOCONV;
-        }
-    }
+    rc = dth__newton_run(&gauss_ops, f, (int)M, MAX_ITER, f->Z, f->F, f->dZ, &f->nt);
+    *iters = f->nt.iter;
+    if (rc == DTH_ENOCONV && f->nt.verdict == DTH__NT_MAXITER)
+        seterr(f, "Newton did not converge in %d iterations (last correction %.3g)", f->nt.iter, f->nt.r);
+    if (rc) return rc;
     if (m->d) { /* exact d (midpoint: d = 2): y + sum_i d_i Z_i */
         for (size_t j = 0; j < d; j++) {
             double acc = 0;
@@ -375,13 +399,13 @@ static int step_gauss(dth_fixed *f, int *iters)
         return DTH_OK;
     }
     /* y + h sum_i b_i f(Y_i), with f at the final stages from the last slopes corrected to first
-     * order by the last Newton correction (-F): rounded d = b^T A^{-1} would break the exact
+     * order by the last Newton correction (-dZ): rounded d = b^T A^{-1} would break the exact
      * symplecticity of the stored table and make quadratic invariants drift linearly. */
     for (size_t i = 0; i < s; i++) {
         const double *Ji = f->Jf + i * d * d;
         for (size_t j = 0; j < d; j++) {
             double c = 0;
-            for (size_t k = 0; k < d; k++) c += Ji[j * d + k] * f->F[i * d + k];
+            for (size_t k = 0; k < d; k++) c += Ji[j * d + k] * f->dZ[i * d + k];
             f->K[i * d + j] -= c;
         }
     }

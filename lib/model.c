@@ -238,6 +238,12 @@ int dth__model_hess_band(const dth_model *m, const double *y, double *band)
     return all_finite(band, 2 * m->info.n * (2 * m->info.bandwidth + 1)) ? DTH_OK : DTH_EDOMAIN;
 }
 
+int dth__model_hess_band_raw(const dth_model *m, const double *y, double *band)
+{
+    int rc = m->type->hess_band(m->self, y, band);
+    return rc > 0 ? DTH_EDOMAIN : rc < 0 ? DTH_EMODEL : DTH_OK;
+}
+
 /* Doubles of the Hessian that psi evaluates: the band for banded models, else dense. */
 static size_t hess_size(const dth_model *m)
 {

@@ -159,7 +159,7 @@ double dth_cubic_root(double H, double psi, double dpsi, double side)
 static size_t ks_layout(size_t n, size_t ninv, size_t *off)
 {
     size_t d = 2 * n + 1, m = 2 * n + 1, q = 2 * n;
-    size_t sz[] = {d, d, d * d, m * m, m, m, q, ninv * q, 2 * ninv + 8, d, (m + 1) / 2 + 1, q};
+    size_t sz[] = {d, d, d * d, m * m, m, m, q, ninv * q, 2 * ninv + 8, d, (m + 1) / 2 + 1, q, m};
     size_t tot = 0;
     for (size_t i = 0; i < sizeof sz / sizeof sz[0]; i++) {
         off[i] = tot;
@@ -176,7 +176,7 @@ static size_t model_ninv(const dth_model *model)
 
 size_t dth_kicked_segment_work_size(const dth_model *model)
 {
-    size_t off[12];
+    size_t off[13];
     return ks_layout(dth_model_dof(model), model_ninv(model), off);
 }
 
@@ -270,127 +270,163 @@ static void kick_metric(const dth_model *model, size_t n, const double *hs, doub
     }
 }
 
+/* The kicked segment as a Newton problem (newton.c): unknowns (d_q, d_p, mu). */
+typedef struct ks_ctx {
+    const dth_model *model;
+    const double *z, *zlo;
+    double lambda, wp, H;
+    size_t n;
+    int m;
+    double *y, *g, *hs, *A, *nv, *G, *tmp, *ys, *sc;
+    int *piv;
+} ks_ctx;
+
+/* midpoint y = z + d over (q, p); t advances by lambda/2 */
+static void ks_midpoint(const ks_ctx *c, const double *x, double *y)
+{
+    size_t n = c->n;
+    for (size_t j = 0; j < 2 * n + 1; j++) {
+        double lo = c->zlo ? c->zlo[j] : 0;
+        double dj = j < n ? x[j] : (j == n ? 0.5 * c->lambda : x[j - 1]);
+        y[j] = c->z[j] + (lo + dj);
+    }
+}
+
+static int ks_eval(void *ctx, const double *x, double *F, int jac)
+{
+    ks_ctx *c = ctx;
+    const dth_model *model = c->model;
+    size_t n = c->n, d = 2 * n + 1, q = 2 * n, m = (size_t)c->m;
+    double *y = c->y, *g = c->g, *hs = c->hs, *A = c->A, *nv = c->nv, *G = c->G, *sc = c->sc;
+    ks_midpoint(c, x, y);
+    int rc = dth__model_eval_raw(model, y, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &c->H, g, hs);
+    if (rc) return rc;
+    /* kick direction: n = S P S grad H over (q, p), with S = diag(sc) the kick's metric and
+     * P the projector off S grad I of the quadratic invariants: grad I . n = 0 (the midpoint
+     * identity keeps I) and grad H . n = |P S grad H|^2 > 0 */
+    kick_metric(model, n, hs, sc);
+    for (size_t i = 0; i < n; i++) {
+        nv[i] = sc[i] * g[i];
+        nv[n + i] = sc[n + i] * g[n + 1 + i];
+    }
+    size_t kept = quad_invariant_basis(model, y, sc, G, c->ys, c->tmp);
+    for (size_t r = 0; r < kept; r++) {
+        double dot = 0;
+        for (size_t i = 0; i < q; i++) dot += nv[i] * G[r * q + i];
+        for (size_t i = 0; i < q; i++) nv[i] -= dot * G[r * q + i];
+    }
+    for (size_t i = 0; i < q; i++) nv[i] *= sc[i];
+    /* F = d - (lambda/2) u - (mu/2) n, u = (dH/dp, -dH/dq); F_last = wp + H */
+    double lam = c->lambda, kmu = x[q];
+    for (size_t i = 0; i < n; i++) {
+        F[i] = x[i] - 0.5 * lam * g[n + 1 + i] - 0.5 * kmu * nv[i];
+        F[n + i] = x[n + i] + 0.5 * lam * g[i] - 0.5 * kmu * nv[n + i];
+    }
+    F[q] = c->wp + c->H;
+    if (!jac) return DTH_OK;
+    /* Jacobian over (d_q, d_p, mu); the derivative of the projection itself is left out
+     * (it is multiplied by mu, which is tiny) */
+    for (size_t a = 0; a < q; a++) {
+        size_t ya = a < n ? a : a + 1;           /* y-index of this (q, p) component */
+        size_t ua = a < n ? n + 1 + a : a - n;   /* u_a = +dH/dy_ua (a < n) or -dH/dy_ua */
+        double su = a < n ? 1.0 : -1.0;
+        for (size_t b = 0; b < q; b++) {
+            size_t yb = b < n ? b : b + 1;
+            A[a + b * m] = (a == b ? 1.0 : 0.0) - 0.5 * lam * su * hs[ua * d + yb] - 0.5 * kmu * sc[a] * sc[a] * hs[ya * d + yb];
+        }
+        A[a + q * m] = -0.5 * nv[a];
+        A[q + a * m] = g[ya];
+    }
+    A[q + q * m] = 0;
+    /* the kick's Hessian term projected like n itself, S P S H with P = I - G^T G (without
+     * it Newton converges only linearly where grad H is far from n, e.g. Kepler pericentres);
+     * the derivatives of S and P are left out (they are multiplied by mu) */
+    for (size_t rr = 0; rr < kept; rr++)
+        for (size_t b = 0; b < q; b++) {
+            size_t yb = b < n ? b : b + 1;
+            double sb = 0;
+            for (size_t k = 0; k < q; k++) sb += G[rr * q + k] * sc[k] * hs[(k < n ? k : k + 1) * d + yb];
+            for (size_t a = 0; a < q; a++) A[a + b * m] += 0.5 * kmu * sc[a] * G[rr * q + a] * sb;
+        }
+    return dth__lu_factor(DTH_LINSOLVE_AUTO, c->m, A, c->piv);
+}
+
+static int ks_solve(void *ctx, double *b)
+{
+    ks_ctx *c = ctx;
+    return dth__lu_solve(DTH_LINSOLVE_AUTO, c->m, c->A, c->piv, 1, b);
+}
+
+static int ks_judge(void *ctx, const double *x, const double *dx, const double *F, dth__newton_track *tr, int *verdict)
+{
+    ks_ctx *c = ctx;
+    size_t n = c->n, d = 2 * n + 1, q = 2 * n;
+    int m = c->m;
+    /* rd: the offsets only (mu inherits H's round-off, magnified), against the size of the
+     * whole (q, p) state (a component near 0 only sees the round-off of the others) */
+    double r = 0, rd = 0, zs = 1e-300;
+    for (int a = 0; a < m; a++) {
+        double scl;
+        if (a == m - 1) scl = fabs(x[a]) + fabs(c->lambda) + 1e-300; /* mu next to the flow term */
+        else {
+            size_t j = (size_t)a < n ? (size_t)a : (size_t)a + 1;
+            scl = fabs(c->z[j]) + fabs(c->y[j]) + 1e-300;
+        }
+        r = fmax(r, fabs(dx[a]) / scl);
+        if (a < m - 1) {
+            rd = fmax(rd, fabs(dx[a]));
+            zs = fmax(zs, scl);
+        }
+    }
+    rd /= zs;
+    tr->r = r;
+    int v = dth__newton_rate(r, tr->r_prev, tr->iter, 4 * DBL_EPSILON);
+    if (v == DTH__NT_DIVERGED) return DTH_ENOCONV;
+    /* no chord finish: the Jacobian leaves out the projection's derivative, so the rate is not
+     * quadratic where mu is not tiny, and the chord's predicted residual is not reached (the
+     * invariants, kept only by an exact segment, then drift) */
+    if (v == DTH__NT_CHORD) v = DTH__NT_MORE;
+    if (v == DTH__NT_STALLED) {
+        /* stalled: accept if the energy residual is at the round-off of its terms */
+        double hsc = fabs(c->wp) + fabs(c->H);
+        for (size_t j = 0; j < d; j++) hsc += fabs(c->g[j] * c->y[j]);
+        /* mu judged by the chord it moves, |dmu| |n| (|mu| may be far below lambda's scale) */
+        double nn = 0;
+        for (size_t i = 0; i < q; i++) nn += c->nv[i] * c->nv[i];
+        double rmu = fabs(dx[m - 1]) * sqrt(nn) / zs;
+        if (fabs(F[m - 1]) <= 256 * DBL_EPSILON * hsc && rd < 1e-11 && (r < 1e-8 || rmu < 1e-11)) v = DTH__NT_DONE;
+        else if (tr->iter >= 12) return DTH_ENOCONV;
+        else v = DTH__NT_MORE;
+    }
+    *verdict = v;
+    return DTH_OK;
+}
+
+static const dth__newton_ops ks_ops = {ks_eval, ks_solve, ks_judge};
+
 int dth_kicked_segment(const dth_model *model, const double *z, const double *zlo, double lambda,
                        double *dz, double *mu, double *residual, int *iters, double *work)
 {
     if (!model || !z || !dz || !mu || !work || !isfinite(lambda)) return DTH_EINVAL;
     if (!dth_model_get_info(model)->autonomous) return DTH_EUNSUPPORTED;
-    size_t n = dth_model_dof(model), N = 2 * n + 2, d = 2 * n + 1, q = 2 * n, ni = model_ninv(model);
-    int m = (int)(2 * n + 1);
-    size_t off[12];
+    size_t n = dth_model_dof(model), N = 2 * n + 2, q = 2 * n, ni = model_ninv(model);
+    size_t off[13];
     ks_layout(n, ni, off);
-    double *y = work + off[0], *g = work + off[1], *hs = work + off[2], *A = work + off[3];
-    double *F = work + off[4], *x = work + off[5], *nv = work + off[6], *G = work + off[7];
-    double *tmp = work + off[8], *ys = work + off[9], *sc = work + off[11];
-    int *piv = (int *)(work + off[10]);
-    double wp = z[N - 1] + (zlo ? zlo[N - 1] : 0);
+    ks_ctx c = {model, z, zlo, lambda, z[N - 1] + (zlo ? zlo[N - 1] : 0), 0, n, (int)(2 * n + 1),
+                work + off[0], work + off[1], work + off[2], work + off[3], work + off[6], work + off[7],
+                work + off[8], work + off[9], work + off[11], (int *)(work + off[10])};
+    double *F = work + off[4], *x = work + off[5], *dx = work + off[12];
     for (size_t i = 0; i < n; i++) {
         x[i] = dz[i];
         x[n + i] = dz[n + 1 + i];
     }
     x[q] = *mu;
-    double r_prev = INFINITY, H = 0;
-    int it;
-    for (it = 1; it <= 40; it++) {
-        /* midpoint y = z + d over (q, p); t advances by lambda/2 */
-        for (size_t j = 0; j < d; j++) {
-            double lo = zlo ? zlo[j] : 0;
-            double dj = j < n ? x[j] : (j == n ? 0.5 * lambda : x[j - 1]);
-            y[j] = z[j] + (lo + dj);
-        }
-        int rc = dth_model_eval(model, y, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &H, g, hs);
-        if (rc) return rc;
-        /* kick direction: n = S P S grad H over (q, p), with S = diag(sc) the kick's metric and
-         * P the projector off S grad I of the quadratic invariants: grad I . n = 0 (the midpoint
-         * identity keeps I) and grad H . n = |P S grad H|^2 > 0 */
-        kick_metric(model, n, hs, sc);
-        for (size_t i = 0; i < n; i++) {
-            nv[i] = sc[i] * g[i];
-            nv[n + i] = sc[n + i] * g[n + 1 + i];
-        }
-        size_t kept = quad_invariant_basis(model, y, sc, G, ys, tmp);
-        for (size_t r = 0; r < kept; r++) {
-            double dot = 0;
-            for (size_t i = 0; i < q; i++) dot += nv[i] * G[r * q + i];
-            for (size_t i = 0; i < q; i++) nv[i] -= dot * G[r * q + i];
-        }
-        for (size_t i = 0; i < q; i++) nv[i] *= sc[i];
-        /* F = d - (lambda/2) u - (mu/2) n, u = (dH/dp, -dH/dq); F_last = wp + H */
-        double lam = lambda, kmu = x[q];
-        for (size_t i = 0; i < n; i++) {
-            F[i] = x[i] - 0.5 * lam * g[n + 1 + i] - 0.5 * kmu * nv[i];
-            F[n + i] = x[n + i] + 0.5 * lam * g[i] - 0.5 * kmu * nv[n + i];
-        }
-        F[q] = wp + H;
-        /* Jacobian over (d_q, d_p, mu); the derivative of the projection itself is left out
-         * (it is multiplied by mu, which is tiny) */
-        for (size_t a = 0; a < q; a++) {
-            size_t ya = a < n ? a : a + 1;           /* y-index of this (q, p) component */
-            size_t ua = a < n ? n + 1 + a : a - n;   /* u_a = +dH/dy_ua (a < n) or -dH/dy_ua */
-            double su = a < n ? 1.0 : -1.0;
-            for (size_t b = 0; b < q; b++) {
-                size_t yb = b < n ? b : b + 1;
-                A[a + b * (size_t)m] = (a == b ? 1.0 : 0.0) - 0.5 * lam * su * hs[ua * d + yb] -
-                                       0.5 * kmu * sc[a] * sc[a] * hs[ya * d + yb];
-            }
-            A[a + q * (size_t)m] = -0.5 * nv[a];
-            A[q + a * (size_t)m] = g[ya];
-        }
-        A[q + q * (size_t)m] = 0;
-        /* the kick's Hessian term projected like n itself, S P S H with P = I - G^T G (without
-         * it Newton converges only linearly where grad H is far from n, e.g. Kepler pericentres);
-         * the derivatives of S and P are left out (they are multiplied by mu) */
-        for (size_t rr = 0; rr < kept; rr++)
-            for (size_t b = 0; b < q; b++) {
-                size_t yb = b < n ? b : b + 1;
-                double sb = 0;
-                for (size_t c = 0; c < q; c++) sb += G[rr * q + c] * sc[c] * hs[(c < n ? c : c + 1) * d + yb];
-                for (size_t a = 0; a < q; a++) A[a + b * (size_t)m] += 0.5 * kmu * sc[a] * G[rr * q + a] * sb;
-            }
-        rc = dth__lu_factor(DTH_LINSOLVE_AUTO, m, A, piv);
-        if (rc) return rc;
-        rc = dth__lu_solve(DTH_LINSOLVE_AUTO, m, A, piv, 1, F);
-        if (rc) return rc;
-        /* rd: the offsets only (mu inherits H's round-off, magnified), against the size of the
-         * whole (q, p) state (a component near 0 only sees the round-off of the others) */
-        double r = 0, rd = 0, zs = 1e-300;
-        for (int a = 0; a < m; a++) {
-            x[a] -= F[a];
-            double scl;
-            if (a == m - 1) scl = fabs(x[a]) + fabs(lam) + 1e-300; /* mu next to the flow term */
-            else {
-                size_t j = (size_t)a < n ? (size_t)a : (size_t)a + 1;
-                scl = fabs(z[j]) + fabs(y[j]) + 1e-300;
-            }
-            r = fmax(r, fabs(F[a]) / scl);
-            if (a < m - 1) {
-                rd = fmax(rd, fabs(F[a]));
-                zs = fmax(zs, scl);
-            }
-        }
-        rd /= zs;
-        if (!isfinite(r)) return DTH_ENOCONV;
-        if (r <= 4 * DBL_EPSILON) break;
-        if (r >= 0.5 * r_prev) {
-            /* stalled: accept if the energy residual is at the round-off of its terms */
-            double hsc = fabs(wp) + fabs(H);
-            for (size_t j = 0; j < d; j++) hsc += fabs(g[j] * y[j]);
-            /* mu judged by the chord it moves, |dmu| |n| (|mu| may be far below lambda's scale) */
-            double nn = 0;
-            for (size_t i = 0; i < q; i++) nn += nv[i] * nv[i];
-            double rmu = fabs(F[m - 1]) * sqrt(nn) / zs;
-            if (fabs(wp + H) <= 256 * DBL_EPSILON * hsc && rd < 1e-11 && (r < 1e-8 || rmu < 1e-11)) break;
-        }
-        if (it >= 12 && r >= 0.5 * r_prev) return DTH_ENOCONV;
-        r_prev = r;
-        if (it == 40) return DTH_ENOCONV;
-    }
-    for (size_t j = 0; j < d; j++) {
-        double lo = zlo ? zlo[j] : 0;
-        double dj = j < n ? x[j] : (j == n ? 0.5 * lambda : x[j - 1]);
-        y[j] = z[j] + (lo + dj);
-    }
-    int rc = dth_model_eval(model, y, DTH_EVAL_H, &H, NULL, NULL);
+    dth__newton_track tr;
+    int rc = dth__newton_run(&ks_ops, &c, c.m, 40, x, F, dx, &tr);
+    if (iters) *iters = tr.iter;
+    if (rc) return rc;
+    ks_midpoint(&c, x, c.y);
+    rc = dth_model_eval(model, c.y, DTH_EVAL_H, &c.H, NULL, NULL);
     if (rc) return rc;
     for (size_t i = 0; i < n; i++) {
         dz[i] = x[i];
@@ -399,8 +435,7 @@ int dth_kicked_segment(const dth_model *model, const double *z, const double *zl
     dz[n] = 0.5 * lambda;
     dz[N - 1] = 0;
     *mu = x[q];
-    if (residual) *residual = fabs(wp + H);
-    if (iters) *iters = it;
+    if (residual) *residual = fabs(c.wp + c.H);
     return DTH_OK;
 }
 

@@ -1,0 +1,68 @@
+/* SPDX-License-Identifier: MIT */
+/* The small dense LU (partial pivoting, column-major, 1-based pivots like LAPACK) as inline kernels,
+ * so that callers with a compile-time size get unrolled loops: linsolve.c dispatches on m, the DTH
+ * step's small path (integrator.c) instantiates them for its own m. */
+#ifndef DTH_LU_SMALL_H
+#define DTH_LU_SMALL_H
+
+#include <math.h>
+#include "dth/status.h"
+
+/* Doolittle LU with partial pivoting, column-major, in place; piv 1-based like LAPACK. Inlined
+ * below for each m <= DTH__SMALL_MAX, so that the loops unroll for the size at hand. */
+static inline __attribute__((always_inline)) int lu_factor_m(const int m, double *a, int *piv)
+{
+#pragma GCC unroll 8
+    for (int k = 0; k < m; k++) {
+        int p = k;
+        double best = fabs(a[k + k * m]);
+        for (int i = k + 1; i < m; i++) {
+            double v = fabs(a[i + k * m]);
+            if (v > best) best = v, p = i;
+        }
+        piv[k] = p + 1;
+        if (!(best > 0)) return best == 0 ? DTH_ESINGULAR : DTH_OK; /* NaN: the solve shows it */
+        if (p != k)
+            for (int j = 0; j < m; j++) {
+                double t = a[k + j * m];
+                a[k + j * m] = a[p + j * m];
+                a[p + j * m] = t;
+            }
+        double inv = 1.0 / a[k + k * m];
+        for (int i = k + 1; i < m; i++) a[i + k * m] *= inv;
+#pragma GCC unroll 8
+        for (int j = k + 1; j < m; j++) {
+            double akj = a[k + j * m];
+#pragma GCC unroll 8
+            for (int i = k + 1; i < m; i++) a[i + j * m] -= a[i + k * m] * akj;
+        }
+    }
+    return DTH_OK;
+}
+
+static inline __attribute__((always_inline)) void lu_solve_m(const int m, const double *a, const int *piv, double *x)
+{
+    for (int k = 0; k < m; k++) {
+        int p = piv[k] - 1;
+        if (p != k) {
+            double t = x[k];
+            x[k] = x[p];
+            x[p] = t;
+        }
+    }
+#pragma GCC unroll 8
+    for (int j = 0; j < m; j++) {
+        double xj = x[j];
+#pragma GCC unroll 8
+        for (int i = j + 1; i < m; i++) x[i] -= a[i + j * m] * xj;
+    }
+#pragma GCC unroll 8
+    for (int j = m - 1; j >= 0; j--) {
+        x[j] /= a[j + j * m];
+        double xj = x[j];
+#pragma GCC unroll 8
+        for (int i = 0; i < j; i++) x[i] -= a[i + j * m] * xj;
+    }
+}
+
+#endif
