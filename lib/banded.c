@@ -272,6 +272,8 @@ int dth__band_factor(dth__band *b, const dth_model *m, const double *zb, const d
     return DTH_OK;
 }
 
+int dth__band_mode(const dth__band *b) { return b ? b->mode : 0; }
+
 int dth__band_solve(dth__band *b, double *x)
 {
     size_t n = b->n, nn = (size_t)b->nn;

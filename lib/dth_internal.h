@@ -94,6 +94,8 @@ void dth__band_free(dth__band *b, const dth_allocator *al);
 /** Assemble and factor the step Jacobian at midpoint zb (gradient `grad` over y there) and lam.
  *  @return DTH_OK, DTH_ESINGULAR, DTH_ELAPACK, or the model's status. */
 int dth__band_factor(dth__band *b, const dth_model *m, const double *zb, const double *grad, double lam);
+/** How the last factorization solved B: 1 Schur complement by Cholesky, 2 by LU, 3 banded LU of B. */
+int dth__band_mode(const dth__band *b);
 /** Solve the factored system in place; x (length 2n+1) is in the integrator's unknown order
  *  (d_q, d_p, lambda), as the dense path's right-hand side. @return DTH_OK, DTH_ELAPACK. */
 int dth__band_solve(dth__band *b, double *x);

@@ -128,8 +128,8 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     it->dir = opt->h > 0 ? 1.0 : -1.0;
     it->lam_hint = opt->h;
     it->reg = opt->regularizer;
-    it->rbuf = dth_calloc(al, (4 + DTH_REG_MAX_SEG) * N, sizeof(double));
-    int brc = it->rbuf ? dth__branch_create(it) : DTH_ENOMEM;
+    if (it->reg) it->rbuf = dth_calloc(al, (4 + DTH_REG_MAX_SEG) * N, sizeof(double)); /* the hook's workspace */
+    int brc = it->reg && !it->rbuf ? DTH_ENOMEM : dth__branch_create(it);
     if (brc) {
         dth_integrator_free(it);
         return brc;

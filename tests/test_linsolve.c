@@ -1,0 +1,234 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The linear solvers of the DTH step's Newton system (paper, Theorem "DTH Equations") agree with
+ * the LAPACK dense path to round-off: from common vertices, every path takes the same step (lambda
+ * and the new vertex within the conditioning of lambda, eps scale(H) / (|psi| lambda^2 / 8)), carries
+ * wp bit for bit, and gives the same tangent map. Covers the small path (n = 1, 2, 3 instantiated and
+ * the generic one), the non-autonomous case, and the banded paths (Schur complement by Cholesky, by
+ * LU where it is not positive definite, and the banded LU of the whole matrix).
+ */
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include "cu_main.h"
+#include "dth/dth.h"
+#include "dth_internal.h"
+#include "integrator_impl.h"
+
+/* ---- a forced oscillator (non-autonomous: t and wp are Newton unknowns) ---- */
+
+static int forced_create(const dth_model_args *a, void **self, dth_model_info *info)
+{
+    (void)a;
+    *self = NULL;
+    *info = (dth_model_info){.n = 1, .autonomous = 0, .separable = 1};
+    return DTH_OK;
+}
+
+/* H = p^2/2 + q^2/2 - 0.3 q cos(t) */
+static int forced_eval(const void *self, const double *y, unsigned what, double *H, double *g, double *h)
+{
+    (void)self;
+    double q = y[0], t = y[1], p = y[2];
+    if (what & DTH_EVAL_H) *H = 0.5 * p * p + 0.5 * q * q - 0.3 * q * cos(t);
+    if (what & DTH_EVAL_GRAD) {
+        g[0] = q - 0.3 * cos(t);
+        g[1] = 0.3 * q * sin(t);
+        g[2] = p;
+    }
+    if (what & DTH_EVAL_HESS) {
+        double hh[9] = {1, 0.3 * sin(t), 0, 0.3 * sin(t), 0.3 * q * cos(t), 0, 0, 0, 1};
+        memcpy(h, hh, sizeof hh);
+    }
+    return 0;
+}
+
+static const dth_model_type forced_type = {.name = "forced", .doc = "forced oscillator", .create = forced_create,
+                                           .eval = forced_eval};
+
+/* ---- the comparison ---- */
+
+static dth_integrator *make(const dth_model *m, double h, dth_linsolve ls, const double *q, const double *p)
+{
+    dth_options o;
+    dth_options_default(&o);
+    o.h = h;
+    o.linsolve = ls;
+    o.branch_check = 0; /* the same root from both: the paths are what is compared */
+    dth_integrator *it = NULL;
+    CU_ASSERT_EQUAL_FATAL(dth_integrator_new(m, &o, &it), DTH_OK);
+    CU_ASSERT_EQUAL_FATAL(dth_integrator_start(it, q, p, 0.0), DTH_OK);
+    return it;
+}
+
+/*
+ * `steps` steps of the reference (dense) integrator; before each, the other is set to the
+ * reference's vertex. Returns the largest difference relative to the conditioning bound.
+ */
+static double compare(const dth_model *m, double h, dth_linsolve ls, const double *q, const double *p, int steps)
+{
+    size_t n = dth_model_dof(m), N = 2 * n + 2;
+    dth_integrator *ref = make(m, h, DTH_LINSOLVE_DENSE, q, p), *oth = make(m, h, ls, q, p);
+    double *g = calloc(N, sizeof *g), *w = calloc(dth_model_work_size(m), sizeof *w);
+    double *Mr = calloc(N * N, sizeof *Mr), *Mo = calloc(N * N, sizeof *Mo), *zc = calloc(N, sizeof *zc);
+    double worst = 0, tworst = 0;
+    for (int k = 0; k < steps; k++) {
+        if (k > 0) {
+            memcpy(zc, dth_integrator_vertex(ref), N * sizeof *zc);
+            double lam = dth_integrator_lambda(ref);
+            CU_ASSERT_EQUAL_FATAL(dth_integrator_set_vertex(ref, zc, lam), DTH_OK);
+            CU_ASSERT_EQUAL_FATAL(dth_integrator_set_vertex(oth, zc, lam), DTH_OK);
+        }
+        const double *z = dth_integrator_vertex(ref);
+        double Hp, psi;
+        CU_ASSERT_FATAL(dth_model_eval(m, z, DTH_EVAL_H | DTH_EVAL_GRAD, &Hp, g, NULL) == DTH_OK);
+        CU_ASSERT_FATAL(dth_model_psi(m, z, &psi, NULL, w) == DTH_OK);
+        double sc = fabs(z[N - 1]) + fabs(Hp);
+        for (size_t j = 0; j < N - 1; j++) sc += fabs(g[j] * z[j]);
+        dth_step_info sr, so;
+        CU_ASSERT_EQUAL_FATAL(dth_integrator_step(ref, &sr), DTH_OK);
+        CU_ASSERT_EQUAL_FATAL(dth_integrator_step(oth, &so), DTH_OK);
+        double lam = sr.lambda, kappa = DBL_EPSILON * sc / (fabs(psi) * lam * lam / 8);
+        if (k == 0) kappa = DBL_EPSILON; /* the exact first step of a midpoint start: no solve */
+        double dl = fabs(so.lambda - lam) / fabs(lam), dz = 0;
+        const double *zr = dth_integrator_vertex(ref), *zo = dth_integrator_vertex(oth);
+        for (size_t j = 0; j < N; j++) dz = fmax(dz, fabs(zr[j] - zo[j]) / (1 + fabs(zr[j])));
+        worst = fmax(worst, fmax(dl, dz) / kappa);
+        if (dth_model_get_info(m)->autonomous) CU_ASSERT(zr[N - 1] == zo[N - 1]); /* wp bit for bit */
+        if (k == steps - 1) {
+            CU_ASSERT_EQUAL(dth_integrator_tangent(ref, Mr), DTH_OK);
+            CU_ASSERT_EQUAL(dth_integrator_tangent(oth, Mo), DTH_OK);
+            double mm = 0;
+            for (size_t i = 0; i < N * N; i++) {
+                tworst = fmax(tworst, fabs(Mr[i] - Mo[i]));
+                mm = fmax(mm, fabs(Mr[i]));
+            }
+            tworst /= mm;
+        }
+    }
+    printf("\n    %-8s n = %zu, %s vs dense: largest difference %.2f x the conditioning bound, tangent maps %.1e", 
+           dth_model_get_type(m)->name, n, dth_linsolve_name(ls), worst, tworst);
+    CU_ASSERT(worst <= 4);
+    CU_ASSERT(tworst <= 1e-11);
+    dth_integrator_free(ref);
+    dth_integrator_free(oth);
+    free(g), free(w), free(Mr), free(Mo), free(zc);
+    return worst;
+}
+
+static dth_model *model(const dth_model_type *t, const dth_kv *kv, size_t nkv, size_t n)
+{
+    dth_model *m = NULL;
+    char err[256];
+    CU_ASSERT_EQUAL_FATAL(dth_model_new(t, kv, nkv, n, NULL, &m, err, sizeof err), DTH_OK);
+    return m;
+}
+
+static void test_small(void)
+{
+    dth_model *pen = model(&dth_model_pendulum, NULL, 0, 1);
+    double q1 = 1.0, p1 = 0.3;
+    compare(pen, 0.1, DTH_LINSOLVE_SMALL, &q1, &p1, 200);
+    compare(pen, 0.1, DTH_LINSOLVE_AUTO, &q1, &p1, 50);
+    dth_model_free(pen);
+    /* Kepler 2-D (n = 2) and an inclined 3-D orbit (n = 3) */
+    dth_model *k2 = model(&dth_model_kepler, NULL, 0, 2);
+    double q2[2] = {0.4, 0}, p2[2] = {0, 2};
+    compare(k2, 0.01, DTH_LINSOLVE_SMALL, q2, p2, 300);
+    dth_model_free(k2);
+    dth_model *k3 = model(&dth_model_kepler, NULL, 0, 3);
+    double q3[3] = {0.3, 0.1, 0.05}, p3[3] = {0.1, 1.6, 0.9};
+    compare(k3, 0.01, DTH_LINSOLVE_SMALL, q3, p3, 300);
+    dth_model_free(k3);
+    /* the generic small LU (m = 5, not instantiated: non-autonomous) */
+    dth_model *f = model(&forced_type, NULL, 0, 1);
+    double qf = 0.5, pf = 0.2;
+    compare(f, 0.05, DTH_LINSOLVE_SMALL, &qf, &pf, 200);
+    dth_model_free(f);
+}
+
+/* A 2-D chain; `compress` scales the initial spacing (1: at rest length). */
+static void chain(size_t Np, double compress, double spring_k, dth_linsolve ls, double h, int steps)
+{
+    char size[32], kk[32];
+    snprintf(size, sizeof size, "%zu", Np);
+    snprintf(kk, sizeof kk, "%g", spring_k);
+    dth_kv kv[] = {{"preset", "chain"}, {"size", size}, {"dim", "2"}, {"L", "1"}, {"k", kk}};
+    dth_model *m = model(&dth_model_coupled, kv, 5, 2 * Np);
+    size_t n = 2 * Np;
+    double *q = calloc(n, sizeof *q), *p = calloc(n, sizeof *p);
+    for (size_t i = 0; i < Np; i++) {
+        q[2 * i] = compress * (double)i;
+        q[2 * i + 1] = 0.05 * sin(3.0 * (double)i);
+        p[2 * i] = 0.1 * cos(2.0 * (double)i);
+        p[2 * i + 1] = 0.2 * sin(1.0 + (double)i);
+    }
+    compare(m, h, ls, q, p, steps);
+    free(q), free(p);
+    dth_model_free(m);
+}
+
+static void test_banded(void)
+{
+    chain(10, 1.0, 1.0, DTH_LINSOLVE_BANDED, 0.05, 100);
+    chain(10, 1.0, 1.0, DTH_LINSOLVE_BANDED_LU, 0.05, 100);
+    chain(10, 1.0, 1.0, DTH_LINSOLVE_SMALL, 0.05, 30); /* the written-out LU at m = 41 */
+}
+
+/* Compressed stiff springs and a large step make T''^-1 + (lambda^2/4) V'' indefinite: the
+ * Schur path falls back to its banded LU, and still agrees. */
+static void test_schur_indefinite(void)
+{
+    char err[256];
+    dth_kv kv[] = {{"preset", "chain"}, {"size", "6"}, {"dim", "2"}, {"L", "1"}, {"k", "400"}};
+    dth_model *m = NULL;
+    CU_ASSERT_EQUAL_FATAL(dth_model_new(&dth_model_coupled, kv, 5, 12, NULL, &m, err, sizeof err), DTH_OK);
+    double q[12], p[12];
+    for (int i = 0; i < 6; i++) {
+        q[2 * i] = 0.5 * i, q[2 * i + 1] = 0.01 * (i % 2);
+        p[2 * i] = 0, p[2 * i + 1] = 0.1 * (i % 3);
+    }
+    dth_integrator *it = make(m, 0.15, DTH_LINSOLVE_BANDED, q, p);
+    dth_step_info si;
+    CU_ASSERT_EQUAL(dth_integrator_step(it, &si), DTH_OK);
+    int rc = dth_integrator_step(it, &si);
+    if (rc == DTH_OK) CU_ASSERT_EQUAL(dth__band_mode(it->band), 2); /* SCHUR_LU */
+    printf("\n    compressed stiff chain: step %s, banded mode %d (2: LU of the Schur complement)",
+           dth_strerror(rc), dth__band_mode(it->band));
+    CU_ASSERT_EQUAL(rc, DTH_OK);
+    dth_integrator_free(it);
+    compare(m, 0.15, DTH_LINSOLVE_BANDED, q, p, 3); /* omega h = 3: the fourth step has no root */
+    dth_model_free(m);
+}
+
+/* Forcing a path the model cannot use is refused up front. */
+static void test_refusals(void)
+{
+    dth_model *pen = model(&dth_model_pendulum, NULL, 0, 1);
+    dth_options o;
+    dth_options_default(&o);
+    dth_integrator *it = NULL;
+    o.linsolve = DTH_LINSOLVE_BANDED;
+    CU_ASSERT_EQUAL(dth_integrator_new(pen, &o, &it), DTH_EUNSUPPORTED);
+    o.linsolve = (dth_linsolve)99;
+    CU_ASSERT_EQUAL(dth_integrator_new(pen, &o, &it), DTH_EINVAL);
+    CU_ASSERT_PTR_NULL(it);
+    CU_ASSERT_STRING_EQUAL(dth_linsolve_name(DTH_LINSOLVE_BANDED_LU), "banded-lu");
+    CU_ASSERT_PTR_NULL(dth_linsolve_name((dth_linsolve)99));
+    dth_model_free(pen);
+}
+
+static CU_TestInfo tests[] = {
+    {"small path against LAPACK dense (n = 1, 2, 3, non-autonomous)", test_small},
+    {"banded paths against dense (chain)", test_banded},
+    {"Schur complement not positive definite: LU fallback", test_schur_indefinite},
+    {"paths a model cannot use are refused", test_refusals},
+    CU_TEST_INFO_NULL,
+};
+
+CU_SuiteInfo dth_test_suites[] = {
+    {.pName = "linsolve", .pTests = tests},
+    CU_SUITE_INFO_NULL,
+};
