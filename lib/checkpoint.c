@@ -150,6 +150,7 @@ static void put_state(wr *w, const dth_integrator *it)
     put_f64(w, it->lam2);
     put_f64(w, it->lam3);
     put_u32(w, (uint32_t)it->nhist);
+    put_f64(w, it->rho);
     put_f64(w, it->lam_hint);
     put_f64(w, it->dir);
     put_f64(w, it->opt.h);
@@ -247,7 +248,7 @@ typedef struct st {
     size_t name_len;
     uint64_t n;
     uint32_t m, auton, have_prev, have_mid, pending_exact, fact_valid, psi_known, psi_sign, nhist;
-    double lam, lam2, lam3, lam_hint, dir, h;
+    double lam, lam2, lam3, rho, lam_hint, dir, h;
     uint64_t steps;
     size_t pos_z;         /* reader position of the vectors */
     uint64_t reg_len;     /* bytes of regularizer state */
@@ -274,6 +275,7 @@ static int read_state(rd *r, st *s, char *err, size_t errlen)
     s->lam2 = get_f64(r);
     s->lam3 = get_f64(r);
     s->nhist = get_u32(r);
+    s->rho = get_f64(r);
     s->lam_hint = get_f64(r);
     s->dir = get_f64(r);
     s->h = get_f64(r);
@@ -285,7 +287,7 @@ static int read_state(rd *r, st *s, char *err, size_t errlen)
     s->psi_known = get_u32(r);
     s->psi_sign = get_u32(r);
     if (r->bad || s->psi_known > 1 || s->psi_sign > 2 || s->nhist > 3 || !isfinite(s->lam) || !isfinite(s->lam2) ||
-        !isfinite(s->lam3) || !isfinite(s->lam_hint) ||
+        !isfinite(s->lam3) || !isfinite(s->rho) || !isfinite(s->lam_hint) ||
         !(s->dir == 1.0 || s->dir == -1.0) || !isfinite(s->h) || s->h == 0 || s->have_prev > 1 ||
         s->have_mid > 1 || s->pending_exact > 1 || s->fact_valid > 1 || s->steps > (uint64_t)LONG_MAX) {
         dth__set_err(err, errlen, "checkpoint state is invalid (non-finite value or bad flag)");
@@ -379,6 +381,7 @@ int dth_checkpoint_restore(dth_integrator *it, const void *buf, size_t len, char
     it->lam2 = s.lam2;
     it->lam3 = s.lam3;
     it->nhist = (int)s.nhist;
+    it->rho = s.rho;
     it->lam_hint = s.lam_hint;
     it->dir = s.dir;
     it->opt.h = s.h;

@@ -76,6 +76,9 @@ int dth__newton_run(const dth__newton_ops *ops, void *ctx, int m, int max_iter, 
 /** dth_model_eval without the NaN/Inf sweep of the Hessian (H and the gradient are checked): for
  *  Newton loops, which see a non-finite Hessian entry in their correction. */
 int dth__model_eval_raw(const dth_model *m, const double *y, unsigned what, double *H, double *grad, double *hess);
+/** H_phys(y1) - H_phys(y0) without cancellation: the model's hdiff, else a 4-point Gauss-Legendre
+ *  rule on the gradient along the segment (work: 2(2n+1) doubles). Exactly antisymmetric in (y1, y0). */
+int dth__model_hdiff(const dth_model *m, const double *y1, const double *y0, double *work, double *dH);
 /** 1 if the integrator and psi use the model's banded Hessian (DTH_HESS_BANDED with hess_band,
  *  autonomous); the dense Hessian is then never evaluated by them. */
 int dth__model_banded(const dth_model *m);

@@ -19,6 +19,7 @@ void dth_options_default(dth_options *o)
     o->max_iter = 30;
     o->branch_check = 1;
     o->linsolve = DTH_LINSOLVE_AUTO;
+    o->compensate = 1;
 }
 
 const char *dth_region_name(dth_region r)
@@ -93,8 +94,8 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     size_t N = it->N, d = it->d, m = msz;
     size_t nd = 0;
     /* one block of doubles, carved below */
-    size_t sizes[] = {N, N, N, N, N, N, N, N, N, N, d, (size_t)dense * d * d, d, d, (size_t)dense * m * m, m, m, m,
-                      dth_model_work_size(model), (size_t)dense * m * N};
+    size_t sizes[] = {N, N, N, N, N, N, N, N, N, N, d, (size_t)dense * d * d, N, d, (size_t)dense * m * m, m, m, m,
+                      dth_model_work_size(model), (size_t)dense * m * N, 2 * d, N};
     for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) nd += sizes[i];
     it->block = dth_calloc(al, nd, sizeof(double));
     it->piv = dth_calloc(al, 2 * m, sizeof(int));
@@ -105,7 +106,7 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     double *p = it->block;
     double **slots[] = {&it->z, &it->zlo, &it->zbar, &it->dprev, &it->dprev2, &it->dprev3, &it->dnew, &it->znew, &it->znewlo,
                         &it->zb, &it->grad, &it->hess, &it->u, &it->ybar, &it->A, &it->F, &it->x, &it->dx,
-                        &it->work, &it->B};
+                        &it->work, &it->B, &it->hwork, &it->zblo};
     for (size_t i = 0; i < sizeof slots / sizeof slots[0]; i++) {
         *slots[i] = p;
         p += sizes[i];
@@ -173,6 +174,57 @@ static void flow_z(size_t n, const double *grad, double *u)
     u[2 * n + 1] = -grad[n];
 }
 
+/* The vertex offset rho = H(z_k) evaluated directly (a start, or after a regularizer's step). */
+static int rho_direct(dth_integrator *it)
+{
+    size_t N = it->N;
+    double Hp;
+    for (size_t j = 0; j + 1 < N; j++) it->ybar[j] = it->z[j] + it->zlo[j];
+    int rc = dth_model_eval(it->model, it->ybar, DTH_EVAL_H, &Hp, NULL, NULL);
+    if (rc) return rc;
+    it->rho = (it->z[N - 1] + it->zlo[N - 1]) + Hp;
+    return DTH_OK;
+}
+
+int dth__integrator_rho_reset(dth_integrator *it) { return it->opt.compensate ? rho_direct(it) : DTH_OK; }
+
+/*
+ * H(z + zlo) - H(zb + zblo) without cancellation, both points double-double (zblo may be NULL):
+ * the wp difference, the model's hdiff over y between the high parts, and the low parts through
+ * the gradient at the midpoint (grad: over y at zb). The midpoint's low part matters: a double
+ * midpoint moves in steps of eps |zbar|, which changes H by eps S, the noise this avoids.
+ */
+static int rho_from_mid(dth_integrator *it, const double *zb, const double *zblo, const double *grad, const double *z,
+                        const double *zlo, double *rho)
+{
+    size_t N = it->N, d = it->d;
+    double dh;
+    int rc = dth__model_hdiff(it->model, z, zb, it->hwork, &dh);
+    if (rc) return rc;
+    double lo = 0;
+    for (size_t j = 0; j < d; j++) lo += grad[j] * (zlo[j] - (zblo ? zblo[j] : 0));
+    *rho = ((z[N - 1] - zb[N - 1]) + (zlo[N - 1] - (zblo ? zblo[N - 1] : 0))) + (dh + lo);
+    return DTH_OK;
+}
+
+/* The low part of the midpoint of the unknowns x: zb + zblo = z + zlo + d exactly (to the rounding
+ * of zlo + d, far below eps |zbar|). */
+static void midpoint_lo(const dth_integrator *it, const double *x, double *zblo)
+{
+    size_t n = it->n, N = it->N;
+    int m = it->m;
+    if (it->auton) {
+        for (size_t i = 0; i < n; i++) {
+            two_sum(it->z[i], it->zlo[i] + x[i], &zblo[i]);
+            two_sum(it->z[n + 1 + i], it->zlo[n + 1 + i] + x[n + i], &zblo[n + 1 + i]);
+        }
+        two_sum(it->z[n], it->zlo[n] + 0.5 * x[m - 1], &zblo[n]);
+        two_sum(it->z[N - 1], it->zlo[N - 1], &zblo[N - 1]);
+        return;
+    }
+    for (int a = 0; a < m - 1; a++) two_sum(it->z[a], it->zlo[a] + x[a], &zblo[a]);
+}
+
 static void reset_history(dth_integrator *it)
 {
     it->nhist = 0;
@@ -222,6 +274,14 @@ int dth_integrator_start(dth_integrator *it, const double *q0, const double *p0,
             it->dprev[j] = it->znewlo[j];
             it->z[j] = two_sum(it->zbar[j], -it->dprev[j], &it->zlo[j]);
         }
+        if (it->opt.compensate) {
+            /* H(zbar_0) = wp + H_phys = 0 exactly (wp = -H_phys) */
+            rc = rho_from_mid(it, it->zbar, NULL, it->grad, it->z, it->zlo, &it->rho);
+            if (rc) {
+                seterr(it, "model evaluation failed at the first vertex");
+                return rc;
+            }
+        }
         it->lam = 0;
         it->lam_hint = h;
         it->dir = h > 0 ? 1.0 : -1.0;
@@ -253,6 +313,13 @@ int dth_integrator_set_vertex(dth_integrator *it, const double *z, double lambda
         if (!isfinite(z[j])) return DTH_EINVAL;
     if (z != it->z) memcpy(it->z, z, it->N * sizeof *z);
     memset(it->zlo, 0, it->N * sizeof *it->zlo);
+    if (it->opt.compensate) {
+        int rc = rho_direct(it);
+        if (rc) {
+            seterr(it, "model evaluation failed at the vertex");
+            return rc;
+        }
+    }
     reset_history(it);
     it->lam = 0;
     it->lam_hint = lambda;
@@ -588,6 +655,55 @@ static const dth__newton_ops *ops_of(const dth_integrator *it)
     return &step_ops;
 }
 
+/*
+ * The compensated finish of a converged step: one chord step (the factors at hand) on the
+ * constraint evaluated from the carried vertex offset, E = rho_k + (H(zbar) - H(z_k)), the
+ * difference from the model's hdiff: its error scales with the step instead of with the energy's
+ * size. The direct value wp + H_phys(zbar) carries eps S, S = |wp| + |H_phys| + sum |dH/dy_j y_j|,
+ * and lambda is fixed by a second-order effect (paper, Lemma g_taylor), so that noise moves lambda
+ * by about 4 eps S / (|psi| lambda^2): the reason for the carried offset.
+ * The carried offset random-walks by about eps sum |dH/dy_j delta_j| per step; where it has drifted
+ * from the direct value by more than tau = 4 eps S, the step takes the direct value instead (and
+ * the next offset is measured from this midpoint again), so the midpoint energy stays within tau of
+ * exact. Both rules give the backward step the same equation at the same midpoint (the carried
+ * offset of z_(k+1) is measured from zbar), so the map stays time-reversible. On entry it->zb,
+ * it->Hphys and it->grad belong to x.
+ */
+static int compensate(dth_integrator *it, double *x)
+{
+    size_t N = it->N;
+    int m = it->m;
+    double *zb = it->zb, *F = it->F, dh;
+    /* one chord step; a second (and third) where the first moved lambda so far (a stalled Newton at
+     * tiny steps) that the chord's own second-order error dlambda^2 / lambda is above eps lambda */
+    for (int pass = 0; pass < 3; pass++) {
+        if (pass) {
+            int rc = dth_model_eval(it->model, zb, DTH_EVAL_H | DTH_EVAL_GRAD, &it->Hphys, it->grad, NULL);
+            if (rc) {
+                seterr(it, "model evaluation failed at the converged midpoint");
+                return rc;
+            }
+        }
+        assemble(it, x, zb, it->Hphys, F, NULL);
+        midpoint_lo(it, x, it->zblo);
+        int rc = rho_from_mid(it, zb, it->zblo, it->grad, it->z, it->zlo, &dh); /* H(z_k) - H(zbar) */
+        if (rc) {
+            seterr(it, "model evaluation failed in the compensated constraint: %s", dth_strerror(rc));
+            return rc;
+        }
+        double ec = it->rho - dh, rd = zb[N - 1] + it->Hphys, tau = 4 * DBL_EPSILON * h_scale(it, zb, it->Hphys);
+        F[m - 1] = fabs(ec - rd) <= tau ? ec : rd;
+        rc = ops_of(it)->solve(it, F);
+        if (rc) return rc;
+        for (int k = 0; k < m; k++) x[k] -= F[k];
+        midpoint_from_x(it, x, zb);
+        double rl = F[m - 1] / x[m - 1];
+        if (!(rl * rl > DBL_EPSILON)) break;
+    }
+    midpoint_lo(it, x, it->zblo); /* for the next vertex's offset (commit) */
+    return DTH_OK;
+}
+
 int dth__newton(dth_integrator *it, double lam0, const double *d0, dth__solution *sol)
 {
     size_t N = it->N;
@@ -604,14 +720,19 @@ int dth__newton(dth_integrator *it, double lam0, const double *d0, dth__solution
     if (rc == DTH_ENOCONV && it->nt.verdict == DTH__NT_MAXITER)
         seterr(it, "Newton did not converge in %d iterations (last correction %.3g)", it->nt.iter, it->nt.r);
     if (rc) return rc;
-    /* the accepted midpoint and its energy residual */
+    /* the accepted midpoint and its energy residual (direct: wp + H_phys) */
     midpoint_from_x(it, x, zb);
-    rc = dth_model_eval(it->model, zb, DTH_EVAL_H, &it->Hphys, NULL, NULL);
+    rc = dth_model_eval(it->model, zb, it->opt.compensate ? DTH_EVAL_H | DTH_EVAL_GRAD : DTH_EVAL_H, &it->Hphys,
+                        it->grad, NULL);
     if (rc) {
         seterr(it, "model evaluation failed at the converged midpoint");
         return rc;
     }
     sol->residual = fabs(zb[N - 1] + it->Hphys);
+    if (it->opt.compensate) {
+        rc = compensate(it, x);
+        if (rc) return rc;
+    }
     sol->lambda = x[m - 1];
     return DTH_OK;
 }
@@ -646,6 +767,17 @@ static int commit(dth_integrator *it, double lam)
         zn[N - 1] = it->z[N - 1];
         zl[N - 1] = it->zlo[N - 1];
     }
+    double rho = it->rho;
+    if (it->opt.compensate) {
+        /* the new vertex's offset measured from this step's midpoint (it->grad is there) */
+        /* the exact first step of a midpoint start has its midpoint exact in double */
+        int rc = rho_from_mid(it, it->zb, it->pending_exact ? NULL : it->zblo, it->grad, zn, zl, &rho);
+        if (rc) {
+            seterr(it, "model evaluation failed at the new vertex: %s", dth_strerror(rc));
+            return rc;
+        }
+    }
+    it->rho = rho;
     memcpy(it->z, zn, N * sizeof *zn);
     memcpy(it->zlo, zl, N * sizeof *zl);
     /* the predictor's history: the last three offsets and steps (the oldest slot is the next scratch) */
@@ -696,7 +828,7 @@ int dth_integrator_step(dth_integrator *it, dth_step_info *info)
         for (int a = 0; a < m - 1; a++) it->x[a] = it->dprev[it->act[a]];
         it->x[m - 1] = lam;
         memcpy(it->zb, it->zbar, N * sizeof *it->zb);
-        int rc = dth_model_eval(it->model, it->zb, DTH_EVAL_H, &it->Hphys, NULL, NULL);
+        int rc = dth_model_eval(it->model, it->zb, DTH_EVAL_H | DTH_EVAL_GRAD, &it->Hphys, it->grad, NULL);
         if (rc) {
             seterr(it, "model evaluation failed at the first (exact) midpoint");
             return rc;

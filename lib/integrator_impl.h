@@ -22,9 +22,13 @@ struct dth_integrator {
     double *dprev;    /* offset zbar - z_{k-1} of the last step (predictor) */
     double *dprev2, *dprev3; /* the two offsets before it (quadratic predictor) */
     double *dnew;     /* scratch for the next offset (the four buffers rotate) */
+    double *hwork;    /* 2(2n+1) doubles for dth__model_hdiff */
+    double *zblo;     /* low part of the midpoint of the compensated solution (it->zb + it->zblo) */
     double lam;       /* last step (0 if none) */
     double lam2, lam3; /* the steps before it */
     int nhist;        /* consecutive ordinary steps in dprev.. (0..3) */
+    double rho;       /* the vertex offset H(z_k), carried: H(z_(k+1)) - H(zbar) from the model's hdiff
+                         (the compensated constraint, dth__newton) */
     double lam_hint;  /* step size to aim for when there is no history */
     double dir;       /* +1 forward, -1 backward */
     int have_prev, have_mid, pending_exact;
@@ -84,6 +88,9 @@ int dth__integrator_commit(dth_integrator *it, double lam);
  * hook was already asked (dth__reg_pre) and kept the ordinary step; commit it, or return its status.
  */
 int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_branch br, dth_step_info *info, int pre);
+/** After a step that is not an ordinary DTH step (a regularizer's): the carried vertex offset
+ *  from a direct evaluation at the new vertex (no-op when opt.compensate is off). */
+int dth__integrator_rho_reset(dth_integrator *it);
 /** Nonzero if the attached regularizer replaces every step (its type's replaces_all). */
 int dth__reg_replaces_all(const dth_integrator *it);
 /** dth__reg_pre's answer: the hook kept the ordinary step, which is still to be computed. */

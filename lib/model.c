@@ -225,6 +225,37 @@ int dth__model_eval_raw(const dth_model *m, const double *y, unsigned what, doub
     return DTH_OK;
 }
 
+int dth__model_hdiff(const dth_model *m, const double *y1, const double *y0, double *work, double *dH)
+{
+    if (m->type->hdiff) {
+        int rc = m->type->hdiff(m->self, y1, y0, dH);
+        if (rc) return rc > 0 ? DTH_EDOMAIN : DTH_EMODEL;
+        return isfinite(*dH) ? DTH_OK : DTH_EDOMAIN;
+    }
+    /* 4-point Gauss-Legendre on the segment, centred: nodes c +- s h with c = (y0 + y1)/2 and
+     * h = (y1 - y0)/2 (both exact to swap: c is symmetric, h changes sign), pairs summed in one
+     * order, so swapping y1 and y0 negates the result exactly */
+    static const double s4[2] = {0.33998104358485626480, 0.86113631159405257522};
+    static const double w4[2] = {0.65214515486254614263, 0.34785484513745385737};
+    size_t d = 2 * m->info.n + 1;
+    double *y = work, *g = work + d, acc = 0;
+    for (int k = 0; k < 2; k++) {
+        double pair = 0;
+        for (int sg = 0; sg < 2; sg++) {
+            double sk = sg ? -s4[k] : s4[k];
+            for (size_t j = 0; j < d; j++) y[j] = 0.5 * (y0[j] + y1[j]) + sk * (0.5 * (y1[j] - y0[j]));
+            int rc = dth_model_eval(m, y, DTH_EVAL_GRAD, NULL, g, NULL);
+            if (rc) return rc;
+            double dot = 0;
+            for (size_t j = 0; j < d; j++) dot += g[j] * (0.5 * (y1[j] - y0[j]));
+            pair += dot;
+        }
+        acc += w4[k] * pair;
+    }
+    *dH = acc;
+    return DTH_OK;
+}
+
 int dth__model_banded(const dth_model *m)
 {
     return m->info.hess_kind == DTH_HESS_BANDED && m->type->hess_band && m->info.autonomous;

@@ -650,5 +650,8 @@ static int reg_finish(dth_integrator *it, const dth_reg_action *act_in, int rc, 
     it->psi_sign = sb;
     it->psi_known = 1;
     info->lambda = total;
+    /* a regularizer's segments or fix-up: the carried vertex offset afresh (an ordinary step kept
+     * here has it already) */
+    if (nseg || (act.what & DTH_REG_FIXUP)) return dth__integrator_rho_reset(it);
     return DTH_OK;
 }

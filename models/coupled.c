@@ -335,6 +335,43 @@ static int eval(const void *self, const double *y, unsigned what, double *H, dou
     return 0;
 }
 
+/*
+ * H(y1) - H(y0) spring by spring: k/2 ((|r1| - L)^2 - (|r0| - L)^2) = k/2 (|r1| - |r0|)(|r1| + |r0| - 2L)
+ * with |r1| - |r0| = (r1 - r0).(r1 + r0) / (|r1| + |r0|), and the kinetic terms as (p1 - p0)(p1 + p0):
+ * no cancellation of the energy's size, exactly antisymmetric in (y1, y0).
+ */
+static int hdiff(const void *self, const double *y1, const double *y0, double *dH)
+{
+    const coupled *c = self;
+    size_t n = c->n, dim = c->dim;
+    double s = 0;
+    for (size_t i = 0; i < n; i++) {
+        double a = y1[n + 1 + i], b = y0[n + 1 + i];
+        s += 0.5 * (a - b) * (a + b) * c->minv[i / dim];
+    }
+    for (int anchor = 0; anchor < 2; anchor++) {
+        size_t cnt = anchor ? c->na : c->ns;
+        const spring *sp = anchor ? c->anc : c->spr;
+        for (size_t k = 0; k < cnt; k++) {
+            const double *x1 = y1 + sp[k].i * dim, *x0 = y0 + sp[k].i * dim;
+            const double *z1 = anchor ? sp[k].a : y1 + sp[k].j * dim, *z0 = anchor ? sp[k].a : y0 + sp[k].j * dim;
+            double l1 = 0, l0 = 0, dd = 0;
+            for (size_t x = 0; x < dim; x++) {
+                double r1 = x1[x] - z1[x], r0 = x0[x] - z0[x];
+                l1 += r1 * r1;
+                l0 += r0 * r0;
+                dd += (r1 - r0) * (r1 + r0);
+            }
+            l1 = sqrt(l1);
+            l0 = sqrt(l0);
+            if (l1 + l0 == 0) continue;
+            s += 0.5 * sp[k].k * (dd / (l1 + l0)) * ((l1 + l0) - 2 * sp[k].L);
+        }
+    }
+    *dH = s;
+    return 0;
+}
+
 static int hess_band(const void *self, const double *y, double *band)
 {
     const coupled *c = self;
@@ -421,4 +458,5 @@ const dth_model_type dth_model_coupled = {
     .invariant_name = invariant_name,
     .invariants = invariants,
     .hess_band = hess_band,
+    .hdiff = hdiff,
 };

@@ -88,6 +88,21 @@ static int eval(const void *self, const double *y, unsigned what, double *H, dou
     return 0;
 }
 
+/* H(y1) - H(y0) = sum (p1 - p0)(p1 + p0)/2 + mu (r1 - r0)/(r1 r0), r1 - r0 = (q1 - q0).(q1 + q0)/(r1 + r0). */
+static int hdiff(const void *self, const double *y1, const double *y0, double *dH)
+{
+    const kepler *k = self;
+    size_t n = k->n;
+    double r1 = sqrt(dot(n, y1, y1)), r0 = sqrt(dot(n, y0, y0)), dd = 0, kin = 0;
+    if (!(r1 > 0) || !(r0 > 0)) return 1;
+    for (size_t i = 0; i < n; i++) {
+        dd += (y1[i] - y0[i]) * (y1[i] + y0[i]);
+        kin += (y1[n + 1 + i] - y0[n + 1 + i]) * (y1[n + 1 + i] + y0[n + 1 + i]);
+    }
+    *dH = 0.5 * kin + k->mu * (dd / (r1 + r0)) / (r1 * r0);
+    return 0;
+}
+
 /* D^3 H[u,u,u] = mu (q.v) (15 (q.v)^2 / r^7 - 9 |v|^2 / r^5), v the q part of u. */
 static int third(const void *self, const double *y, const double *u, double *d3)
 {
@@ -248,6 +263,7 @@ const dth_model_type dth_model_kepler = {
     .create = create,
     .destroy = destroy,
     .eval = eval,
+    .hdiff = hdiff,
     .third = third,
     .n_invariants = n_invariants,
     .invariant_name = invariant_name,

@@ -55,6 +55,15 @@ static int eval(const void *self, const double *y, unsigned what, double *H, dou
     return 0;
 }
 
+/* H(y1) - H(y0) = (p1 - p0)(p1 + p0)/2 + 2 omega2 sin((q1 + q0)/2) sin((q1 - q0)/2). */
+static int hdiff(const void *self, const double *y1, const double *y0, double *dH)
+{
+    const pendulum *m = self;
+    double q1 = y1[0], q0 = y0[0], p1 = y1[2], p0 = y0[2];
+    *dH = 0.5 * (p1 - p0) * (p1 + p0) + 2 * m->w2 * sin(0.5 * (q1 + q0)) * sin(0.5 * (q1 - q0));
+    return 0;
+}
+
 static int third(const void *self, const double *y, const double *u, double *d3)
 {
     const pendulum *m = self;
@@ -128,4 +137,5 @@ const dth_model_type dth_model_pendulum = {
     .eval = eval,
     .third = third,
     .exact = exact,
+    .hdiff = hdiff,
 };

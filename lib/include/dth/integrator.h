@@ -63,10 +63,14 @@ typedef struct dth_options {
     dth_regularizer *regularizer; /**< called where the ordinary step fails or crosses psi = 0
                                        (regularize.h); borrowed; NULL: raw DTH */
     dth_linsolve linsolve;      /**< linear solver of the Newton system (default AUTO) */
+    int compensate;             /**< default 1: finish each step on the compensated constraint (the
+                                     vertex offset carried from step to step plus H(zbar) - H(z_k)
+                                     from the model's hdiff), so that lambda carries no round-off of
+                                     the energy's size; 0: the constraint wp + H_phys(zbar) as is */
 } dth_options;
 
 /** Fill `o` with defaults: h = 0.01, midpoint start, max_iter = 30, K = 0, branch_check = 1,
- *  linsolve = DTH_LINSOLVE_AUTO. */
+ *  linsolve = DTH_LINSOLVE_AUTO, compensate = 1. */
 DTH_API void dth_options_default(dth_options *o);
 
 /** Which root a step took (filled by the branch logic; see branch.h). */

@@ -122,6 +122,15 @@ typedef struct dth_model_type {
      * band[i * (2w+1) + (j - i + w)] = d2H/dx_i dx_j for |i - j| <= w, w = info.bandwidth.
      */
     int (*hess_band)(const void *self, const double *y, double *band);
+    /**
+     * H_phys(y1) - H_phys(y0), computed without the cancellation of two evaluations (for example
+     * p1^2 - p0^2 as (p1 - p0)(p1 + p0)), so that its error scales with |y1 - y0|, and exactly
+     * antisymmetric: swapping y1 and y0 negates the result bit for bit. The step's constraint is
+     * evaluated with it (compensated: the step size then carries no round-off of the energy's
+     * size). Without it the library integrates the gradient along the segment by a 4-point
+     * Gauss-Legendre rule.
+     */
+    int (*hdiff)(const void *self, const double *y1, const double *y0, double *dH);
 } dth_model_type;
 
 /** An instance: a type plus its state. Opaque. */
