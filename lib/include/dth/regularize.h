@@ -150,6 +150,8 @@ DTH_API extern const dth_regularizer_type dth_reg_reseed;
 DTH_API extern const dth_regularizer_type dth_reg_symkick;
 /** Every step a kicked segment with lambda = arc/|u(zbar)|^alpha: reversible, energy-exact (not symplectic). */
 DTH_API extern const dth_regularizer_type dth_reg_prescribed;
+/** Ordinary DTH where the step is healthy, a smooth changeover to a step law around psi = 0 (the default). */
+DTH_API extern const dth_regularizer_type dth_reg_smooth;
 
 /* ---- building blocks for writing regularizers ---- */
 
