@@ -613,7 +613,7 @@ int cli_cmd_run(int argc, char **argv)
         status = CLI_FAIL;
     } else {
         status = CLI_OK;
-        if (tty || strcmp(rs.regularize, "none"))
+        if (tty || L.regularized)
             fprintf(stderr, "dth: %ld steps to t = %.17g, %ld rows to %s%s\n", L.k, zprev[n], L.rows,
                     path ? path : "standard output", crossing);
     }

@@ -37,7 +37,7 @@ typedef struct smooth {
     int off_fixed;     /* off set (parameter, or from the first step): a constant after that */
     double inner, outer;
     double *ks, *work, *d, *y, *g, *zb, *zc;
-    double wc;         /* the weight of the vertex zc, cached (the next step starts there) */
+    double wc, lc;     /* the weight and the law's step at the vertex zc, cached (the next step starts there) */
     int cache_ok;
 } smooth;
 
@@ -319,33 +319,35 @@ static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
     if (rc > 0) act->why = "no changeover segment within a factor 8 of the incoming step";
     if (rc) return rc < 0 ? rc : DTH_EREFUSED;
     memcpy(act->d, r->d, N * sizeof *act->d);
-    act->lambda[0] = lam;
-    act->nseg = 1;
+    act->lambda = lam;
     act->what = DTH_REG_REPLACE;
     act->residual = res;
     return DTH_OK;
 }
 
-/* The changeover weight at a vertex z, cached for the last vertex asked (the next step's start). */
-static int vertex_weight(smooth *r, const double *z, double *w)
+/* The changeover weight and the law's step at a vertex z, cached for the last vertex asked (the
+ * next step starts there). */
+static int vertex_weight(smooth *r, const double *z, double *w, double *l)
 {
     size_t N = 2 * r->n + 2;
     if (r->cache_ok && !memcmp(z, r->zc, N * sizeof *z)) {
         *w = r->wc;
+        *l = r->lc;
         return DTH_OK;
     }
-    double l;
     int sg;
-    int rc = weight(r, z, w, &sg, &l, NULL);
+    int rc = weight(r, z, w, &sg, l, NULL);
     if (rc) return rc;
     memcpy(r->zc, z, N * sizeof *z);
     r->wc = *w;
+    r->lc = *l;
     r->cache_ok = 1;
     return DTH_OK;
 }
 
-/* Take the ordinary step where the changeover weight is 0 at both of its vertices (a condition on
- * the unordered pair, so an ordinary step stays its own reverse). */
+/* Take the ordinary step where the changeover weight is 0 at both of its vertices and its size is
+ * within a factor 2 of the law's there (a ghost root is far larger): conditions on the unordered
+ * pair, so an ordinary step stays its own reverse. */
 static int admit(void *self, const double *za, const double *zb, double lambda)
 {
     smooth *r = self;
@@ -354,11 +356,12 @@ static int admit(void *self, const double *za, const double *zb, double lambda)
         for (size_t j = 0; j < N; j++) r->zb[j] = 0.5 * (za[j] + zb[j]);
         if (fix_offset(r, r->zb, lambda)) return -1;
     }
-    double wa, wb;
-    if (vertex_weight(r, za, &wa)) return -1;
+    double wa, wb, la, lb;
+    if (vertex_weight(r, za, &wa, &la)) return -1;
     if (wa != 0) return 0;
-    if (vertex_weight(r, zb, &wb)) return -1;
-    return wb == 0;
+    if (vertex_weight(r, zb, &wb, &lb)) return -1;
+    double q = fabs(lambda) / sqrt(la * lb);
+    return wb == 0 && q >= 0.5 && q <= 2;
 }
 
 /* The state a checkpoint keeps: the law's offset once fixed (the weight cache is only a cache). */
