@@ -92,6 +92,8 @@ rc=$?
 [ $rc -eq 3 ] || fail "rotation exit $rc, want 3"
 [ "$(wc -l <"$T/rot.err")" -eq 1 ] || fail "rotation stderr is not one line: $(cat "$T/rot.err")"
 grep -q '^dth: stopped at k=15, t=0\.94[0-9]*: .*fold' "$T/rot.err" || fail "rotation message: $(cat "$T/rot.err")"
+grep -q 'to carry the run across psi = 0 and folds: -s regularize.method=smooth$' "$T/rot.err" ||
+    fail "rotation message does not say what to do: $(cat "$T/rot.err")"
 [ "$(tail -1 "$T/rot.csv" | cut -d, -f1)" = "15" ] || fail "rotation last row: $(tail -1 "$T/rot.csv")"
 [ "$(wc -l <"$T/rot.csv")" -eq 17 ] || fail "rotation rows: $(wc -l <"$T/rot.csv")"
 "$DTH" run "$SC/pendulum-rotation.ini" -s regularize.method=none -s integrator.branch_check=no -o "$T/rot.csv" \
