@@ -106,6 +106,17 @@ grep -q '^dth: stopped at k=312, t=3\.17[0-9]*: ' "$T/rot.err" || fail "raw rota
 [ -z "$(ls "$T" | grep '\.tmp\.')" ] || fail "temporary file left after exit 3"
 ok "terminating run (exit 3)"
 
+# ---- a vertex start takes a first step of exactly h and says which energy it conserves
+printf '[model]\nname = harmonic\nomega = 100\n[initial]\nq = 1\np = 0\n[integrator]\nstart = vertex\nh = 0.019\nsteps = 3\n' >"$T/hv.ini"
+"$DTH" run "$T/hv.ini" -o "$T/hv.csv" 2>"$T/hv.err" || fail "stiff vertex start: $(cat "$T/hv.err")"
+grep -q 'conserves the energy 2628.12089[0-9]* at every midpoint; the initial state has 5000' "$T/hv.err" ||
+    fail "vertex start energy warning: $(cat "$T/hv.err")"
+awk -F, 'NR == 3 { exit !($3 == 0.019) }' "$T/hv.csv" || fail "first step is not h: $(sed -n 3p "$T/hv.csv")"
+"$DTH" run "$T/hv.ini" -s initial.wp=-4000 -o "$T/hv.csv" 2>"$T/hv.err" || fail "explicit wp: $(cat "$T/hv.err")"
+grep -q 'explicit \[initial\] wp encodes a first step of 0.01, not h = 0.019' "$T/hv.err" ||
+    fail "explicit wp warning: $(cat "$T/hv.err")"
+ok "vertex start: first step h, energy reported"
+
 # ---- bad scene files: exit 2, one line "dth: FILE:LINE: ...", nothing on stdout, no output file
 for f in "$BAD"/bad_*.ini; do
     want=$(sed -n '1s/^; expect: //p' "$f")
