@@ -620,9 +620,11 @@ int cli_cmd_run(int argc, char **argv)
         cli_error("interrupted at k=%ld, t=%.17g (the rows so far are kept)%s", L.k, zprev[n], crossing);
         status = 128 + sig;
     } else if (rc > 0) {
-        char hint[128];
+        char hint[256];
         cli_error("stopped at k=%ld, t=%.17g: %s (%s)%s%s", L.k, zprev[n], dth_strerror(rc), st_errmsg(&st), crossing,
-                  is_dth ? cli_stop_hint(rs.regularize, rc, rs.opt.h, hint, sizeof hint) : "");
+                  is_dth ? cli_stop_hint(rs.regularize, rc, rs.opt.h, rs.model, zprev, dth_integrator_lambda(st.it),
+                                         hint, sizeof hint)
+                         : "");
         status = CLI_STOPPED;
     } else if (rc < 0) {
         cli_error("error at k=%ld, t=%.17g: %s (%s)", L.k, zprev[n], dth_strerror(rc), st_errmsg(&st));
