@@ -269,7 +269,11 @@ const char *cli_stop_hint(const char *regularizer, int status, double h, const d
     int branch = status == DTH_EFOLD || status == DTH_EGHOST || status == DTH_ENEGOFFSET || status == DTH_ENOROOT ||
                  status == DTH_ENOCONV || status == DTH_ESINGULAR;
     if (!branch && status != DTH_EREFUSED) return buf;
-    /* a region II fold (psi far from 0): the step exceeds the ceiling 6/5 |psi/psi'| */
+    if (!strcmp(regularizer, "none")) {
+        snprintf(buf, len, "; to carry the run across psi = 0 and folds: -s regularize.method=smooth");
+        return buf;
+    }
+    /* a fold the regularizer could not carry, with the step at the ceiling 6/5 |psi/psi'| */
     double hmax = INFINITY, psi = 0;
     double *work = m ? calloc(dth_model_work_size(m), sizeof *work) : NULL;
     if (work && z && lambda != 0 && !dth_step_ceiling(m, z, &hmax, work) && !dth_model_psi(m, z, &psi, NULL, work) &&
@@ -281,9 +285,6 @@ const char *cli_stop_hint(const char *regularizer, int status, double h, const d
         return buf;
     }
     free(work);
-    if (!strcmp(regularizer, "none"))
-        snprintf(buf, len, "; to carry the run across psi = 0 and folds: -s regularize.method=smooth");
-    else
-        snprintf(buf, len, "; a smaller step may pass: -s integrator.h=%.6g", h / 4);
+    snprintf(buf, len, "; a smaller step may pass: -s integrator.h=%.6g", h / 4);
     return buf;
 }
