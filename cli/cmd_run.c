@@ -1,9 +1,10 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * dth run: integrate a scene with the DTH step (paper, Theorem "DTH Equations"), or a fixed-step
- * baseline method, and write the vertices z_k (or the piecewise-linear trajectory resampled at
- * uniform times) as CSV, with optional per-vertex diagnostics psi, psi', the region of section 5
- * and the branch taken. Also checkpoints and resumes runs bit for bit.
+ * baseline method, through the library's run driver (run.h), and write its samples (vertices,
+ * midpoints or output times) as CSV, with optional diagnostics psi, psi', the region of section 5
+ * and the branch taken. This file handles the command line and writes rows; it also checkpoints
+ * and resumes runs bit for bit.
  */
 #include <math.h>
 #include <stdarg.h>
@@ -14,71 +15,25 @@
 #include <unistd.h>
 #include "cli.h"
 
-/* ---------------------------------------------------------------- the stepper */
-
-/*
- * One interface over the DTH integrator and the fixed-step baselines. For a baseline the CSV's
- * wp column holds -H_phys at the start, so its H column shows the energy error.
- */
-typedef struct stepper {
-    dth_integrator *it; /* method = dth */
-    dth_fixed *fx;      /* a baseline */
-    double *z;          /* baseline: its state as an extended vector (q, t, p, wp) */
-    size_t N;
-    double wp;
-    double h;           /* baseline: its step (exact, not a difference of times) */
-} stepper;
-
-typedef struct step_rec {
-    double lambda;
-    int iters;
-    dth_branch branch;
-    unsigned flags;
-} step_rec;
-
-static const double *st_vertex(const stepper *s)
-{
-    if (s->it) return dth_integrator_vertex(s->it);
-    memcpy(s->z, dth_fixed_state(s->fx), (s->N - 1) * sizeof *s->z);
-    s->z[s->N - 1] = s->wp;
-    return s->z;
-}
-
-static int st_step(stepper *s, step_rec *rec)
-{
-    memset(rec, 0, sizeof *rec);
-    if (s->it) {
-        dth_step_info info;
-        int rc = dth_integrator_step(s->it, &info);
-        rec->lambda = info.lambda;
-        rec->iters = info.iters;
-        rec->branch = info.branch;
-        rec->flags = info.flags;
-        return rc;
-    }
-    dth_fixed_info info;
-    int rc = dth_fixed_step(s->fx, &info);
-    rec->lambda = s->h;
-    rec->iters = info.iters;
-    return rc;
-}
-
-static const char *st_errmsg(const stepper *s)
-{
-    return s->it ? dth_integrator_errmsg(s->it) : dth_fixed_errmsg(s->fx);
-}
-
 /* ---------------------------------------------------------------- rows */
 
 typedef struct run {
     const dth_run_setup *rs;
     const dth_model *model;
     size_t n, N, ninv;
-    double *inv, *work, *zi;
+    double *inv, *work;
     char *line;
     size_t linecap, len;
     cli_out out;
     int leg; /* --roundtrip: 1 forward, 2 return (a `leg` column); 0: no column */
+    /* checkpoints and progress */
+    const char *ckpt_path;
+    const dth_scene *scene;
+    dth_integrator *it;
+    int progress;          /* 1: '\r' percentage on a terminal; 2: a line every few seconds */
+    double t_start, last_progress, t_begin;
+    long k_begin;
+    int sig;
 } run;
 
 static void put(run *r, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
@@ -108,11 +63,11 @@ static int header(run *r)
 }
 
 /*
- * One row at the point z: a vertex, or an interpolated point. `in` is the step that arrived
- * there; lambda_root a known root of the step constraint at z (for the local K estimate) and K
- * a fixed K (> 0) or 0.
+ * One row at the point z. `in` is the step that arrived there (or the step whose segment holds
+ * it); lambda_root a known root of the step constraint at z (for the local K estimate) and K a
+ * fixed K (> 0) or 0.
  */
-static int row(run *r, long k, const double *z, const step_rec *in, double lambda_root, double K)
+static int row(run *r, long k, const double *z, const dth_step_info *in, double lambda_root, double K)
 {
     size_t n = r->n, N = r->N;
     double Hp, H = NAN;
@@ -145,43 +100,34 @@ static double vertex_K(run *r, const double *z, double lambda_out)
     return d.K;
 }
 
-/* ---------------------------------------------------------------- run state and statistics */
-
-/* Everything the loop carries from one step to the next: what a checkpoint must hold. */
-typedef struct loop {
-    long k, rows, j;      /* vertex index; output rows; next dense-output sample */
-    step_rec in;          /* the step that arrived at the current vertex */
-    long crossings;       /* steps flagged as crossing psi = 0 */
-    long regularized;     /* steps a regularizer replaced or fixed up */
-    double max_ratio;     /* largest ratio of consecutive steps around a crossing */
-    int prev_crossing;    /* the step that arrived was a crossing */
-} loop;
-
-static void account(loop *L, const step_rec *s)
+/* The driver's sample callback: one row per sample. */
+static int on_sample(void *user, const dth_sample *s)
 {
-    int cross = (s->flags & DTH_STEP_CROSSING) != 0;
-    if (cross) L->crossings++;
-    if (s->flags & DTH_STEP_REGULARIZED) L->regularized++;
-    if ((cross || L->prev_crossing) && L->in.lambda != 0 && s->lambda != 0) {
-        double q = fabs(s->lambda / L->in.lambda);
-        L->max_ratio = fmax(L->max_ratio, fmax(q, 1 / q));
-    }
-    L->prev_crossing = cross;
+    run *r = user;
+    long k = s->kind == DTH_SAMPLE_TIME || (s->kind == DTH_SAMPLE_END && r->rs->dt > 0) ? s->index : s->k;
+    double lambda_root = 0, K = r->rs->opt.K;
+    if (s->kind == DTH_SAMPLE_VERTEX) lambda_root = s->lambda_out;
+    else if (!s->za) lambda_root = -s->step->lambda; /* the end is the last vertex itself */
+    else if (s->kind != DTH_SAMPLE_MIDPOINT && r->rs->diagnostics) K = vertex_K(r, s->za, s->step->lambda);
+    else if (s->kind == DTH_SAMPLE_MIDPOINT) lambda_root = 0;
+    if (row(r, k, s->z, s->step, lambda_root, K)) return DTH_EIO;
+    cli_out_maybe_flush(&r->out);
+    return 0;
 }
 
 /* ---------------------------------------------------------------- checkpoints */
 
-/* The "cli" blob: the loop state, the output file's progress and the vertex the rows lag on. */
+/* The "cli" blob: the driver's loop state, the output file's progress. */
 typedef struct ckpt_cli {
     uint32_t version;     /* of this blob's layout */
     uint32_t dense;       /* dt > 0 */
-    loop L;
+    dth_run_state S;      /* the run driver's state (run.h) */
     uint64_t csv_bytes;   /* bytes of CSV that belong to rows already final */
     char out_path[1024];  /* where the checkpointed run writes: final name ... */
     char out_tmp[1100];   /* ... and its temporary name while running ("" if none) */
 } ckpt_cli;
 
-enum { CKPT_CLI_VERSION = 1 };
+enum { CKPT_CLI_VERSION = 2 /* 2: the run driver's state */ };
 
 /* Keep an entry in the saved scene? Of steps= and t_end=, only the one in force (one may come
  * from the file and the other from an override that won). */
@@ -242,40 +188,73 @@ static char *scene_text(const dth_scene *s, int has_t_end, size_t *len)
     return t;
 }
 
-static int write_checkpoint(const char *path, const dth_integrator *it, const dth_scene *scene,
-                            const dth_run_setup *rs, const loop *L, cli_out *o)
+static int on_checkpoint(void *user, const dth_run_state *st)
 {
-    if (cli_out_sync(o)) return -1;
+    run *r = user;
+    cli_out *o = &r->out;
+    if (cli_out_sync(o)) return DTH_EIO;
     ckpt_cli c;
     memset(&c, 0, sizeof c);
     c.version = CKPT_CLI_VERSION;
-    c.dense = rs->dt > 0;
-    c.L = *L;
+    c.dense = r->rs->dt > 0;
+    c.S = *st;
     c.csv_bytes = o->written;
     if (o->path) snprintf(c.out_path, sizeof c.out_path, "%s", o->path);
     if (o->tmp) snprintf(c.out_tmp, sizeof c.out_tmp, "%s", o->tmp);
     size_t tlen;
-    char *text = scene_text(scene, rs->has_t_end, &tlen);
-    if (!text) return -1;
+    char *text = scene_text(r->scene, r->rs->has_t_end, &tlen);
+    if (!text) return DTH_ENOMEM;
     dth_blob blobs[] = {{"scene", text, tlen}, {"cli", &c, sizeof c}};
     char err[256];
-    int rc = dth_checkpoint_write_file(it, blobs, 2, path, err, sizeof err);
+    int rc = dth_checkpoint_write_file(r->it, blobs, 2, r->ckpt_path, err, sizeof err);
     free(text);
-    if (rc) cli_error("%s", err);
-    return rc ? -1 : 0;
+    if (rc) {
+        cli_error("%s", err);
+        o->err = 0;
+        return DTH_EIO;
+    }
+    return 0;
+}
+
+/* ---------------------------------------------------------------- progress and stop requests */
+
+static int on_progress(void *user, const dth_run_state *st)
+{
+    run *r = user;
+    if ((r->sig = cli_signal_received()) != 0) return DTH_ESTOPPED;
+    if (!r->progress) return 0;
+    double now = cli_now();
+    if (now - r->last_progress < (r->progress == 1 ? 0.25 : 5.0)) return 0;
+    r->last_progress = now;
+    const dth_run_setup *rs = r->rs;
+    double frac = rs->has_t_end ? (st->t - st->t_first) / (rs->t_end - st->t_first) : (double)st->k / (double)rs->steps;
+    frac = fmin(fmax(frac, 0), 1);
+    if (r->progress == 1) {
+        fprintf(stderr, "\rdth run: %3.0f%%", 100 * frac);
+        return 0;
+    }
+    double el = now - r->t_start, rate = (double)(st->k - r->k_begin) / fmax(el, 1e-9);
+    double done = rs->has_t_end ? (st->t - r->t_begin) / (rs->t_end - r->t_begin)
+                                : (double)(st->k - r->k_begin) / (double)(rs->steps - r->k_begin);
+    double eta = done > 0 ? el * (1 - done) / done : NAN;
+    fprintf(stderr, "dth run: t = %.9g (%.1f%%), k = %ld, %.3g steps/s, elapsed %.0f s, ETA %.0f s\n", st->t,
+            100 * frac, st->k, rate, el, eta);
+    return 0;
 }
 
 /* ---------------------------------------------------------------- the command */
 
 static void usage_run(FILE *f)
 {
-    fprintf(f, "usage: dth run SCENE.ini [-s section.key=value]... [-o FILE] [--roundtrip]\n"
+    fprintf(f, "usage: dth run SCENE.ini [-s section.key=value]... [-o FILE] [--roundtrip] [--progress]\n"
                "                [--checkpoint FILE [--checkpoint-every N]]\n"
                "       dth run --resume CHECKPOINT [-s section.key=value]... [-o FILE] [--checkpoint ...]\n"
                "  -s section.key=value  override a scene key (applied after the file, in order)\n"
                "  -o FILE               write the CSV to FILE ('-': standard output); wins over [output] file=\n"
                "  --roundtrip           after the run, reverse and take as many steps back; rows get a column\n"
                "                        leg (1 forward, 2 back) and stderr the distance to the start\n"
+               "  --progress            a progress line on stderr every 5 s (t, steps/s, ETA), also when\n"
+               "                        stderr is not a terminal (on a terminal a percentage is shown anyway)\n"
                "  --checkpoint FILE     save the full state to FILE (crash-safely) every N steps (default\n"
                "                        1000) and when the run ends; the CSV is flushed to disk first\n"
                "  --resume CHECKPOINT   continue a checkpointed run: the scene comes from the checkpoint,\n"
@@ -283,21 +262,12 @@ static void usage_run(FILE *f)
                "                        output is the rows the run had written plus the rest, bit for bit\n");
 }
 
-static void progress(double frac, int on, double *last)
-{
-    if (!on) return;
-    double now = cli_now();
-    if (now - *last < 0.25) return;
-    *last = now;
-    fprintf(stderr, "\rdth run: %3.0f%%", 100 * fmin(fmax(frac, 0), 1));
-}
-
 int cli_cmd_run(int argc, char **argv)
 {
     const char *scene_path = NULL, *out_opt = NULL, *ckpt_path = NULL, *resume_path = NULL;
     long ckpt_every = 1000;
     char err[1024];
-    int roundtrip = 0;
+    int roundtrip = 0, want_progress = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
@@ -323,6 +293,8 @@ int cli_cmd_run(int argc, char **argv)
             }
         } else if (!strcmp(a, "--roundtrip")) {
             roundtrip = 1;
+        } else if (!strcmp(a, "--progress")) {
+            want_progress = 1;
         } else if (a[0] == '-' && a[1]) {
             cli_error("unknown option '%s' (try dth run --help)", a);
             return CLI_USAGE;
@@ -352,12 +324,12 @@ int cli_cmd_run(int argc, char **argv)
     dth_scene *scene = NULL;
     dth_run_setup rs;
     memset(&rs, 0, sizeof rs);
-    stepper st;
-    memset(&st, 0, sizeof st);
+    dth_integrator *it = NULL;
+    dth_fixed *fx = NULL;
     run r;
     memset(&r, 0, sizeof r);
     r.out.fd = -1;
-    double *zprev = NULL, *zstart = NULL;
+    double *zstart = NULL;
     void *ck = NULL;
     size_t cklen = 0;
     const ckpt_cli *ckc = NULL;
@@ -371,7 +343,8 @@ int cli_cmd_run(int argc, char **argv)
         if (!rc && (dth_checkpoint_blob(ck, cklen, "scene", &text, &tlen) ||
                     dth_checkpoint_blob(ck, cklen, "cli", &cb, &cblen) || cblen != sizeof ckc_copy ||
                     (memcpy(&ckc_copy, cb, sizeof ckc_copy), ckc_copy.version != CKPT_CLI_VERSION))) {
-            snprintf(err, sizeof err, "%s: not a checkpoint of dth run (no scene or loop state)", resume_path);
+            snprintf(err, sizeof err, "%s: not a checkpoint of this version of dth run (no scene or loop state)",
+                     resume_path);
             rc = DTH_EPARSE;
         }
         if (!rc) {
@@ -420,12 +393,13 @@ int cli_cmd_run(int argc, char **argv)
     r.model = rs.model;
     r.n = rs.n;
     r.N = 2 * rs.n + 2;
-    st.N = r.N;
+    r.scene = scene;
+    r.ckpt_path = ckpt_path;
     if (is_dth) {
-        rc = dth_integrator_new(rs.model, &rs.opt, &st.it);
-        if (!rc && ck) rc = dth_checkpoint_restore(st.it, ck, cklen, err, sizeof err);
-        else if (!rc) rc = dth_integrator_start(st.it, rs.q0, rs.p0, rs.t0);
-        if (rc && ck && st.it) {
+        rc = dth_integrator_new(rs.model, &rs.opt, &it);
+        if (!rc && ck) rc = dth_checkpoint_restore(it, ck, cklen, err, sizeof err);
+        else if (!rc) rc = dth_integrator_start(it, rs.q0, rs.p0, rs.t0);
+        if (rc && ck && it) {
             cli_error("%s", err);
             goto done;
         }
@@ -435,22 +409,16 @@ int cli_cmd_run(int argc, char **argv)
             cli_error("%s: method '%s': %s", scene_path, rs.method, err);
             goto done;
         }
-        st.z = calloc(r.N, sizeof *st.z);
-        st.h = rs.opt.h;
-        rc = st.z ? dth_fixed_new(rs.model, rs.method, st.h, NULL, &st.fx) : DTH_ENOMEM;
-        if (!rc) rc = dth_fixed_start(st.fx, rs.q0, rs.p0, rs.t0);
-        if (!rc) {
-            double H;
-            rc = dth_model_eval(rs.model, dth_fixed_state(st.fx), DTH_EVAL_H, &H, NULL, NULL);
-            st.wp = -H;
-        }
+        rc = dth_fixed_new(rs.model, rs.method, rs.opt.h, NULL, &fx);
+        if (!rc) rc = dth_fixed_start(fx, rs.q0, rs.p0, rs.t0);
     }
     if (rc) {
         cli_error("%s: cannot start at the initial state: %s (%s)", scene_path, dth_strerror(rc),
-                  st.it || st.fx ? st_errmsg(&st) : "creating the integrator");
+                  it ? dth_integrator_errmsg(it) : fx ? dth_fixed_errmsg(fx) : "creating the integrator");
         status = rc < 0 && rc != DTH_EINVAL ? CLI_FAIL : CLI_USAGE;
         goto done;
     }
+    r.it = it;
 
     r.ninv = dth_model_n_invariants(rs.model);
     r.linecap = 32 * (r.N + r.ninv + 8) + 64;
@@ -458,11 +426,9 @@ int cli_cmd_run(int argc, char **argv)
     r.line = malloc(r.linecap);
     r.inv = calloc(r.ninv + 1, sizeof *r.inv);
     r.work = calloc(dth_model_work_size(rs.model), sizeof *r.work);
-    r.zi = calloc(r.N, sizeof *r.zi);
-    zprev = calloc(r.N, sizeof *zprev);
     zstart = calloc(r.N, sizeof *zstart);
     r.leg = roundtrip;
-    if (!r.line || !r.inv || !r.work || !r.zi || !zprev || !zstart) {
+    if (!r.line || !r.inv || !r.work || !zstart) {
         cli_error("out of memory");
         status = CLI_FAIL;
         goto done;
@@ -489,106 +455,69 @@ int cli_cmd_run(int argc, char **argv)
 
     /* ---- tiny steps: warn when h is below the conditioning limit of the step (methods.h) */
     size_t n = r.n, N = r.N;
-    memcpy(zprev, st_vertex(&st), N * sizeof *zprev);
-    memcpy(zstart, zprev, N * sizeof *zstart);
+    if (it) memcpy(zstart, dth_integrator_vertex(it), N * sizeof *zstart);
+    else {
+        memcpy(zstart, dth_fixed_state(fx), (N - 1) * sizeof *zstart);
+    }
     double hmin;
-    if (is_dth && !ck && dth_step_floor(rs.model, zprev, 1e-6, &hmin, r.work) == DTH_OK && fabs(rs.opt.h) < hmin)
+    if (is_dth && !ck && dth_step_floor(rs.model, zstart, 1e-6, &hmin, r.work) == DTH_OK && fabs(rs.opt.h) < hmin)
         cli_error("warning: |h| = %.3g is below the conditioning limit %.3g at the start: the step size is "
                   "known only to about 1e-6 relative or worse (docs/performance.md)", fabs(rs.opt.h), hmin);
 
-    /* ---- the run: rows lag one step behind so each vertex knows its outgoing step */
-    double dir = rs.opt.h > 0 ? 1.0 : -1.0;
-    const int tty = isatty(STDERR_FILENO);
-    double t_start = cli_now(), last_progress = t_start;
-    const double t_first = ck ? rs.t0 : zprev[n];
-    loop L;
-    memset(&L, 0, sizeof L);
-    if (ckc) L = ckc->L;
-    int werr = 0, sig = 0;
-    rc = DTH_OK;
-    if (!ckc) werr = header(&r);
-    long since_ckpt = 0;
-    for (;;) {
-        int final = rs.has_t_end ? dir * (zprev[n] - rs.t_end) >= 0 : L.k >= rs.steps;
-        if (final || werr) break;
-        if ((sig = cli_signal_received()) != 0) break;
-        if (ckpt_path && since_ckpt >= ckpt_every) {
-            if (write_checkpoint(ckpt_path, st.it, scene, &rs, &L, &r.out)) {
-                werr = 1;
-                break;
-            }
-            since_ckpt = 0;
-        }
-        step_rec s;
-        rc = st_step(&st, &s);
-        if (rc) break;
-        account(&L, &s);
-        const double *z = st_vertex(&st);
-        if (rs.dt > 0) {
-            /* samples t0 + j dt inside the segment zprev -> z, never beyond t_end */
-            double K = rs.diagnostics ? vertex_K(&r, zprev, s.lambda) : 0;
-            for (;; L.j++) {
-                double t = rs.t0 + dir * (double)L.j * rs.dt;
-                if (dir * (t - z[n]) > 0) break;
-                if (rs.has_t_end && dir * (t - rs.t_end) > 1e-9 * rs.dt) break;
-                dth_interpolate(n, zprev, z, t, r.zi);
-                if ((werr = row(&r, L.rows++, r.zi, &s, 0, K)) != 0) break;
-            }
-        } else if (L.k % rs.every == 0) {
-            werr = row(&r, L.k, zprev, &L.in, s.lambda, rs.opt.K);
-            L.rows++;
-        }
-        memcpy(zprev, z, N * sizeof *zprev);
-        L.k++;
-        L.in = s;
-        since_ckpt++;
-        cli_out_maybe_flush(&r.out);
-        progress(rs.has_t_end ? (zprev[n] - t_first) / (rs.t_end - t_first) : (double)L.k / (double)rs.steps, tty,
-                 &last_progress);
-    }
-    /* the state at the last vertex, before its (final) row: what a resumed run continues from */
-    if (ckpt_path && !werr && write_checkpoint(ckpt_path, st.it, scene, &rs, &L, &r.out)) werr = 1;
-    /* the last vertex is always written (in dense mode: when it is itself a sample time) */
-    if (!werr && rs.dt <= 0) {
-        werr = row(&r, L.k, zprev, &L.in, -L.in.lambda, rs.opt.K);
-        L.rows++;
-    } else if (!werr && zprev[n] == rs.t0 + dir * (double)L.j * rs.dt && L.k == 0) {
-        werr = row(&r, L.rows++, zprev, &L.in, 0, rs.opt.K);
-    }
+    /* ---- the run (run.h) */
+    dth_run_config cfg;
+    dth_run_config_default(&cfg);
+    cfg.has_t_end = rs.has_t_end;
+    cfg.t_end = rs.t_end;
+    cfg.steps = rs.steps;
+    cfg.t0 = rs.t0;
+    cfg.points = rs.dt > 0 ? DTH_POINTS_TIMES : DTH_POINTS_VERTICES;
+    cfg.every = rs.every;
+    cfg.dt = rs.dt;
+    cfg.sample = on_sample;
+    cfg.user = &r;
+    cfg.checkpoint = ckpt_path ? on_checkpoint : NULL;
+    cfg.checkpoint_every = ckpt_every;
+    cfg.progress = on_progress;
+    cfg.progress_every = 1;
+    r.progress = want_progress ? 2 : isatty(STDERR_FILENO) ? 1 : 0;
+    r.t_start = r.last_progress = cli_now();
+    dth_run_state S;
+    dth_run_state_init(&S);
+    if (ckc) S = ckc->S;
+    r.k_begin = S.k;
+    r.t_begin = ck ? dth_integrator_vertex(it)[n] : zstart[n];
+    int werr = 0;
+    if (!ckc && header(&r)) werr = 1;
+    rc = werr ? DTH_OK : it ? dth_run(it, &cfg, &S) : dth_run_fixed(fx, &cfg, &S);
+    if (rc == DTH_EIO && S.stop == DTH_RUN_CALLBACK) werr = 1;
     /* --roundtrip: reverse in place and take as many steps back (paper, time reversibility) */
-    if (roundtrip && !werr && !sig && rc == DTH_OK) {
-        long k1 = L.k;
-        if (st.it) dth_integrator_reverse(st.it);
-        else dth_fixed_set_h(st.fx, st.h = -rs.opt.h);
+    if (roundtrip && !werr && rc == DTH_OK) {
+        long k1 = S.k;
+        if (it) dth_integrator_reverse(it);
+        else dth_fixed_set_h(fx, -rs.opt.h);
         r.leg = 2;
-        for (long kb = 1; kb <= k1 && !werr; kb++) {
-            if ((sig = cli_signal_received()) != 0) break;
-            step_rec s;
-            rc = st_step(&st, &s);
-            if (rc) break;
-            account(&L, &s);
-            L.in = s;
-            L.k++;
-            if (kb % rs.every == 0 || kb == k1) {
-                werr = row(&r, L.k, st_vertex(&st), &s, -s.lambda, rs.opt.K);
-                L.rows++;
-            }
-            cli_out_maybe_flush(&r.out);
-        }
-        memcpy(zprev, st_vertex(&st), N * sizeof *zprev);
-        if (!rc && !sig) {
+        cfg.has_t_end = 0;
+        cfg.steps = 2 * k1;
+        S.k0 = k1;
+        S.t_stop = S.t;
+        rc = it ? dth_run(it, &cfg, &S) : dth_run_fixed(fx, &cfg, &S);
+        if (rc == DTH_EIO && S.stop == DTH_RUN_CALLBACK) werr = 1;
+        if (!rc) {
+            const double *z = it ? dth_integrator_vertex(it) : dth_fixed_state(fx);
             double e = 0, sc = 0;
-            for (size_t i = 0; i < N; i++) {
-                e = fmax(e, fabs(zprev[i] - zstart[i]));
+            for (size_t i = 0; i < (it ? N : N - 1); i++) {
+                e = fmax(e, fabs(z[i] - zstart[i]));
                 sc = fmax(sc, fabs(zstart[i]));
             }
             fprintf(stderr, "dth: round trip of 2 x %ld steps: max |z - z_0| = %.3g (relative %.3g)\n", k1, e,
                     sc > 0 ? e / sc : e);
         }
     }
-    if (tty) fprintf(stderr, "\r%20s\r", "");
+    int sig = r.sig && rc == DTH_ESTOPPED ? r.sig : 0;
+    if (r.progress == 1) fprintf(stderr, "\r%20s\r", "");
     if (werr) {
-        cli_error("cannot write '%s': %s", path ? path : "standard output", strerror(r.out.err));
+        if (r.out.failed) cli_error("cannot write '%s': %s", path ? path : "standard output", strerror(r.out.err));
         cli_out_abort(&r.out);
         status = CLI_FAIL;
         goto done;
@@ -599,22 +528,23 @@ int cli_cmd_run(int argc, char **argv)
     }
     /* how the run ended: always when it could not go on, else for regularized runs and on a tty */
     char crossing[160] = "";
-    if (L.crossings || L.regularized)
+    if (S.crossings || S.regularized)
         snprintf(crossing, sizeof crossing, "; %ld psi = 0 crossings, %ld regularized steps, largest step ratio "
-                 "at a crossing %.3g", L.crossings, L.regularized, L.max_ratio);
+                 "at a crossing %.3g", S.crossings, S.regularized, S.max_ratio);
+    const char *emsg = it ? dth_integrator_errmsg(it) : dth_fixed_errmsg(fx);
     if (sig) {
-        cli_error("interrupted at k=%ld, t=%.17g (the rows so far are kept)%s", L.k, zprev[n], crossing);
+        cli_error("interrupted at k=%ld, t=%.17g (the rows so far are kept)%s", S.k, S.t, crossing);
         status = 128 + sig;
     } else if (rc > 0) {
-        cli_error("stopped at k=%ld, t=%.17g: %s (%s)%s", L.k, zprev[n], dth_strerror(rc), st_errmsg(&st), crossing);
+        cli_error("stopped at k=%ld, t=%.17g: %s (%s)%s", S.k, S.t, dth_strerror(rc), emsg, crossing);
         status = CLI_STOPPED;
     } else if (rc < 0) {
-        cli_error("error at k=%ld, t=%.17g: %s (%s)", L.k, zprev[n], dth_strerror(rc), st_errmsg(&st));
+        cli_error("error at k=%ld, t=%.17g: %s (%s)", S.k, S.t, dth_strerror(rc), emsg);
         status = CLI_FAIL;
     } else {
         status = CLI_OK;
-        if (tty || strcmp(rs.regularize, "none"))
-            fprintf(stderr, "dth: %ld steps to t = %.17g, %ld rows to %s%s\n", L.k, zprev[n], L.rows,
+        if (r.progress == 1 || strcmp(rs.regularize, "none"))
+            fprintf(stderr, "dth: %ld steps to t = %.17g, %ld rows to %s%s\n", S.k, S.t_stop, S.samples,
                     path ? path : "standard output", crossing);
     }
 done:
@@ -622,13 +552,10 @@ done:
     free(r.line);
     free(r.inv);
     free(r.work);
-    free(r.zi);
-    free(zprev);
     free(zstart);
-    free(st.z);
     free(ck);
-    dth_integrator_free(st.it);
-    dth_fixed_free(st.fx);
+    dth_integrator_free(it);
+    dth_fixed_free(fx);
     dth_run_setup_clear(&rs);
     dth_scene_free(scene);
     dth_registry_free(reg);
