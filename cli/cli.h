@@ -77,6 +77,11 @@ int cli_out_finish(cli_out *o);
 /* Close and remove the temporary file (nothing is left behind). */
 void cli_out_abort(cli_out *o);
 
+/* Create the missing folders of a file's path (mkdir -p of its folder). -1 if one could not be made. */
+int cli_make_parents(const char *path);
+/* 1 if the two paths name the same file (existing: same inode; else the same absolute path). */
+int cli_same_file(const char *a, const char *b);
+
 /* Seconds on a monotonic clock. */
 double cli_now(void);
 

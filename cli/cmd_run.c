@@ -31,9 +31,11 @@ typedef struct run {
     const dth_scene *scene;
     dth_integrator *it;
     int progress;          /* 1: '\r' percentage on a terminal; 2: a line every few seconds */
-    double t_start, last_progress, t_begin;
+    double t_start, last_progress, t_begin, progress_s;
     long k_begin;
     int sig;
+    cli_out ev;            /* event rows ([events]) */
+    int has_ev;
 } run;
 
 static void put(run *r, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
@@ -53,7 +55,7 @@ static int header(run *r)
     put(r, "k,t,lambda");
     for (size_t i = 0; i < r->n; i++) put(r, ",q%zu", i + 1);
     for (size_t i = 0; i < r->n; i++) put(r, ",p%zu", i + 1);
-    put(r, ",wp,H");
+    put(r, ",wp,H,E");
     if (r->rs->diagnostics) {
         for (size_t i = 0; i < r->ninv; i++) put(r, ",%s", dth_model_invariant_name(r->model, i));
         put(r, ",psi,dpsi,region,iters,branch");
@@ -70,13 +72,14 @@ static int header(run *r)
 static int row(run *r, long k, const double *z, const dth_step_info *in, double lambda_root, double K)
 {
     size_t n = r->n, N = r->N;
-    double Hp, H = NAN;
+    double Hp = NAN, H = NAN;
     if (dth_model_eval(r->model, z, DTH_EVAL_H, &Hp, NULL, NULL) == DTH_OK) H = z[N - 1] + Hp;
+    else Hp = NAN;
     r->len = 0;
     put(r, "%ld,%.17g,%.17g", k, z[n], in->lambda);
     for (size_t i = 0; i < n; i++) put(r, ",%.17g", z[i]);
     for (size_t i = 0; i < n; i++) put(r, ",%.17g", z[n + 1 + i]);
-    put(r, ",%.17g,%.17g", z[N - 1], H);
+    put(r, ",%.17g,%.17g,%.17g", z[N - 1], H, Hp);
     if (r->rs->diagnostics) {
         if (r->ninv && dth_model_invariants(r->model, z, r->inv) != DTH_OK)
             for (size_t i = 0; i < r->ninv; i++) r->inv[i] = NAN;
@@ -115,6 +118,33 @@ static int on_sample(void *user, const dth_sample *s)
     return 0;
 }
 
+/* The driver's event callback: one row per located event in the events file. */
+static int on_event(void *user, const dth_sample *s)
+{
+    run *r = user;
+    size_t n = r->n, N = r->N;
+    double Hp = NAN;
+    if (dth_model_eval(r->model, s->z, DTH_EVAL_H, &Hp, NULL, NULL) != DTH_OK) Hp = NAN;
+    r->len = 0;
+    put(r, "%ld,%s,%d,%ld,%.17g", s->index, r->rs->event_names[s->event], s->direction, s->k, s->z[n]);
+    for (size_t i = 0; i < n; i++) put(r, ",%.17g", s->z[i]);
+    for (size_t i = 0; i < n; i++) put(r, ",%.17g", s->z[n + 1 + i]);
+    put(r, ",%.17g,%.17g,%.17g", s->z[N - 1], s->z[N - 1] + Hp, Hp);
+    if (cli_out_line(&r->ev, r->line, r->len)) return DTH_EIO;
+    cli_out_maybe_flush(&r->ev);
+    return 0;
+}
+
+static int ev_header(run *r)
+{
+    r->len = 0;
+    put(r, "i,event,direction,k,t");
+    for (size_t i = 0; i < r->n; i++) put(r, ",q%zu", i + 1);
+    for (size_t i = 0; i < r->n; i++) put(r, ",p%zu", i + 1);
+    put(r, ",wp,H,E");
+    return cli_out_line(&r->ev, r->line, r->len);
+}
+
 /* ---------------------------------------------------------------- checkpoints */
 
 /* The "cli" blob: the driver's loop state, the output file's progress. */
@@ -125,6 +155,9 @@ typedef struct ckpt_cli {
     uint64_t csv_bytes;   /* bytes of CSV that belong to rows already final */
     char out_path[1024];  /* where the checkpointed run writes: final name ... */
     char out_tmp[1100];   /* ... and its temporary name while running ("" if none) */
+    uint64_t ev_bytes;    /* the same for the events file */
+    char ev_path[1024];
+    char ev_tmp[1100];
 } ckpt_cli;
 
 enum { CKPT_CLI_VERSION = 2 /* 2: the run driver's state */ };
@@ -192,7 +225,7 @@ static int on_checkpoint(void *user, const dth_run_state *st)
 {
     run *r = user;
     cli_out *o = &r->out;
-    if (cli_out_sync(o)) return DTH_EIO;
+    if (cli_out_sync(o) || (r->has_ev && cli_out_sync(&r->ev))) return DTH_EIO;
     ckpt_cli c;
     memset(&c, 0, sizeof c);
     c.version = CKPT_CLI_VERSION;
@@ -201,6 +234,11 @@ static int on_checkpoint(void *user, const dth_run_state *st)
     c.csv_bytes = o->written;
     if (o->path) snprintf(c.out_path, sizeof c.out_path, "%s", o->path);
     if (o->tmp) snprintf(c.out_tmp, sizeof c.out_tmp, "%s", o->tmp);
+    if (r->has_ev) {
+        c.ev_bytes = r->ev.written;
+        if (r->ev.path) snprintf(c.ev_path, sizeof c.ev_path, "%s", r->ev.path);
+        if (r->ev.tmp) snprintf(c.ev_tmp, sizeof c.ev_tmp, "%s", r->ev.tmp);
+    }
     size_t tlen;
     char *text = scene_text(r->scene, r->rs->has_t_end, &tlen);
     if (!text) return DTH_ENOMEM;
@@ -224,7 +262,7 @@ static int on_progress(void *user, const dth_run_state *st)
     if ((r->sig = cli_signal_received()) != 0) return DTH_ESTOPPED;
     if (!r->progress) return 0;
     double now = cli_now();
-    if (now - r->last_progress < (r->progress == 1 ? 0.25 : 5.0)) return 0;
+    if (now - r->last_progress < (r->progress == 1 ? 0.25 : r->progress_s)) return 0;
     r->last_progress = now;
     const dth_run_setup *rs = r->rs;
     double frac = rs->has_t_end ? (st->t - st->t_first) / (rs->t_end - st->t_first) : (double)st->k / (double)rs->steps;
@@ -246,15 +284,18 @@ static int on_progress(void *user, const dth_run_state *st)
 
 static void usage_run(FILE *f)
 {
-    fprintf(f, "usage: dth run SCENE.ini [-s section.key=value]... [-o FILE] [--roundtrip] [--progress]\n"
+    fprintf(f, "usage: dth run SCENE.ini [-s section.key=value]... [-o FILE] [--events FILE] [--roundtrip]\n"
+               "                [--progress[=SECONDS]] [--no-model-check]\n"
                "                [--checkpoint FILE [--checkpoint-every N]]\n"
                "       dth run --resume CHECKPOINT [-s section.key=value]... [-o FILE] [--checkpoint ...]\n"
                "  -s section.key=value  override a scene key (applied after the file, in order)\n"
                "  -o FILE               write the CSV to FILE ('-': standard output); wins over [output] file=\n"
                "  --roundtrip           after the run, reverse and take as many steps back; rows get a column\n"
                "                        leg (1 forward, 2 back) and stderr the distance to the start\n"
-               "  --progress            a progress line on stderr every 5 s (t, steps/s, ETA), also when\n"
-               "                        stderr is not a terminal (on a terminal a percentage is shown anyway)\n"
+               "  --progress[=SECONDS]  a progress line on stderr every 5 s (or SECONDS): t, steps/s, ETA;\n"
+               "                        for runs whose stderr is not a terminal (a terminal shows a percentage)\n"
+               "  --events FILE         write the [events] rows to FILE (default: OUT-events.csv next to -o OUT.csv)\n"
+               "  --no-model-check      skip the check of the model's derivatives at the start\n"
                "  --checkpoint FILE     save the full state to FILE (crash-safely) every N steps (default\n"
                "                        1000) and when the run ends; the CSV is flushed to disk first\n"
                "  --resume CHECKPOINT   continue a checkpointed run: the scene comes from the checkpoint,\n"
@@ -264,17 +305,18 @@ static void usage_run(FILE *f)
 
 int cli_cmd_run(int argc, char **argv)
 {
-    const char *scene_path = NULL, *out_opt = NULL, *ckpt_path = NULL, *resume_path = NULL;
+    const char *scene_path = NULL, *out_opt = NULL, *ckpt_path = NULL, *resume_path = NULL, *ev_opt = NULL;
     long ckpt_every = 1000;
     char err[1024];
-    int roundtrip = 0, want_progress = 0;
+    int roundtrip = 0, want_progress = 0, model_check = 1;
+    double progress_s = 5;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
             usage_run(stdout);
             return CLI_OK;
         } else if (!strcmp(a, "-s") || !strcmp(a, "-o") || !strcmp(a, "--checkpoint") ||
-                   !strcmp(a, "--checkpoint-every") || !strcmp(a, "--resume")) {
+                   !strcmp(a, "--checkpoint-every") || !strcmp(a, "--resume") || !strcmp(a, "--events")) {
             if (i + 1 >= argc) {
                 cli_error("option %s needs an argument (try dth run --help)", a);
                 return CLI_USAGE;
@@ -283,6 +325,7 @@ int cli_cmd_run(int argc, char **argv)
             if (!strcmp(a, "-o")) out_opt = v;
             else if (!strcmp(a, "--checkpoint")) ckpt_path = v;
             else if (!strcmp(a, "--resume")) resume_path = v;
+            else if (!strcmp(a, "--events")) ev_opt = v;
             else if (!strcmp(a, "--checkpoint-every")) {
                 char *end;
                 ckpt_every = strtol(v, &end, 10);
@@ -293,8 +336,18 @@ int cli_cmd_run(int argc, char **argv)
             }
         } else if (!strcmp(a, "--roundtrip")) {
             roundtrip = 1;
-        } else if (!strcmp(a, "--progress")) {
+        } else if (!strcmp(a, "--no-model-check")) {
+            model_check = 0;
+        } else if (!strcmp(a, "--progress") || !strncmp(a, "--progress=", 11)) {
             want_progress = 1;
+            if (a[10] == '=') {
+                char *end;
+                progress_s = strtod(a + 11, &end);
+                if (*end || end == a + 11 || !(progress_s > 0) || !isfinite(progress_s)) {
+                    cli_error("--progress=SECONDS: '%s' is not a number > 0", a + 11);
+                    return CLI_USAGE;
+                }
+            }
         } else if (a[0] == '-' && a[1]) {
             cli_error("unknown option '%s' (try dth run --help)", a);
             return CLI_USAGE;
@@ -329,7 +382,9 @@ int cli_cmd_run(int argc, char **argv)
     run r;
     memset(&r, 0, sizeof r);
     r.out.fd = -1;
+    r.ev.fd = -1;
     double *zstart = NULL;
+    char *ev_path = NULL;
     void *ck = NULL;
     size_t cklen = 0;
     const ckpt_cli *ckc = NULL;
@@ -358,7 +413,7 @@ int cli_cmd_run(int argc, char **argv)
     }
     for (int i = 1; !rc && i < argc; i++) {
         if (!strcmp(argv[i], "-o") || !strcmp(argv[i], "--checkpoint") || !strcmp(argv[i], "--resume") ||
-            !strcmp(argv[i], "--checkpoint-every"))
+            !strcmp(argv[i], "--checkpoint-every") || !strcmp(argv[i], "--events"))
             i++;
         else if (!strcmp(argv[i], "-s"))
             rc = dth_scene_set(scene, argv[++i], err, sizeof err);
@@ -387,6 +442,28 @@ int cli_cmd_run(int argc, char **argv)
         cli_error("%s: the checkpointed run %s resample ([output] dt); keep it as it was", resume_path,
                   ckc->dense ? "did" : "did not");
         goto done;
+    }
+
+    /* the model's derivatives against finite differences at the initial state, once (dth_model_check;
+     * its memory grows as (2n+1)^2: skipped above 200 degrees of freedom) */
+    if (model_check && rs.n <= 200) {
+        double *y = calloc(2 * rs.n + 1, sizeof *y);
+        if (!y) {
+            cli_error("out of memory");
+            status = CLI_FAIL;
+            goto done;
+        }
+        memcpy(y, rs.q0, rs.n * sizeof *y);
+        y[rs.n] = rs.t0;
+        memcpy(y + rs.n + 1, rs.p0, rs.n * sizeof *y);
+        dth_model_check_report rep;
+        rc = dth_model_check(rs.model, y, &rep);
+        free(y);
+        if (rc == DTH_OK && !rep.pass) {
+            cli_error("%s: model '%s' fails its derivative check at the initial state: %s (--no-model-check runs "
+                      "it anyway)", scene_path, dth_model_get_type(rs.model)->name, rep.message);
+            goto done;
+        }
     }
 
     r.rs = &rs;
@@ -439,15 +516,68 @@ int cli_cmd_run(int argc, char **argv)
         cli_error("--checkpoint needs an output file (-o FILE or [output] file=): standard output cannot be resumed");
         goto done;
     }
+    r.has_ev = rs.nevents > 0;
+    if (r.has_ev) {
+        const char *ep = ev_opt ? ev_opt : rs.events_file ? rs.events_file : ckc && ckc->ev_path[0] ? ckc->ev_path : NULL;
+        if (ep) {
+            ev_path = strdup(ep);
+        } else if (path) {
+            /* OUT.csv -> OUT-events.csv */
+            size_t l = strlen(path);
+            ev_path = malloc(l + 16);
+            if (ev_path) {
+                memcpy(ev_path, path, l + 1);
+                if (l > 4 && !strcmp(path + l - 4, ".csv")) ev_path[l - 4] = '\0';
+                strcat(ev_path, "-events.csv");
+            }
+        } else {
+            cli_error("the scene has [events] and the trajectory goes to standard output: give the events file "
+                      "([events] file= or --events FILE)");
+            goto done;
+        }
+        if (!ev_path) {
+            cli_error("out of memory");
+            status = CLI_FAIL;
+            goto done;
+        }
+    }
+    /* an output that would overwrite an input */
+    const char *outs[2] = {path, ev_path};
+    for (int i = 0; i < 2; i++) {
+        if (!outs[i]) continue;
+        const char *clash = cli_same_file(outs[i], scene_path) ? "the scene file"
+                            : cli_same_file(outs[i], ckpt_path) ? "the checkpoint file"
+                            : resume_path && cli_same_file(outs[i], resume_path) ? "the checkpoint file" : NULL;
+        if (i == 1 && !clash && cli_same_file(ev_path, path)) clash = "the trajectory's output";
+        if (clash) {
+            cli_error("refusing to write %s '%s': it is %s", i ? "events to" : "the output to", outs[i], clash);
+            goto done;
+        }
+    }
+    if (ckpt_path && cli_same_file(ckpt_path, scene_path)) {
+        cli_error("refusing to write the checkpoint to '%s': it is the scene file", ckpt_path);
+        goto done;
+    }
+    if (path) cli_make_parents(path);
+    if (ev_path) cli_make_parents(ev_path);
     if (cli_out_open(&r.out, path)) goto done; /* CLI_USAGE: the output cannot be written */
+    if (r.has_ev && cli_out_open(&r.ev, ev_path)) {
+        cli_out_abort(&r.out);
+        goto done;
+    }
     if (ckc) {
         /* the rows the checkpointed run had made final: from its temporary file if it was
          * killed, else from the file it finished */
         const char *src = ckc->out_tmp[0] && access(ckc->out_tmp, R_OK) == 0 ? ckc->out_tmp : ckc->out_path;
-        if (!src[0] || cli_out_copy_prefix(&r.out, src, ckc->csv_bytes)) {
+        const char *esrc = ckc->ev_tmp[0] && access(ckc->ev_tmp, R_OK) == 0 ? ckc->ev_tmp : ckc->ev_path;
+        int bad_out = !src[0] || cli_out_copy_prefix(&r.out, src, ckc->csv_bytes);
+        int bad_ev = !bad_out && r.has_ev && (!esrc[0] || cli_out_copy_prefix(&r.ev, esrc, ckc->ev_bytes));
+        if (bad_out || bad_ev) {
             cli_error("%s: the checkpointed run's output '%s' is missing or shorter than its %llu bytes",
-                      resume_path, src[0] ? src : "(standard output)", (unsigned long long)ckc->csv_bytes);
+                      resume_path, bad_out ? (src[0] ? src : "(standard output)") : esrc,
+                      (unsigned long long)(bad_out ? ckc->csv_bytes : ckc->ev_bytes));
             cli_out_abort(&r.out);
+            if (r.has_ev) cli_out_abort(&r.ev);
             goto done;
         }
     }
@@ -471,7 +601,10 @@ int cli_cmd_run(int argc, char **argv)
     cfg.t_end = rs.t_end;
     cfg.steps = rs.steps;
     cfg.t0 = rs.t0;
-    cfg.points = rs.dt > 0 ? DTH_POINTS_TIMES : DTH_POINTS_VERTICES;
+    cfg.points = rs.points;
+    cfg.events = rs.events;
+    cfg.nevents = rs.nevents;
+    cfg.on_event = on_event;
     cfg.every = rs.every;
     cfg.dt = rs.dt;
     cfg.sample = on_sample;
@@ -481,6 +614,7 @@ int cli_cmd_run(int argc, char **argv)
     cfg.progress = on_progress;
     cfg.progress_every = 1;
     r.progress = want_progress ? 2 : isatty(STDERR_FILENO) ? 1 : 0;
+    r.progress_s = progress_s;
     r.t_start = r.last_progress = cli_now();
     dth_run_state S;
     dth_run_state_init(&S);
@@ -488,7 +622,7 @@ int cli_cmd_run(int argc, char **argv)
     r.k_begin = S.k;
     r.t_begin = ck ? dth_integrator_vertex(it)[n] : zstart[n];
     int werr = 0;
-    if (!ckc && header(&r)) werr = 1;
+    if (!ckc && (header(&r) || (r.has_ev && ev_header(&r)))) werr = 1;
     rc = werr ? DTH_OK : it ? dth_run(it, &cfg, &S) : dth_run_fixed(fx, &cfg, &S);
     if (rc == DTH_EIO && S.stop == DTH_RUN_CALLBACK) werr = 1;
     /* --roundtrip: reverse in place and take as many steps back (paper, time reversibility) */
@@ -518,11 +652,14 @@ int cli_cmd_run(int argc, char **argv)
     if (r.progress == 1) fprintf(stderr, "\r%20s\r", "");
     if (werr) {
         if (r.out.failed) cli_error("cannot write '%s': %s", path ? path : "standard output", strerror(r.out.err));
+        else if (r.ev.failed) cli_error("cannot write '%s': %s", ev_path, strerror(r.ev.err));
         cli_out_abort(&r.out);
+        if (r.has_ev) cli_out_abort(&r.ev);
         status = CLI_FAIL;
         goto done;
     }
-    if (cli_out_finish(&r.out)) {
+    if (cli_out_finish(&r.out) || (r.has_ev && cli_out_finish(&r.ev))) {
+        if (r.has_ev && r.ev.buf) cli_out_abort(&r.ev);
         status = CLI_FAIL;
         goto done;
     }
@@ -546,9 +683,14 @@ int cli_cmd_run(int argc, char **argv)
         if (r.progress == 1 || strcmp(rs.regularize, "none"))
             fprintf(stderr, "dth: %ld steps to t = %.17g, %ld rows to %s%s\n", S.k, S.t_stop, S.samples,
                     path ? path : "standard output", crossing);
+        if (r.has_ev && (r.progress == 1 || S.stop == DTH_RUN_EVENT))
+            fprintf(stderr, "dth: %ld events to %s%s\n", S.events, ev_path,
+                    S.stop == DTH_RUN_EVENT ? " (the run ended at a terminal event)" : "");
     }
 done:
     if (r.out.fd >= 0 && r.out.buf) cli_out_abort(&r.out);
+    if (r.ev.fd >= 0 && r.ev.buf) cli_out_abort(&r.ev);
+    free(ev_path);
     free(r.line);
     free(r.inv);
     free(r.work);
