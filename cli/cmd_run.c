@@ -275,7 +275,7 @@ static int on_progress(void *user, const dth_run_state *st)
     double done = rs->has_t_end ? (st->t - r->t_begin) / (rs->t_end - r->t_begin)
                                 : (double)(st->k - r->k_begin) / (double)(rs->steps - r->k_begin);
     double eta = done > 0 ? el * (1 - done) / done : NAN;
-    fprintf(stderr, "dth run: t = %.9g (%.1f%%), k = %ld, %.3g steps/s, elapsed %.0f s, ETA %.0f s\n", st->t,
+    fprintf(stderr, "dth run: t = %.9g (%.1f%%), k = %ld, %.3g steps/s, elapsed %.1f s, ETA %.1f s\n", st->t,
             100 * frac, st->k, rate, el, eta);
     return 0;
 }
@@ -518,7 +518,7 @@ int cli_cmd_run(int argc, char **argv)
     }
     r.has_ev = rs.nevents > 0;
     if (r.has_ev) {
-        const char *ep = ev_opt ? ev_opt : rs.events_file ? rs.events_file : ckc && ckc->ev_path[0] ? ckc->ev_path : NULL;
+        const char *ep = ev_opt ? ev_opt : rs.events_file;
         if (ep) {
             ev_path = strdup(ep);
         } else if (path) {
