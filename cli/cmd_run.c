@@ -14,8 +14,13 @@
 #include <string.h>
 #include <unistd.h>
 #include "cli.h"
+#include "fmt.h"
+#include "h5out.h"
 
 /* ---------------------------------------------------------------- rows */
+
+/* How a column is printed in CSV (HDF5 stores every column as a double: codes for the names). */
+enum { COL_DBL = 0, COL_INT, COL_REGION, COL_BRANCH, COL_EVENT };
 
 typedef struct run {
     const dth_run_setup *rs;
@@ -36,6 +41,11 @@ typedef struct run {
     int sig;
     cli_out ev;            /* event rows ([events]) */
     int has_ev;
+    double *vals;          /* one row's values */
+    unsigned char *kind, *ekind; /* column kinds of the trajectory and events tables */
+    size_t ncol, encol;
+    h5file *h5;            /* HDF5 output instead of CSV */
+    h5table *h5traj, *h5ev;
 } run;
 
 static void put(run *r, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
@@ -49,19 +59,70 @@ static void put(run *r, const char *fmt, ...)
     if (r->len >= r->linecap) r->len = r->linecap - 1; /* cannot happen: linecap is sized for the row */
 }
 
-static int header(run *r)
+/* Column names of the trajectory (ev = 0) or the events table (ev = 1), comma-separated, in r->line. */
+static void column_names(run *r, int ev)
 {
     r->len = 0;
-    put(r, "k,t,lambda");
+    put(r, ev ? "i,event,direction,k,t" : "k,t,lambda");
     for (size_t i = 0; i < r->n; i++) put(r, ",q%zu", i + 1);
     for (size_t i = 0; i < r->n; i++) put(r, ",p%zu", i + 1);
     put(r, ",wp,H,E");
-    if (r->rs->diagnostics) {
+    if (!ev && r->rs->diagnostics) {
         for (size_t i = 0; i < r->ninv; i++) put(r, ",%s", dth_model_invariant_name(r->model, i));
         put(r, ",psi,dpsi,region,iters,branch");
     }
-    if (r->leg) put(r, ",leg");
-    return cli_out_line(&r->out, r->line, r->len);
+    if (!ev && r->leg) put(r, ",leg");
+}
+
+/* The kind of each column: how the CSV prints its value. */
+static void column_kinds(run *r, int ev, unsigned char *kind, size_t *ncol)
+{
+    size_t c = 0, n = r->n;
+    if (ev) {
+        kind[c++] = COL_INT, kind[c++] = COL_EVENT, kind[c++] = COL_INT, kind[c++] = COL_INT;
+    } else {
+        kind[c++] = COL_INT;
+    }
+    kind[c++] = COL_DBL; /* t */
+    if (!ev) kind[c++] = COL_DBL; /* lambda */
+    for (size_t i = 0; i < 2 * n + 3; i++) kind[c++] = COL_DBL; /* q, p, wp, H, E */
+    if (!ev && r->rs->diagnostics) {
+        for (size_t i = 0; i < r->ninv + 2; i++) kind[c++] = COL_DBL;
+        kind[c++] = COL_REGION, kind[c++] = COL_INT, kind[c++] = COL_BRANCH;
+    }
+    if (!ev && r->leg) kind[c++] = COL_INT;
+    *ncol = c;
+}
+
+/* Write the values v (columns of the given kinds) as one CSV line, or one HDF5 row. */
+static int emit_row(run *r, int ev, const double *v)
+{
+    if (r->h5) return h5_row(ev ? r->h5ev : r->h5traj, v) ? -1 : 0;
+    const unsigned char *kind = ev ? r->ekind : r->kind;
+    size_t ncol = ev ? r->encol : r->ncol;
+    char *p = r->line;
+    for (size_t c = 0; c < ncol; c++) {
+        if (c) *p++ = ',';
+        switch (kind[c]) {
+        case COL_INT: p += dth_fmt_long((long)v[c], p); break;
+        case COL_DBL: p += dth_fmt_g17(v[c], p); break;
+        default: {
+            const char *s = kind[c] == COL_REGION ? dth_region_name((dth_region)v[c])
+                            : kind[c] == COL_BRANCH ? dth_branch_name((dth_branch)v[c])
+                                                    : r->rs->event_names[(size_t)v[c]];
+            size_t l = strlen(s);
+            memcpy(p, s, l);
+            p += l;
+        }
+        }
+    }
+    return cli_out_line(ev ? &r->ev : &r->out, r->line, (size_t)(p - r->line));
+}
+
+static int header(run *r)
+{
+    column_names(r, 0);
+    return r->h5 ? 0 : cli_out_line(&r->out, r->line, r->len);
 }
 
 /*
@@ -71,28 +132,34 @@ static int header(run *r)
  */
 static int row(run *r, long k, const double *z, const dth_step_info *in, double lambda_root, double K)
 {
-    size_t n = r->n, N = r->N;
-    double Hp = NAN, H = NAN;
-    if (dth_model_eval(r->model, z, DTH_EVAL_H, &Hp, NULL, NULL) == DTH_OK) H = z[N - 1] + Hp;
-    else Hp = NAN;
-    r->len = 0;
-    put(r, "%ld,%.17g,%.17g", k, z[n], in->lambda);
-    for (size_t i = 0; i < n; i++) put(r, ",%.17g", z[i]);
-    for (size_t i = 0; i < n; i++) put(r, ",%.17g", z[n + 1 + i]);
-    put(r, ",%.17g,%.17g,%.17g", z[N - 1], H, Hp);
+    size_t n = r->n, N = r->N, c = 0;
+    double *v = r->vals, Hp;
+    if (dth_model_eval(r->model, z, DTH_EVAL_H, &Hp, NULL, NULL) != DTH_OK) Hp = NAN;
+    v[c++] = (double)k;
+    v[c++] = z[n];
+    v[c++] = in->lambda;
+    for (size_t i = 0; i < n; i++) v[c++] = z[i];
+    for (size_t i = 0; i < n; i++) v[c++] = z[n + 1 + i];
+    v[c++] = z[N - 1];
+    v[c++] = z[N - 1] + Hp;
+    v[c++] = Hp;
     if (r->rs->diagnostics) {
         if (r->ninv && dth_model_invariants(r->model, z, r->inv) != DTH_OK)
             for (size_t i = 0; i < r->ninv; i++) r->inv[i] = NAN;
-        for (size_t i = 0; i < r->ninv; i++) put(r, ",%.17g", r->inv[i]);
+        for (size_t i = 0; i < r->ninv; i++) v[c++] = r->inv[i];
         dth_diag d;
-        if (dth_diagnose(r->model, z, lambda_root, K, &d, r->work) == DTH_OK)
-            put(r, ",%.17g,%.17g,%s,%d,%s", d.psi, d.dpsi, dth_region_name(d.region), in->iters,
-                dth_branch_name(in->branch));
-        else
-            put(r, ",nan,nan,-,%d,%s", in->iters, dth_branch_name(in->branch));
+        if (dth_diagnose(r->model, z, lambda_root, K, &d, r->work) != DTH_OK) {
+            d.psi = d.dpsi = NAN;
+            d.region = DTH_REGION_NONE;
+        }
+        v[c++] = d.psi;
+        v[c++] = d.dpsi;
+        v[c++] = (double)d.region;
+        v[c++] = (double)in->iters;
+        v[c++] = (double)in->branch;
     }
-    if (r->leg) put(r, ",%d", r->leg);
-    return cli_out_line(&r->out, r->line, r->len);
+    if (r->leg) v[c++] = r->leg;
+    return emit_row(r, 0, v);
 }
 
 /* K that a vertex's diagnostics use: for rows interpolated inside its outgoing segment. */
@@ -114,35 +181,36 @@ static int on_sample(void *user, const dth_sample *s)
     else if (s->kind != DTH_SAMPLE_MIDPOINT && r->rs->diagnostics) K = vertex_K(r, s->za, s->step->lambda);
     else if (s->kind == DTH_SAMPLE_MIDPOINT) lambda_root = 0;
     if (row(r, k, s->z, s->step, lambda_root, K)) return DTH_EIO;
-    cli_out_maybe_flush(&r->out);
+    if (!r->h5) cli_out_maybe_flush(&r->out);
     return 0;
 }
 
-/* The driver's event callback: one row per located event in the events file. */
+/* The driver's event callback: one row per located event in the events table. */
 static int on_event(void *user, const dth_sample *s)
 {
     run *r = user;
-    size_t n = r->n, N = r->N;
-    double Hp = NAN;
+    size_t n = r->n, N = r->N, c = 0;
+    double *v = r->vals, Hp;
     if (dth_model_eval(r->model, s->z, DTH_EVAL_H, &Hp, NULL, NULL) != DTH_OK) Hp = NAN;
-    r->len = 0;
-    put(r, "%ld,%s,%d,%ld,%.17g", s->index, r->rs->event_names[s->event], s->direction, s->k, s->z[n]);
-    for (size_t i = 0; i < n; i++) put(r, ",%.17g", s->z[i]);
-    for (size_t i = 0; i < n; i++) put(r, ",%.17g", s->z[n + 1 + i]);
-    put(r, ",%.17g,%.17g,%.17g", s->z[N - 1], s->z[N - 1] + Hp, Hp);
-    if (cli_out_line(&r->ev, r->line, r->len)) return DTH_EIO;
-    cli_out_maybe_flush(&r->ev);
+    v[c++] = (double)s->index;
+    v[c++] = (double)s->event;
+    v[c++] = s->direction;
+    v[c++] = (double)s->k;
+    v[c++] = s->z[n];
+    for (size_t i = 0; i < n; i++) v[c++] = s->z[i];
+    for (size_t i = 0; i < n; i++) v[c++] = s->z[n + 1 + i];
+    v[c++] = s->z[N - 1];
+    v[c++] = s->z[N - 1] + Hp;
+    v[c++] = Hp;
+    if (emit_row(r, 1, v)) return DTH_EIO;
+    if (!r->h5) cli_out_maybe_flush(&r->ev);
     return 0;
 }
 
 static int ev_header(run *r)
 {
-    r->len = 0;
-    put(r, "i,event,direction,k,t");
-    for (size_t i = 0; i < r->n; i++) put(r, ",q%zu", i + 1);
-    for (size_t i = 0; i < r->n; i++) put(r, ",p%zu", i + 1);
-    put(r, ",wp,H,E");
-    return cli_out_line(&r->ev, r->line, r->len);
+    column_names(r, 1);
+    return r->h5 ? 0 : cli_out_line(&r->ev, r->line, r->len);
 }
 
 /* ---------------------------------------------------------------- checkpoints */
@@ -505,7 +573,11 @@ int cli_cmd_run(int argc, char **argv)
     r.work = calloc(dth_model_work_size(rs.model), sizeof *r.work);
     zstart = calloc(r.N, sizeof *zstart);
     r.leg = roundtrip;
-    if (!r.line || !r.inv || !r.work || !zstart) {
+    size_t maxcol = 2 * r.N + r.ninv + 16;
+    r.vals = calloc(maxcol, sizeof *r.vals);
+    r.kind = calloc(maxcol, 1);
+    r.ekind = calloc(maxcol, 1);
+    if (!r.line || !r.inv || !r.work || !zstart || !r.vals || !r.kind || !r.ekind) {
         cli_error("out of memory");
         status = CLI_FAIL;
         goto done;
@@ -516,7 +588,19 @@ int cli_cmd_run(int argc, char **argv)
         cli_error("--checkpoint needs an output file (-o FILE or [output] file=): standard output cannot be resumed");
         goto done;
     }
-    r.has_ev = rs.nevents > 0;
+    column_kinds(&r, 0, r.kind, &r.ncol);
+    column_kinds(&r, 1, r.ekind, &r.encol);
+    size_t plen = path ? strlen(path) : 0;
+    int is_h5 = path && ((plen > 3 && !strcmp(path + plen - 3, ".h5")) || (plen > 5 && !strcmp(path + plen - 5, ".hdf5")));
+    if (is_h5 && (ckpt_path || resume_path)) {
+        cli_error("checkpoints cover CSV output only (the output '%s' is HDF5)", path);
+        goto done;
+    }
+    if (is_h5 && (ev_opt || rs.events_file)) {
+        cli_error("with HDF5 output the events are the table /events of '%s': give no events file", path);
+        goto done;
+    }
+    r.has_ev = rs.nevents > 0 && !is_h5;
     if (r.has_ev) {
         const char *ep = ev_opt ? ev_opt : rs.events_file;
         if (ep) {
@@ -560,7 +644,56 @@ int cli_cmd_run(int argc, char **argv)
     }
     if (path) cli_make_parents(path);
     if (ev_path) cli_make_parents(ev_path);
-    if (cli_out_open(&r.out, path)) goto done; /* CLI_USAGE: the output cannot be written */
+    if (is_h5) {
+        char herr[1200];
+        size_t tl;
+        char *text = scene_text(scene, rs.has_t_end, &tl);
+        r.h5 = text ? h5_open(path, herr, sizeof herr) : NULL;
+        if (!r.h5) {
+            cli_error("%s", text ? herr : "out of memory");
+            free(text);
+            goto done;
+        }
+        /* provenance: the version and the command line; the scene as run */
+        size_t cl = 64;
+        for (int i = 0; i < argc; i++) cl += strlen(argv[i]) + 1;
+        char *prov = malloc(cl);
+        if (prov) {
+            size_t k = (size_t)snprintf(prov, cl, "dth %s; command: dth", DTH_VERSION_STRING);
+            for (int i = 0; i < argc; i++) k += (size_t)snprintf(prov + k, cl - k, " %s", argv[i]);
+        }
+        column_names(&r, 0);
+        int hrc = !prov || h5_attr(r.h5, "scene", text) || h5_attr(r.h5, "provenance", prov) ||
+                  h5_attr(r.h5, "region_codes", "0 -, 1 I, 2 II, 3 III") ||
+                  h5_attr(r.h5, "branch_codes", "0 -, 1 minus, 2 plus, 3 ghost, 4 exact, 5 reg") ||
+                  !(r.h5traj = h5_table(r.h5, "trajectory", r.ncol, r.line));
+        free(text);
+        free(prov);
+        if (!hrc && rs.nevents) {
+            size_t nl = 8;
+            for (size_t i = 0; i < rs.nevents; i++) nl += strlen(rs.event_names[i]) + 8;
+            char *names = malloc(nl);
+            hrc = !names;
+            if (names) {
+                size_t k = 0;
+                for (size_t i = 0; i < rs.nevents; i++)
+                    k += (size_t)snprintf(names + k, nl - k, "%s%zu %s", i ? ", " : "", i, rs.event_names[i]);
+                column_names(&r, 1);
+                hrc = h5_attr(r.h5, "event_codes", names) || !(r.h5ev = h5_table(r.h5, "events", r.encol, r.line));
+                free(names);
+            }
+        }
+        if (hrc) {
+            cli_error("cannot write '%s': HDF5 error", path);
+            h5_abort(r.h5);
+            r.h5 = NULL;
+            status = CLI_FAIL;
+            goto done;
+        }
+        /* rows go to HDF5; standard output stays empty */
+    } else if (cli_out_open(&r.out, path)) {
+        goto done; /* CLI_USAGE: the output cannot be written */
+    }
     if (r.has_ev && cli_out_open(&r.ev, ev_path)) {
         cli_out_abort(&r.out);
         goto done;
@@ -651,14 +784,27 @@ int cli_cmd_run(int argc, char **argv)
     int sig = r.sig && rc == DTH_ESTOPPED ? r.sig : 0;
     if (r.progress == 1) fprintf(stderr, "\r%20s\r", "");
     if (werr) {
-        if (r.out.failed) cli_error("cannot write '%s': %s", path ? path : "standard output", strerror(r.out.err));
+        if (r.h5) {
+            cli_error("cannot write '%s' (HDF5)", path);
+            h5_abort(r.h5);
+            r.h5 = NULL;
+        } else if (r.out.failed) cli_error("cannot write '%s': %s", path ? path : "standard output", strerror(r.out.err));
         else if (r.ev.failed) cli_error("cannot write '%s': %s", ev_path, strerror(r.ev.err));
-        cli_out_abort(&r.out);
+        if (r.out.buf) cli_out_abort(&r.out);
         if (r.has_ev) cli_out_abort(&r.ev);
         status = CLI_FAIL;
         goto done;
     }
-    if (cli_out_finish(&r.out) || (r.has_ev && cli_out_finish(&r.ev))) {
+    if (r.h5) {
+        char herr[1200];
+        int hrc = h5_finish(r.h5, herr, sizeof herr);
+        r.h5 = NULL;
+        if (hrc) {
+            cli_error("%s", herr);
+            status = CLI_FAIL;
+            goto done;
+        }
+    } else if (cli_out_finish(&r.out) || (r.has_ev && cli_out_finish(&r.ev))) {
         if (r.has_ev && r.ev.buf) cli_out_abort(&r.ev);
         status = CLI_FAIL;
         goto done;
@@ -688,9 +834,13 @@ int cli_cmd_run(int argc, char **argv)
                     S.stop == DTH_RUN_EVENT ? " (the run ended at a terminal event)" : "");
     }
 done:
+    if (r.h5) h5_abort(r.h5);
     if (r.out.fd >= 0 && r.out.buf) cli_out_abort(&r.out);
     if (r.ev.fd >= 0 && r.ev.buf) cli_out_abort(&r.ev);
     free(ev_path);
+    free(r.vals);
+    free(r.kind);
+    free(r.ekind);
     free(r.line);
     free(r.inv);
     free(r.work);
