@@ -17,12 +17,14 @@ __extension__ typedef unsigned __int128 u128;
 static const uint64_t P10_17 = 100000000000000000ull, P10_16 = 10000000000000000ull;
 
 /* 5^k for k <= 27 (fits 64 bits) */
-static uint64_t pow5(int k)
-{
-    uint64_t p = 1;
-    while (k-- > 0) p *= 5;
-    return p;
-}
+static const uint64_t P5[28] = {
+    1ull, 5ull, 25ull, 125ull, 625ull, 3125ull, 15625ull, 78125ull, 390625ull, 1953125ull, 9765625ull,
+    48828125ull, 244140625ull, 1220703125ull, 6103515625ull, 30517578125ull, 152587890625ull, 762939453125ull,
+    3814697265625ull, 19073486328125ull, 95367431640625ull, 476837158203125ull, 2384185791015625ull,
+    11920928955078125ull, 59604644775390625ull, 298023223876953125ull, 1490116119384765625ull,
+    7450580596923828125ull};
+
+static uint64_t pow5(int k) { return P5[k]; }
 
 /*
  * D = round(x 10^s), x = m 2^e (m < 2^53), rounded to nearest, ties to even, for the decimal
@@ -82,16 +84,15 @@ size_t dth_fmt_g17(double x, char *out)
         return (size_t)snprintf(out, 32, "%.17g", x);
     }
     char *p = out;
-    double a = fabs(x);
-    int e2;
-    double fr = frexp(a, &e2); /* a = fr 2^e2, fr in [0.5, 1) */
-    uint64_t m = (uint64_t)ldexp(fr, 53);
-    int e = e2 - 53;
-    if (e < -1074) { /* subnormal: not on the fast path */
-        return (size_t)snprintf(out, 32, "%.17g", x);
-    }
-    /* X = floor(log10(a)), estimated from the binary exponent and corrected below */
-    int X = (int)floor((double)(e2 - 1) * 0.30102999566398119521);
+    uint64_t bits;
+    memcpy(&bits, &x, sizeof bits);
+    int be = (int)((bits >> 52) & 0x7ff);
+    if (be == 0) return (size_t)snprintf(out, 32, "%.17g", x); /* subnormal: not on the fast path */
+    uint64_t m = (bits & ((1ull << 52) - 1)) | (1ull << 52); /* x = m 2^e, 2^52 <= m < 2^53 */
+    int e = be - 1075, e2 = e + 53;
+    /* X = floor(log10(|x|)), estimated from the binary exponent (floor((e2 - 1) log10 2), exact
+     * for |e2| < 1650) and corrected below */
+    int X = (int)(((long)(e2 - 1) * 78913L) >> 18);
     uint64_t D = 0;
     int ok = 0;
     for (int tries = 0; tries < 3; tries++) {
