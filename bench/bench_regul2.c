@@ -497,19 +497,20 @@ int main(int argc, char **argv)
         if (ns < 2000) ns = 2000;
         problem lib = pend;
         lib.p0[0] = 1;
-        problem cfg[7] = {lib, lib, lib, lib, lib, lib, lib};
+        problem cfg[6] = {lib, lib, lib, lib, lib, lib};
         cfg[0].reg = NULL;
         cfg[1].no_branch_check = 0;
         cfg[3].rkv[1] = (dth_kv){"band", "1e-9"};
         cfg[3].nrkv = 2;
-        const dth_regularizer_type *others[] = {&dth_reg_none, &dth_reg_reseed, &dth_reg_symkick};
-        for (int i = 4; i < 7; i++) {
+        const dth_regularizer_type *others[] = {&dth_reg_none, &dth_reg_smooth};
+        for (int i = 4; i < 6; i++) {
             cfg[i].reg = others[i - 4];
             cfg[i].nrkv = 0;
+            cfg[i].no_branch_check = 0;
         }
         const char *lab[] = {"raw DTH (branch_check = 0)", "prescribed, branch_check = 1", "prescribed", "prescribed band=1e-9 (ordinary steps kept)",
-                             "none (one psi per step, for the sign)", "reseed (the same)", "symkick (its admit screen: psi, psi' at both ends of every step)"};
-        for (int i = 0; i < 7; i++) {
+                             "none (one psi per step, for the sign)", "smooth (the default: psi, psi' at each new vertex for its weight)"};
+        for (int i = 0; i < 6; i++) {
             run_out o = run(&cfg[i], INFINITY, ns);
             printf("| pendulum: %s | %.2f |\n", lab[i], 1e6 * o.secs / (double)o.steps);
         }

@@ -826,7 +826,7 @@ int cli_cmd_run(int argc, char **argv)
         status = CLI_FAIL;
     } else {
         status = CLI_OK;
-        if (r.progress == 1 || strcmp(rs.regularize, "none"))
+        if (r.progress == 1 || S.regularized)
             fprintf(stderr, "dth: %ld steps to t = %.17g, %ld rows to %s%s\n", S.k, S.t_stop, S.samples,
                     path ? path : "standard output", crossing);
         if (r.has_ev && (r.progress == 1 || S.stop == DTH_RUN_EVENT))

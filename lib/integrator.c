@@ -129,7 +129,7 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     it->dir = opt->h > 0 ? 1.0 : -1.0;
     it->lam_hint = opt->h;
     it->reg = opt->regularizer;
-    if (it->reg) it->rbuf = dth_calloc(al, (4 + DTH_REG_MAX_SEG) * N, sizeof(double)); /* the hook's workspace */
+    if (it->reg) it->rbuf = dth_calloc(al, 4 * N, sizeof(double)); /* the hook's workspace */
     int brc = it->reg && !it->rbuf ? DTH_ENOMEM : dth__branch_create(it);
     if (brc) {
         dth_integrator_free(it);

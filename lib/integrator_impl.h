@@ -47,8 +47,7 @@ struct dth_integrator {
      * current vertex (psi_known = 0 until computed; reset with the history). */
     dth_regularizer *reg;
     int psi_sign, psi_known;
-    double *rbuf;     /* (4 + DTH_REG_MAX_SEG) N doubles of hook workspace */
-    unsigned reg_what; /* within one step: what a hook asked before the ordinary step (KEEP [| FIXUP]) */
+    double *rbuf;     /* 4 N doubles of hook workspace */
     char errmsg[192];
 };
 

@@ -477,12 +477,15 @@ static dth_reg_event reg_event(dth_integrator *it, int rc, int plain_ok, const d
 static int reg_apply(dth_integrator *it, const dth_reg_event *ev, dth_reg_action *act, dth_step_info *info)
 {
     size_t N = it->N;
-    double *fix = it->rbuf + 2 * N, *ad = it->rbuf + 4 * N;
-    memset(ad, 0, DTH_REG_MAX_SEG * N * sizeof *ad);
-    memset(fix, 0, N * sizeof *fix);
-    *act = (dth_reg_action){DTH_REG_KEEP, 0, {0}, ad, fix, 0.0, 0, NULL};
+    double *ad = it->rbuf + 3 * N;
+    memset(ad, 0, N * sizeof *ad);
+    *act = (dth_reg_action){DTH_REG_KEEP, 0.0, ad, 0.0, 0, NULL};
     int r = dth_regularizer_apply(it->reg, ev, act);
     info->iters += act->iters;
+    if (!r && act->what != DTH_REG_KEEP && act->what != DTH_REG_REPLACE) {
+        act->why = "it answered an unknown action";
+        r = DTH_EREFUSED;
+    }
     if (r)
         snprintf(it->errmsg, sizeof it->errmsg, "regularizer '%s' stopped the run: %s",
                  dth_regularizer_get_type(it->reg)->name, act->why ? act->why : dth_strerror(r));
@@ -507,10 +510,9 @@ int dth__reg_pre(dth_integrator *it, dth_step_info *info)
     dth_reg_action act;
     int r = reg_apply(it, &ev, &act, info);
     if (r) return r;
-    if (!(act.what & DTH_REG_REPLACE)) {
-        /* compute the ordinary step; dth__reg_step then takes it (with the fix-up, if any). Its
-         * failure, if any, writes the message afresh */
-        it->reg_what = act.what;
+    if (act.what == DTH_REG_KEEP) {
+        /* compute the ordinary step; dth__reg_step then takes it. Its failure, if any, writes the
+         * message afresh */
         it->errmsg[0] = '\0';
         return DTH__REG_PLAIN;
     }
@@ -539,7 +541,7 @@ int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_bran
     dth_reg_action act;
     if (pre) {
         /* the hook was asked before the ordinary step (dth__reg_pre) and kept it */
-        act = (dth_reg_action){it->reg_what, 0, {0}, it->rbuf + 4 * N, it->rbuf + 2 * N, 0.0, 0, NULL};
+        act = (dth_reg_action){DTH_REG_KEEP, 0.0, it->rbuf + 3 * N, 0.0, 0, NULL};
         if (!plain_ok) {
             /* say that the hook had no step of its own here */
             const char *name = dth_regularizer_get_type(it->reg)->name;
@@ -578,80 +580,58 @@ int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_bran
     return reg_finish(it, &act, rc, plain_ok, sol, br, info);
 }
 
-/* Commit the hook's answer: its segments, or the ordinary step (plain_ok), then the fix-up. Every
- * check is done before the state is touched. */
-static int reg_finish(dth_integrator *it, const dth_reg_action *act_in, int rc, int plain_ok, const dth__solution *sol,
+/* Commit the hook's answer: its segment, or the ordinary step (plain_ok). Every check is done
+ * before the state is touched. */
+static int reg_finish(dth_integrator *it, const dth_reg_action *act, int rc, int plain_ok, const dth__solution *sol,
                       dth_branch br, dth_step_info *info)
 {
     size_t N = it->N;
     int m = it->m, r, sa = it->psi_sign, sb = 0;
-    double *dd = it->rbuf + N, *fix = it->rbuf + 2 * N, *zt = it->rbuf + 3 * N, *ad = it->rbuf + 4 * N;
-    dth_reg_action act = *act_in;
-    int nseg = (act.what & DTH_REG_REPLACE) ? (act.nseg > 0 ? act.nseg : 1) : 0;
-    if (nseg > DTH_REG_MAX_SEG) return DTH_EREFUSED;
-    if (!nseg && !plain_ok) return rc;
-    /* check everything, and the sign of psi at the final vertex, before touching the state */
-    double total = 0;
-    for (size_t j = 0; j < N; j++) zt[j] = it->z[j] + it->zlo[j];
-    if (nseg) {
-        for (int k = 0; k < nseg; k++) {
-            double lam = act.lambda[k];
-            if (!(lam * it->dir > 0) || !isfinite(lam)) return DTH_EREFUSED;
-            for (size_t j = 0; j < N; j++) {
-                double dj = ad[(size_t)k * N + j];
-                if (!isfinite(dj) || (it->auton && j == N - 1 && dj != 0)) return DTH_EREFUSED;
-                zt[j] += 2 * dj;
-            }
-            total += lam;
-        }
-    } else {
-        for (size_t j = 0; j < N; j++) zt[j] += 2 * dd[j];
-        total = sol->lambda;
+    double *dd = it->rbuf + N, *zt = it->rbuf + 2 * N, *ad = it->rbuf + 3 * N;
+    int replace = act->what == DTH_REG_REPLACE;
+    if (!replace && !plain_ok) return rc;
+    /* check everything, and the sign of psi at the new vertex, before touching the state */
+    const double *dk = replace ? ad : dd;
+    double lam = replace ? act->lambda : sol->lambda;
+    if (replace && (!(lam * it->dir > 0) || !isfinite(lam))) {
+        snprintf(it->errmsg, sizeof it->errmsg, "regularizer '%s' answered a step %.17g against the direction of travel",
+                 dth_regularizer_get_type(it->reg)->name, lam);
+        return DTH_EREFUSED;
     }
-    if (act.what & DTH_REG_FIXUP)
-        for (size_t j = 0; j < N; j++) {
-            if (!isfinite(fix[j]) || (it->auton && j == N - 1 && fix[j] != 0)) return DTH_EREFUSED;
-            zt[j] += fix[j];
+    for (size_t j = 0; j < N; j++) {
+        if (replace && (!isfinite(dk[j]) || (it->auton && j == N - 1 && dk[j] != 0))) {
+            snprintf(it->errmsg, sizeof it->errmsg, "regularizer '%s' answered a non-finite offset or one that changes wp",
+                     dth_regularizer_get_type(it->reg)->name);
+            return DTH_EREFUSED;
         }
+        zt[j] = it->z[j] + (it->zlo[j] + 2 * dk[j]);
+    }
     r = psi_sign_at(it, zt, &sb);
     if (r) return r;
-    if (nseg) {
-        for (int k = 0; k < nseg; k++) {
-            const double *dk = ad + (size_t)k * N;
-            double lam = act.lambda[k];
-            for (int a = 0; a < m - 1; a++) it->x[a] = dk[it->act[a]];
-            it->x[m - 1] = lam;
-            for (size_t j = 0; j < N; j++) it->zb[j] = it->z[j] + (it->zlo[j] + dk[j]);
-            if (it->auton) it->zb[it->n] = it->z[it->n] + (it->zlo[it->n] + 0.5 * lam);
-            r = dth__integrator_commit(it, lam);
-            if (r) return r;
-        }
-        it->fact_valid = 0; /* no factors of these segments: no tangent map */
-        info->residual = act.residual;
+    if (replace) {
+        for (int a = 0; a < m - 1; a++) it->x[a] = dk[it->act[a]];
+        it->x[m - 1] = lam;
+        for (size_t j = 0; j < N; j++) it->zb[j] = it->z[j] + (it->zlo[j] + dk[j]);
+        if (it->auton) it->zb[it->n] = it->z[it->n] + (it->zlo[it->n] + 0.5 * lam);
+    }
+    /* it->x / it->zb hold the ordinary solution otherwise */
+    r = dth__integrator_commit(it, lam);
+    if (r) return r;
+    if (replace) {
+        it->fact_valid = 0; /* no factors of this segment: no tangent map */
+        info->residual = act->residual;
         info->branch = DTH_BRANCH_REG;
         info->flags |= DTH_STEP_REGULARIZED;
     } else {
-        /* it->x / it->zb still hold the ordinary solution */
-        r = dth__integrator_commit(it, sol->lambda);
-        if (r) return r;
         info->residual = sol->residual;
         info->branch = br;
-    }
-    if (act.what & DTH_REG_FIXUP) {
-        for (size_t j = 0; j < N; j++) {
-            double e, s2 = two_sum(it->z[j], fix[j] + it->zlo[j], &e);
-            it->z[j] = s2;
-            it->zlo[j] = e;
-        }
-        it->fact_valid = 0;
-        info->flags |= DTH_STEP_REGULARIZED;
     }
     if (sb != sa) info->flags |= DTH_STEP_CROSSING;
     it->psi_sign = sb;
     it->psi_known = 1;
-    info->lambda = total;
-    /* a regularizer's segments or fix-up: the carried vertex offset afresh (an ordinary step kept
-     * here has it already) */
-    if (nseg || (act.what & DTH_REG_FIXUP)) return dth__integrator_rho_reset(it);
+    info->lambda = lam;
+    /* a regularizer's segment: the carried vertex offset afresh (an ordinary step kept here has it
+     * already) */
+    if (replace) return dth__integrator_rho_reset(it);
     return DTH_OK;
 }

@@ -386,7 +386,7 @@ static int drive(drv *d)
     /* a resumed run whose last segment was cut (by t_end or a terminal event): the rest of it,
      * on the segment rebuilt from the midpoint (round-off of z_(k-1) = 2 zbar - z_k) */
     const double *mid = d->it ? dth_integrator_midpoint(d->it) : NULL;
-    if (mid && st->k > 0 && before(d, t_done, st->t) && !(st->in.flags & DTH_STEP_REGULARIZED)) {
+    if (mid && st->k > 0 && before(d, t_done, st->t)) {
         for (size_t j = 0; j < N; j++) d->za[j] = 2 * mid[j] - d->zb[j];
         memcpy(d->zm, mid, N * sizeof *d->zm);
         d->use_mid = 1;
@@ -442,7 +442,7 @@ static int drive(drv *d)
         d->ub_ok = 0;
         vertex_now(d, d->zb);
         mid = d->it ? dth_integrator_midpoint(d->it) : NULL;
-        d->use_mid = mid && !(info.flags & DTH_STEP_REGULARIZED);
+        d->use_mid = mid != NULL; /* a regularizer's segment has its midpoint too (z_k + d) */
         if (d->use_mid) memcpy(d->zm, mid, N * sizeof *d->zm);
         d->seg = info;
         d->kseg = st->k;

@@ -810,7 +810,9 @@ static int setup_regularizer(const dth_scene *s, const dth_registry *reg, dth_ru
             if (!strcmp(s->e[i].key, "method")) em = &s->e[i];
             else np++;
         }
-    const dth_regularizer_type *t = dth_registry_find_regularizer(reg, em ? em->value : "none");
+    /* default: `smooth` for DTH (ordinary steps, a changeover around psi = 0), none for baselines */
+    const char *def = strcmp(rs->method, "dth") ? "none" : "smooth";
+    const dth_regularizer_type *t = dth_registry_find_regularizer(reg, em ? em->value : def);
     if (!t) {
         char names[256];
         size_t len = 0;
@@ -915,9 +917,6 @@ int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *
     if (!rc) rc = build_events(&c, &rs);
     if (rc == DTH_ENOMEM) dth__set_err(err, errlen, "out of memory");
     if (!rc) rc = setup_regularizer(s, reg, &rs, err, errlen);
-    /* points=auto: a regularizer's steps have no midpoint on the DTH map: vertices */
-    if (!rc && (!c.points || c.points_kind < 0) && rs.points == DTH_POINTS_MIDPOINTS && rs.regularizer)
-        rs.points = DTH_POINTS_VERTICES;
     if (rc) {
         dth_run_setup_clear(&rs);
         return rc < 0 ? rc : DTH_EINVAL;

@@ -228,8 +228,7 @@ static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
                        : "no kicked segment of the step law's length here (a smaller arc, or a larger alpha, may pass)";
     if (rc) return rc < 0 ? rc : DTH_EREFUSED;
     memcpy(act->d, r->d, ev->N * sizeof *act->d);
-    act->lambda[0] = lam;
-    act->nseg = 1;
+    act->lambda = lam;
     act->what = DTH_REG_REPLACE;
     act->residual = res;
     return DTH_OK;

@@ -96,18 +96,25 @@ awk -F, 'NR > 1 && ($15 != "I" || NF != 17) { print "row " NR ": region " $15; b
     fail "harmonic branch column: $(cut -d, -f17 "$T/harm.csv" | sed -n '2,4p' | tr '\n' ' ')"
 ok "diagnostics columns"
 
+# ---- the default regularizer carries the rotating pendulum through psi = 0 (exit 0)
+"$DTH" run "$SC/pendulum-rotation.ini" -o "$T/rot.csv" 2>"$T/rot.err" || fail "default rotation: $(cat "$T/rot.err")"
+grep -q 'psi = 0 crossings' "$T/rot.err" || fail "default rotation end line: $(cat "$T/rot.err")"
+ok "default regularizer crosses psi = 0"
+
 # ---- a terminating trajectory keeps its rows and exits 3
-# With the branch policy (default) the run refuses the ghost root at the first psi = 0 fold
-# (vertex 15); with branch_check = no, Newton's root is taken as raw DTH does, and the run ends at
-# the second crossing (vertex 312, t ~ 3.17, /work/shared/notes/numerics.md).
-"$DTH" run "$SC/pendulum-rotation.ini" -o "$T/rot.csv" 2>"$T/rot.err"
+# Raw DTH (regularize.method = none): with the branch policy (default) the run refuses the ghost
+# root at the first psi = 0 fold (vertex 15); with branch_check = no, Newton's root is taken as raw
+# DTH does, and the run ends at the second crossing (vertex 312, t ~ 3.17,
+# /work/shared/notes/numerics.md).
+"$DTH" run "$SC/pendulum-rotation.ini" -s regularize.method=none -o "$T/rot.csv" 2>"$T/rot.err"
 rc=$?
 [ $rc -eq 3 ] || fail "rotation exit $rc, want 3"
 [ "$(wc -l <"$T/rot.err")" -eq 1 ] || fail "rotation stderr is not one line: $(cat "$T/rot.err")"
 grep -q '^dth: stopped at k=15, t=0\.94[0-9]*: .*fold' "$T/rot.err" || fail "rotation message: $(cat "$T/rot.err")"
 [ "$(tail -1 "$T/rot.csv" | cut -d, -f1)" = "15" ] || fail "rotation last row: $(tail -1 "$T/rot.csv")"
 [ "$(wc -l <"$T/rot.csv")" -eq 17 ] || fail "rotation rows: $(wc -l <"$T/rot.csv")"
-"$DTH" run "$SC/pendulum-rotation.ini" -s integrator.branch_check=no -o "$T/rot.csv" 2>"$T/rot.err"
+"$DTH" run "$SC/pendulum-rotation.ini" -s regularize.method=none -s integrator.branch_check=no -o "$T/rot.csv" \
+    2>"$T/rot.err"
 rc=$?
 [ $rc -eq 3 ] || fail "raw rotation exit $rc, want 3"
 grep -q '^dth: stopped at k=312, t=3\.17[0-9]*: ' "$T/rot.err" || fail "raw rotation message: $(cat "$T/rot.err")"

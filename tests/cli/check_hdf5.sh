@@ -26,7 +26,7 @@ done
 [ -z "$(ls "$T/sub" | grep '\.tmp\.')" ] || fail "temporary file left"
 "$DTH" run "$SC/pendulum.ini" -o "$T/x.h5" --checkpoint "$T/x.ckpt" 2>"$T/err"
 [ $? -eq 2 ] && grep -q "checkpoints cover CSV output only" "$T/err" || fail "checkpoint with HDF5: $(cat "$T/err")"
-"$DTH" run "$SC/pendulum-rotation.ini" -o "$T/rot.h5" 2>/dev/null
+"$DTH" run "$SC/pendulum-rotation.ini" -s regularize.method=none -o "$T/rot.h5" 2>/dev/null
 [ $? -eq 3 ] && [ -s "$T/rot.h5" ] || fail "a stopped run keeps its HDF5 file"
 [ $fails -eq 0 ] && echo "HDF5 and CSV hold the same doubles"
 exit $((fails != 0))

@@ -49,7 +49,8 @@ extern "C" {
 typedef enum dth_points {
     DTH_POINTS_VERTICES = 0,  /**< every `every`-th vertex z_k (and the end) */
     DTH_POINTS_MIDPOINTS = 1, /**< every `every`-th step's midpoint zbar, where H(zbar) = 0: the
-                                   energy -wp is exact; with a midpoint start the first one is the
+                                   energy -wp is exact (a regularizer's kicked segment has its
+                                   midpoint on H = 0 too); with a midpoint start the first one is the
                                    initial condition. DTH only. No END sample (it is no midpoint). */
     DTH_POINTS_TIMES = 2      /**< dense output at the output times (and at t_end) */
 } dth_points;

@@ -84,8 +84,8 @@ typedef struct dth_run_setup {
     long every;         /**< write every k-th vertex (>= 1) */
     double dt;          /**< output times t0 + j dt (0: vertices or midpoints) */
     dth_points points;  /**< what is written: [output] points= resolved (auto: MIDPOINTS for a DTH
-                             midpoint start without a regularizer, whose first midpoint is the
-                             initial condition, else VERTICES; TIMES when dt > 0) */
+                             midpoint start, whose first midpoint is the initial condition, else
+                             VERTICES; TIMES when dt > 0) */
     int diagnostics;    /**< write psi, dpsi, region, iters */
     dth_event *events;  /**< [events] as event functions for dth_run (owned; each user points into
                              event_specs), nevents of them */
