@@ -350,14 +350,15 @@ static int on_progress(void *user, const dth_run_state *st)
 
 /* ---------------------------------------------------------------- the command */
 
-static void usage_run(FILE *f)
+void cli_usage_run(FILE *f)
 {
     fprintf(f, "usage: dth run SCENE.ini [-s section.key=value]... [-o FILE] [--events FILE] [--roundtrip]\n"
                "                [--progress[=SECONDS]] [--no-model-check]\n"
                "                [--checkpoint FILE [--checkpoint-every N]]\n"
                "       dth run --resume CHECKPOINT [-s section.key=value]... [-o FILE] [--checkpoint ...]\n"
                "  -s section.key=value  override a scene key (applied after the file, in order)\n"
-               "  -o FILE               write the CSV to FILE ('-': standard output); wins over [output] file=\n"
+               "  -o FILE               write the CSV to FILE ('-': standard output; FILE.h5 or .hdf5: HDF5),\n"
+               "                        creating missing folders; wins over [output] file=\n"
                "  --roundtrip           after the run, reverse and take as many steps back; rows get a column\n"
                "                        leg (1 forward, 2 back) and stderr the distance to the start\n"
                "  --progress[=SECONDS]  a progress line on stderr every 5 s (or SECONDS): t, steps/s, ETA;\n"
@@ -381,7 +382,7 @@ int cli_cmd_run(int argc, char **argv)
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
-            usage_run(stdout);
+            cli_usage_run(stdout);
             return CLI_OK;
         } else if (!strcmp(a, "-s") || !strcmp(a, "-o") || !strcmp(a, "--checkpoint") ||
                    !strcmp(a, "--checkpoint-every") || !strcmp(a, "--resume") || !strcmp(a, "--events")) {

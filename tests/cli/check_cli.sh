@@ -179,10 +179,18 @@ ok "bad command lines"
 
 # ---- other subcommands
 "$DTH" --version | grep -qx 'dth [0-9][0-9.]*' || fail "--version"
-"$DTH" --help | grep -q 'dth run SCENE.ini' || fail "--help"
+"$DTH" --help >"$T/help.txt" || fail "--help exit"
+for opt in 'dth run SCENE.ini' -o --roundtrip --checkpoint --checkpoint-every --resume --progress --events \
+           --no-model-check 'dth map' 'dth roots' 'dth models' 'dth regularizers' 'exit codes'; do
+    grep -q -- "$opt" "$T/help.txt" || fail "--help lacks $opt"
+done
+"$DTH" run --help | grep -q -- --no-model-check || fail "dth run --help"
 "$DTH" models >"$T/models.txt" || fail "models exit"
 grep -q '^pendulum omega2=1 -- ' "$T/models.txt" || fail "models: pendulum line: $(cat "$T/models.txt")"
 grep -q '^harmonic .*omega=1' "$T/models.txt" || fail "models: harmonic line"
+# each parameter's description on its own indented line
+grep -q '^    omega2  squared small-oscillation frequency' "$T/models.txt" || fail "models: no parameter descriptions"
+"$DTH" regularizers | grep -q '^    alpha  *step law' || fail "regularizers: no parameter descriptions"
 ok "--version, --help, models"
 
 # ---- killed runs: SIGTERM finishes the file (exit 143); SIGKILL leaves a temporary of whole lines
