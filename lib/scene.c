@@ -686,6 +686,7 @@ static int build_events(setup_ctx *c, dth_run_setup *rs)
                 v = end;
                 while (*v == ' ' || *v == '\t' || *v == ',') v++;
             }
+            if (!m) return bad(c->err, c->errlen, c->dist_dofs, "empty list of degrees of freedom");
             sp->dofs = rs->event_dofs;
             sp->ndofs = m;
         }

@@ -101,5 +101,16 @@ int main(int argc, char **argv)
     }
     if (r != dims[0]) return fprintf(stderr, "h5cmp: %llu CSV rows, %llu HDF5 rows\n", (unsigned long long)r, (unsigned long long)dims[0]), 1;
     printf("h5cmp: %s %s: %llu rows, %ld values identical to %s\n", argv[1], argv[2], (unsigned long long)r, checked, argv[3]);
+    fclose(c);
+    free(v);
+    free(cols);
+    free(reg);
+    free(br);
+    free(ev);
+    free(scene);
+    free(prov);
+    H5Sclose(sp);
+    H5Dclose(d);
+    H5Fclose(f);
     return 0;
 }
