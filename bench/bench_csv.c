@@ -5,6 +5,8 @@
  * snprintf("%.17g") and with the CLI's formatter (cli/fmt.c, the same bytes), next to a DTH step
  * of each model, interleaved in one process, medians of 9 rounds. The row includes H_phys (one
  * model evaluation), as dth run computes it.
+ * Also the run driver's own cost: dth_run with a sample at every midpoint (a callback that only
+ * counts) and with dense output at every step, against the bare loop of dth_integrator_step.
  * Usage: bench_csv [rows per round]   (default 200000)
  */
 #include <stdio.h>
@@ -104,6 +106,54 @@ static int bench_model(const char *name, const dth_model_type *t, size_t n, cons
     return 0;
 }
 
+static int count(void *user, const dth_sample *s)
+{
+    (void)s;
+    ++*(long *)user;
+    return 0;
+}
+
+/* ns per step of the bare loop, dth_run with midpoint samples, dth_run with output times h apart */
+static int bench_driver(long steps)
+{
+    dth_model *m = NULL;
+    char err[128];
+    if (dth_model_new(&dth_model_pendulum, NULL, 0, 1, NULL, &m, err, sizeof err)) return 1;
+    dth_options o;
+    dth_options_default(&o);
+    o.h = 0.05;
+    double q = 1, p = 0, t[3][ROUNDS];
+    for (int r = 0; r < ROUNDS; r++)
+        for (int v = 0; v < 3; v++) {
+            dth_integrator *it = NULL;
+            if (dth_integrator_new(m, &o, &it) || dth_integrator_start(it, &q, &p, 0)) return 1;
+            long n = 0;
+            dth_run_config c;
+            dth_run_config_default(&c);
+            c.steps = steps;
+            c.sample = count;
+            c.user = &n;
+            c.points = v == 1 ? DTH_POINTS_MIDPOINTS : DTH_POINTS_TIMES;
+            c.dt = 0.05;
+            dth_run_state st;
+            dth_run_state_init(&st);
+            double t0 = bench_now();
+            if (v == 0)
+                for (long k = 0; k < steps; k++) dth_integrator_step(it, NULL);
+            else if (dth_run(it, &c, &st))
+                return 1;
+            t[v][r] = (bench_now() - t0) / (double)steps;
+            dth_integrator_free(it);
+        }
+    for (int v = 0; v < 3; v++) qsort(t[v], ROUNDS, sizeof t[v][0], bench_cmp_double);
+    printf("# the run driver on the pendulum (h = 0.05), %ld steps, median of %d: bare step loop %.0f ns/step, "
+           "dth_run with a midpoint sample per step %.0f ns (%.2fx), with dense output every step %.0f ns (%.2fx)\n",
+           steps, ROUNDS, 1e9 * t[0][ROUNDS / 2], 1e9 * t[1][ROUNDS / 2], t[1][ROUNDS / 2] / t[0][ROUNDS / 2],
+           1e9 * t[2][ROUNDS / 2], t[2][ROUNDS / 2] / t[0][ROUNDS / 2]);
+    dth_model_free(m);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     long rows = argc > 1 ? atol(argv[1]) : 200000;
@@ -115,5 +165,5 @@ int main(int argc, char **argv)
     double q1 = 1, p1 = 0, qk[2] = {0.4, 0}, pk[2] = {0, 2};
     if (bench_model("pendulum", &dth_model_pendulum, 1, &q1, &p1, 0.05, rows)) return 1;
     if (bench_model("kepler", &dth_model_kepler, 2, qk, pk, 0.01, rows)) return 1;
-    return 0;
+    return bench_driver(rows);
 }
