@@ -19,10 +19,10 @@ ok() { echo "ok: $*"; }
 rc=$?
 [ $rc -eq 0 ] || fail "smoke run exit $rc"
 [ -s "$T/smoke.err" ] && fail "smoke run wrote to stderr: $(cat "$T/smoke.err")"
-[ "$(head -1 "$T/smoke.csv")" = "k,t,lambda,q1,p1,wp,H,E" ] || fail "header: $(head -1 "$T/smoke.csv")"
+[ "$(head -1 "$T/smoke.csv")" = "k,t,lambda,q1,p1,wp,H,E,ordinary" ] || fail "header: $(head -1 "$T/smoke.csv")"
 [ "$(wc -l <"$T/smoke.csv")" -eq 102 ] || fail "smoke rows: $(wc -l <"$T/smoke.csv") lines, want 102"
 awk -F, 'NR == 1 { next }
-    NF != 8 { print "row " NR ": " NF " fields"; bad = 1 }
+    NF != 9 || $9 != 1 { print "row " NR ": " NF " fields, ordinary " $9; bad = 1 }
     $1 != NR - 2 { print "row " NR ": k = " $1; bad = 1 }
     NR == 2 { wp = $6; if ($3 != 0) { print "lambda at k=0 is " $3; bad = 1 } }
     NR > 2 && $6 != wp { print "row " NR ": wp " $6 " != " wp; bad = 1 }
@@ -87,13 +87,17 @@ ok "every= and dt="
 
 # ---- diagnostics columns (with the model's invariants) on the harmonic scene
 "$DTH" run "$SC/harmonic.ini" -s integrator.steps=5 -s output.points=vertices >"$T/harm.csv" || fail "harmonic run"
-[ "$(head -1 "$T/harm.csv")" = "k,t,lambda,q1,q2,p1,p2,wp,H,E,E1,E2,psi,dpsi,region,iters,branch" ] ||
+[ "$(head -1 "$T/harm.csv")" = "k,t,lambda,q1,q2,p1,p2,wp,H,E,ordinary,E1,E2,psi,dpsi,region,iters,branch" ] ||
     fail "harmonic header: $(head -1 "$T/harm.csv")"
-awk -F, 'NR > 1 && ($15 != "I" || NF != 17) { print "row " NR ": region " $15; bad = 1 } END { exit bad }' \
-    "$T/harm.csv" || fail "harmonic region column"
+awk -F, 'NR > 1 && ($16 != "I" || NF != 18 || $11 != 1) { print "row " NR ": region " $16 ", ordinary " $11; bad = 1 } END { exit bad }' \
+    "$T/harm.csv" || fail "harmonic region and ordinary columns"
 # branch: "-" before the first step, then the exact first step of a midpoint start, then "plus"
-[ "$(cut -d, -f17 "$T/harm.csv" | sed -n '2,4p' | tr '\n' ' ')" = "- exact plus " ] ||
-    fail "harmonic branch column: $(cut -d, -f17 "$T/harm.csv" | sed -n '2,4p' | tr '\n' ' ')"
+[ "$(cut -d, -f18 "$T/harm.csv" | sed -n '2,4p' | tr '\n' ' ')" = "- exact plus " ] ||
+    fail "harmonic branch column: $(cut -d, -f18 "$T/harm.csv" | sed -n '2,4p' | tr '\n' ' ')"
+# the rotating pendulum: steps in the changeover bands read ordinary = 0, exactly where branch = reg
+"$DTH" run "$SC/pendulum-rotation.ini" -s integrator.steps=60 >"$T/rotd.csv" 2>/dev/null || fail "rotation run"
+awk -F, 'NR > 2 { if (($9 == 0) != ($14 == "reg")) bad = 1; n0 += $9 == 0 } END { exit bad || n0 < 5 }' "$T/rotd.csv" ||
+    fail "ordinary column against the branch column"
 ok "diagnostics columns"
 
 # ---- the default regularizer carries the rotating pendulum through psi = 0 (exit 0)
@@ -249,7 +253,7 @@ for f in "$T/term.csv" "$T/$tmp"; do
         [ "$f" = "$T/term.csv" ] && fail "$f (SIGTERM: finished by dth) does not end with a newline"
         [ $((size % 4096)) -eq 0 ] || fail "$f does not end with a newline, and is not cut at a page boundary ($size bytes)"
     fi
-    awk -F, -v cut=$cut 'NR == 1 && $0 != "k,t,lambda,q1,p1,wp,H,E" { bad = 1 } { last = NR } NF != 8 { if (bad_nr) bad = 1; bad_nr = NR }
+    awk -F, -v cut=$cut 'NR == 1 && $0 != "k,t,lambda,q1,p1,wp,H,E,ordinary" { bad = 1 } { last = NR } NF != 9 { if (bad_nr) bad = 1; bad_nr = NR }
         END { if (bad_nr && !(cut && bad_nr == last)) bad = 1; exit bad || NR < 2 }' "$f" ||
         fail "$f is not a clean CSV"
 done
