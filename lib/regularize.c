@@ -6,6 +6,7 @@
  */
 #include <float.h>
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
 #include "dth/regularize.h"
@@ -460,17 +461,17 @@ static int psi_sign_at(dth_integrator *it, const double *z, int *sign)
 /* The sign of psi at the current vertex, computed once and then carried from step to step. */
 static int known_psi_sign(dth_integrator *it)
 {
-    if (it->psi_known) return DTH_OK;
-    int r = psi_sign_at(it, it->z, &it->psi_sign);
-    if (!r) it->psi_known = 1;
+    if (it->st.psi_known) return DTH_OK;
+    int r = psi_sign_at(it, it->st.z, &it->st.psi_sign);
+    if (!r) it->st.psi_known = 1;
     return r;
 }
 
 /* The event the hook sees at the current vertex (plain: the ordinary step's outcome, or NULL). */
 static dth_reg_event reg_event(dth_integrator *it, int rc, int plain_ok, const double *dd, double plain_lambda, int sb)
 {
-    dth_reg_event ev = {it->model, it->N, it->z, it->zlo, it->lam, it->dir, it->psi_sign, rc, plain_ok ? dd : NULL,
-                        plain_ok ? plain_lambda : 0.0, plain_ok ? sb : 0, it->have_prev ? it->dprev : NULL, 0};
+    dth_reg_event ev = {it->model, it->N, it->st.z, it->st.zlo, it->st.lam, it->st.dir, it->st.psi_sign, rc, plain_ok ? dd : NULL,
+                        plain_ok ? plain_lambda : 0.0, plain_ok ? sb : 0, it->st.have_prev ? it->st.dprev : NULL, 0};
     return ev;
 }
 
@@ -492,13 +493,28 @@ static int reg_apply(dth_integrator *it, const dth_reg_event *ev, dth_reg_action
 static int reg_finish(dth_integrator *it, const dth_reg_action *act, int rc, int plain_ok, const dth__solution *sol,
                       dth_branch br, dth_step_info *info);
 
+/* An action the integrator cannot take: DTH_EREFUSED, with what was wrong in the message. */
+static int refuse(dth_integrator *it, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static int refuse(dth_integrator *it, const char *fmt, ...)
+{
+    int k = snprintf(it->errmsg, sizeof it->errmsg, "regularizer '%s' returned an invalid action: ",
+                     dth_regularizer_get_type(it->reg)->name);
+    if (k > 0 && (size_t)k < sizeof it->errmsg) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(it->errmsg + k, sizeof it->errmsg - (size_t)k, fmt, ap);
+        va_end(ap);
+    }
+    return DTH_EREFUSED;
+}
+
 int dth__reg_replaces_all(const dth_integrator *it)
 {
     const dth_regularizer_type *t = it->reg ? dth_regularizer_get_type(it->reg) : NULL;
     return t && t->replaces_all && t->replaces_all(it->reg->self);
 }
 
-int dth__reg_pre(dth_integrator *it, dth_step_info *info)
+int dth__reg_pre(dth_integrator *it, dth_step_info *info, unsigned *what)
 {
     int r0 = known_psi_sign(it);
     if (r0) return r0;
@@ -510,36 +526,37 @@ int dth__reg_pre(dth_integrator *it, dth_step_info *info)
     if (!(act.what & DTH_REG_REPLACE)) {
         /* compute the ordinary step; dth__reg_step then takes it (with the fix-up, if any). Its
          * failure, if any, writes the message afresh */
-        it->reg_what = act.what;
+        *what = act.what;
         it->errmsg[0] = '\0';
         return DTH__REG_PLAIN;
     }
     return reg_finish(it, &act, DTH_EUNSUPPORTED, 0, NULL, DTH_BRANCH_REG, info);
 }
 
-int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_branch br, dth_step_info *info, int pre)
+int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_branch br, dth_step_info *info,
+                  const unsigned *pre_what)
 {
     size_t N = it->N;
     int m = it->m;
     double *cand = it->rbuf, *dd = it->rbuf + N;
     if (rc < 0) return rc;
-    int plain_ok = rc == DTH_OK && sol->lambda * it->dir > 0;
+    int plain_ok = rc == DTH_OK && sol->lambda * it->st.dir > 0;
     if (rc == DTH_OK && !plain_ok) {
         snprintf(it->errmsg, sizeof it->errmsg, "Newton found lambda = %.17g, against the direction of travel", sol->lambda);
         rc = DTH_ENOROOT;
     }
     int r0 = known_psi_sign(it);
     if (r0) return r0;
-    int sa = it->psi_sign, sb = 0;
+    int sa = it->st.psi_sign, sb = 0;
     if (plain_ok) {
         for (size_t j = 0; j < N; j++) dd[j] = 0;
         for (int a = 0; a < m - 1; a++) dd[it->act[a]] = it->x[a];
         if (it->auton) dd[it->n] = 0.5 * sol->lambda;
     }
     dth_reg_action act;
-    if (pre) {
+    if (pre_what) {
         /* the hook was asked before the ordinary step (dth__reg_pre) and kept it */
-        act = (dth_reg_action){it->reg_what, 0, {0}, it->rbuf + 4 * N, it->rbuf + 2 * N, 0.0, 0, NULL};
+        act = (dth_reg_action){*pre_what, 0, {0}, it->rbuf + 4 * N, it->rbuf + 2 * N, 0.0, 0, NULL};
         if (!plain_ok) {
             /* say that the hook had no step of its own here */
             const char *name = dth_regularizer_get_type(it->reg)->name;
@@ -552,18 +569,18 @@ int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_bran
         return reg_finish(it, &act, rc, plain_ok, sol, br, info);
     }
     if (plain_ok) {
-        for (size_t j = 0; j < N; j++) cand[j] = it->z[j] + (2 * dd[j] + it->zlo[j]);
+        for (size_t j = 0; j < N; j++) cand[j] = it->st.z[j] + (2 * dd[j] + it->st.zlo[j]);
         int r = psi_sign_at(it, cand, &sb);
         if (r) return r;
         int admit = 1;
         if (sb == sa && it->reg->type->admit) {
-            admit = it->reg->type->admit(it->reg->self, it->z, cand, sol->lambda);
+            admit = it->reg->type->admit(it->reg->self, it->st.z, cand, sol->lambda);
             if (admit < 0) return DTH_EMODEL;
         }
         if (sb == sa && admit) {
             r = dth__integrator_commit(it, sol->lambda);
             if (r) return r;
-            it->psi_sign = sb;
+            it->st.psi_sign = sb;
             info->lambda = sol->lambda;
             info->iters = sol->iters;
             info->residual = sol->residual;
@@ -584,22 +601,29 @@ static int reg_finish(dth_integrator *it, const dth_reg_action *act_in, int rc, 
                       dth_branch br, dth_step_info *info)
 {
     size_t N = it->N;
-    int m = it->m, r, sa = it->psi_sign, sb = 0;
+    int m = it->m, r, sa = it->st.psi_sign, sb = 0;
     double *dd = it->rbuf + N, *fix = it->rbuf + 2 * N, *zt = it->rbuf + 3 * N, *ad = it->rbuf + 4 * N;
     dth_reg_action act = *act_in;
-    int nseg = (act.what & DTH_REG_REPLACE) ? (act.nseg > 0 ? act.nseg : 1) : 0;
-    if (nseg > DTH_REG_MAX_SEG) return DTH_EREFUSED;
+    if (act.what & ~(unsigned)(DTH_REG_REPLACE | DTH_REG_FIXUP))
+        return refuse(it, "unknown action flags 0x%x", act.what);
+    int nseg = (act.what & DTH_REG_REPLACE) ? (act.nseg == 0 ? 1 : act.nseg) : 0;
+    if (nseg < 0 || nseg > DTH_REG_MAX_SEG)
+        return refuse(it, "%d segments (1 to %d allowed)", act.nseg, DTH_REG_MAX_SEG);
     if (!nseg && !plain_ok) return rc;
     /* check everything, and the sign of psi at the final vertex, before touching the state */
     double total = 0;
-    for (size_t j = 0; j < N; j++) zt[j] = it->z[j] + it->zlo[j];
+    for (size_t j = 0; j < N; j++) zt[j] = it->st.z[j] + it->st.zlo[j];
     if (nseg) {
         for (int k = 0; k < nseg; k++) {
             double lam = act.lambda[k];
-            if (!(lam * it->dir > 0) || !isfinite(lam)) return DTH_EREFUSED;
+            if (!(lam * it->st.dir > 0) || !isfinite(lam))
+                return refuse(it, "segment %d has lambda = %.17g (finite, in the direction of travel %+g)", k + 1,
+                              lam, it->st.dir);
             for (size_t j = 0; j < N; j++) {
                 double dj = ad[(size_t)k * N + j];
-                if (!isfinite(dj) || (it->auton && j == N - 1 && dj != 0)) return DTH_EREFUSED;
+                if (!isfinite(dj)) return refuse(it, "segment %d: offset component %zu is %g", k + 1, j, dj);
+                if (it->auton && j == N - 1 && dj != 0)
+                    return refuse(it, "segment %d changes wp (%g) of an autonomous model", k + 1, dj);
                 zt[j] += 2 * dj;
             }
             total += lam;
@@ -610,23 +634,28 @@ static int reg_finish(dth_integrator *it, const dth_reg_action *act_in, int rc, 
     }
     if (act.what & DTH_REG_FIXUP)
         for (size_t j = 0; j < N; j++) {
-            if (!isfinite(fix[j]) || (it->auton && j == N - 1 && fix[j] != 0)) return DTH_EREFUSED;
+            if (!isfinite(fix[j])) return refuse(it, "fix-up component %zu is %g", j, fix[j]);
+            if (it->auton && j == N - 1 && fix[j] != 0)
+                return refuse(it, "the fix-up changes wp (%g) of an autonomous model", fix[j]);
             zt[j] += fix[j];
         }
     r = psi_sign_at(it, zt, &sb);
     if (r) return r;
+    /* a commit below may be followed by a failure (a later segment's, the fix-up's offset): keep a
+     * copy of the vectors for dth_integrator_step to undo the step with */
+    dth__state_snapshot(it);
     if (nseg) {
         for (int k = 0; k < nseg; k++) {
             const double *dk = ad + (size_t)k * N;
             double lam = act.lambda[k];
             for (int a = 0; a < m - 1; a++) it->x[a] = dk[it->act[a]];
             it->x[m - 1] = lam;
-            for (size_t j = 0; j < N; j++) it->zb[j] = it->z[j] + (it->zlo[j] + dk[j]);
-            if (it->auton) it->zb[it->n] = it->z[it->n] + (it->zlo[it->n] + 0.5 * lam);
+            for (size_t j = 0; j < N; j++) it->zb[j] = it->st.z[j] + (it->st.zlo[j] + dk[j]);
+            if (it->auton) it->zb[it->n] = it->st.z[it->n] + (it->st.zlo[it->n] + 0.5 * lam);
             r = dth__integrator_commit(it, lam);
             if (r) return r;
         }
-        it->fact_valid = 0; /* no factors of these segments: no tangent map */
+        it->st.fact_valid = 0; /* no factors of these segments: no tangent map */
         info->residual = act.residual;
         info->branch = DTH_BRANCH_REG;
         info->flags |= DTH_STEP_REGULARIZED;
@@ -639,16 +668,16 @@ static int reg_finish(dth_integrator *it, const dth_reg_action *act_in, int rc, 
     }
     if (act.what & DTH_REG_FIXUP) {
         for (size_t j = 0; j < N; j++) {
-            double e, s2 = two_sum(it->z[j], fix[j] + it->zlo[j], &e);
-            it->z[j] = s2;
-            it->zlo[j] = e;
+            double e, s2 = two_sum(it->st.z[j], fix[j] + it->st.zlo[j], &e);
+            it->st.z[j] = s2;
+            it->st.zlo[j] = e;
         }
-        it->fact_valid = 0;
+        it->st.fact_valid = 0;
         info->flags |= DTH_STEP_REGULARIZED;
     }
     if (sb != sa) info->flags |= DTH_STEP_CROSSING;
-    it->psi_sign = sb;
-    it->psi_known = 1;
+    it->st.psi_sign = sb;
+    it->st.psi_known = 1;
     info->lambda = total;
     /* a regularizer's segments or fix-up: the carried vertex offset afresh (an ordinary step kept
      * here has it already) */
