@@ -423,7 +423,7 @@ static int read_state(rd *r, st *s, char *err, size_t errlen)
     s->n = get_u64(r);
     s->m = get_u32(r);
     s->auton = get_u32(r);
-    if (r->bad || s->n == 0 || s->n > (1u << 20) || s->m > 2 * s->n + 3 || s->auton > 1) {
+    if (r->bad || s->n == 0 || s->n > DTH__MAX_DOF || s->m > 2 * s->n + 3 || s->auton > 1) {
         dth__set_err(err, errlen, "checkpoint state header is invalid");
         return DTH_EPARSE;
     }

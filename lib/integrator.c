@@ -69,7 +69,7 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
         return DTH_EINVAL;
     size_t n = dth_model_dof(model);
     /* every buffer below is O(n) or O(n^2) doubles: refuse sizes whose products overflow */
-    if (n == 0 || n > ((size_t)1 << 40)) return DTH_EINVAL;
+    if (n == 0 || n > DTH__MAX_DOF) return DTH_EINVAL;
     int banded_model = dth__model_banded(model);
     dth_linsolve kind = opt->linsolve;
     if ((kind == DTH_LINSOLVE_BANDED || kind == DTH_LINSOLVE_BANDED_LU) && !banded_model) return DTH_EUNSUPPORTED;

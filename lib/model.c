@@ -134,8 +134,20 @@ int dth_model_new(const dth_model_type *type, const dth_kv *kv, size_t nkv, size
     dth_model_args args = {kv, nkv, n_hint, alloc, err, errlen};
     if (err && errlen) err[0] = '\0';
     int rc = type->create(&args, &m->self, &m->info);
-    if (rc == DTH_OK && m->info.n == 0) {
-        dth__set_err(err, errlen, "model '%s' reported zero degrees of freedom", type->name);
+    if (rc == DTH_OK && (m->info.n == 0 || m->info.n > DTH__MAX_DOF)) {
+        dth__set_err(err, errlen, "model '%s' reported %zu degrees of freedom (1 to 2^40 supported)", type->name,
+                     m->info.n);
+        rc = DTH_EINVAL;
+    }
+    size_t ninv = rc == DTH_OK && type->n_invariants && type->invariants ? type->n_invariants(m->self) : 0;
+    if (ninv > DTH__MAX_INVARIANTS) {
+        dth__set_err(err, errlen, "model '%s' reported %zu invariants (at most %zu supported)", type->name, ninv,
+                     DTH__MAX_INVARIANTS);
+        rc = DTH_EINVAL;
+    }
+    if (rc == DTH_OK && m->info.bandwidth >= 2 * m->info.n && (m->info.hess_kind == DTH_HESS_BANDED)) {
+        dth__set_err(err, errlen, "model '%s' reported a Hessian bandwidth of %zu for %zu degrees of freedom",
+                     type->name, m->info.bandwidth, m->info.n);
         rc = DTH_EINVAL;
     }
     if (rc != DTH_OK) {

@@ -7,6 +7,7 @@
  * message naming the key.
  */
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -413,6 +414,50 @@ static void test_regularizer_failures(void)
     dth_model_free(m);
 }
 
+/* ---- absurd sizes: refused with a status, never a crash (sizes must not overflow) ---- */
+
+static size_t big_n;
+static int big_create(const dth_model_args *a, void **self, dth_model_info *info)
+{
+    (void)a;
+    *self = NULL;
+    *info = (dth_model_info){.n = big_n, .autonomous = 1};
+    return DTH_OK;
+}
+static int big_eval(const void *self, const double *y, unsigned what, double *H, double *g, double *h)
+{
+    (void)self, (void)y, (void)what, (void)H, (void)g, (void)h;
+    return 0;
+}
+static const dth_model_type big_type = {.name = "big", .doc = "n from a global", .create = big_create,
+                                        .eval = big_eval};
+
+static void test_absurd_sizes(void)
+{
+    const size_t ns[] = {(size_t)1 << 62, SIZE_MAX, SIZE_MAX / 2 + 1, ((size_t)1 << 40) + 1};
+    for (size_t i = 0; i < sizeof ns / sizeof ns[0]; i++) {
+        big_n = ns[i];
+        dth_model *m = (dth_model *)&big_n;
+        char err[256] = "";
+        CU_ASSERT(dth_model_new(&big_type, NULL, 0, 0, NULL, &m, err, sizeof err) == DTH_EINVAL);
+        CU_ASSERT(m == NULL);
+        CU_ASSERT(strstr(err, "degrees of freedom") != NULL);
+    }
+    /* within the model's limit, the dense step matrix is still too large: refused up front */
+    const size_t ok[] = {(size_t)1 << 40, (size_t)1 << 30, 40000};
+    for (size_t i = 0; i < sizeof ok / sizeof ok[0]; i++) {
+        big_n = ok[i];
+        dth_model *m = NULL;
+        CU_ASSERT_FATAL(dth_model_new(&big_type, NULL, 0, 0, NULL, &m, NULL, 0) == DTH_OK);
+        dth_options o;
+        dth_options_default(&o);
+        dth_integrator *it = (dth_integrator *)&big_n;
+        CU_ASSERT(dth_integrator_new(m, &o, &it) == DTH_EUNSUPPORTED);
+        CU_ASSERT(it == NULL);
+        dth_model_free(m);
+    }
+}
+
 /* ---- parameter validation: messages name the key ---- */
 
 static void expect_rejected2(const dth_model_type *t, const char *key, const char *value, const char *key2,
@@ -560,6 +605,7 @@ static CU_TestInfo failstate_tests[] = {
     {"shipped regularizers where they stop: whole serialised state untouched", test_shipped_regularizers},
     {"a regularizer's bad actions and a failed multi-part commit: state and its own state untouched",
      test_regularizer_failures},
+    {"absurd model sizes (n = 2^62, SIZE_MAX, 2^40): refused, no overflow", test_absurd_sizes},
     {"bad model parameters: DTH_EINVAL naming the key", test_param_messages},
     {"fuzz regression: midpoint start overflow gives no DTH_OK with a non-finite vertex", test_fuzz_start_overflow},
     {"fuzz regression: a step whose vertex overflows is not DTH_OK", test_fuzz_step_overflow},
