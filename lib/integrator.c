@@ -260,10 +260,14 @@ int dth_integrator_start(dth_integrator *it, const double *q0, const double *p0,
             return DTH_EINVAL;
         }
     double *y = it->ybar, H;
+    double h = it->st.h;
+    if (!(fabs(h) > 2 * DBL_EPSILON * fabs(t0))) {
+        seterr(it, "the time t0 = %.17g does not advance by steps of h = %.3g (t + h == t)", t0, h);
+        return DTH_EINVAL;
+    }
     memcpy(y, q0, n * sizeof *y);
     y[n] = t0;
     memcpy(y + n + 1, p0, n * sizeof *y);
-    double h = it->st.h;
     if (it->opt.start == DTH_START_MIDPOINT) {
         int rc = dth_model_eval(it->model, y, DTH_EVAL_H | DTH_EVAL_GRAD, &H, it->grad, NULL);
         if (rc) {

@@ -294,6 +294,44 @@ static size_t hess_size(const dth_model *m)
     return dth__model_banded(m) ? 2 * n * (2 * m->info.bandwidth + 1) : d * d;
 }
 
+int dth_model_domain_check(const dth_model *m, const double *y, char *why, size_t len)
+{
+    if (why && len) why[0] = '\0';
+    if (!m || !y) return DTH_EINVAL;
+    size_t n = m->info.n, d = 2 * n + 1;
+    for (size_t j = 0; j < d; j++)
+        if (!isfinite(y[j])) {
+            dth__set_err(why, len, "%c%zu = %g is not finite", j < n ? 'q' : 'p', j < n ? j + 1 : j - n, y[j]);
+            if (j == n) dth__set_err(why, len, "t = %g is not finite", y[j]);
+            return DTH_EDOMAIN;
+        }
+    double *g = dth_calloc(m->alloc, d, sizeof *g), H = 0;
+    if (!g) return DTH_ENOMEM;
+    int rc = m->type->eval(m->self, y, DTH_EVAL_H | DTH_EVAL_GRAD, &H, g, NULL);
+    if (rc < 0) {
+        dth__set_err(why, len, "the model's evaluation failed (%d)", rc);
+        rc = DTH_EMODEL;
+    } else if (rc > 0 || !isfinite(H)) {
+        rc = DTH_EDOMAIN;
+    } else {
+        for (size_t j = 0; j < d && !rc; j++)
+            if (!isfinite(g[j])) {
+                rc = DTH_EDOMAIN;
+                if (j == n) dth__set_err(why, len, "dH/dt is not finite");
+                else dth__set_err(why, len, "dH/d%c%zu is not finite", j < n ? 'q' : 'p', j < n ? j + 1 : j - n);
+            }
+    }
+    if (rc == DTH_EDOMAIN && (!why || !len || !why[0] || m->type->domain)) {
+        char own[160] = "";
+        if (m->type->domain && m->type->domain(m->self, y, own, sizeof own) && own[0])
+            dth__set_err(why, len, "%s", own);
+        else if (!why || !len || !why[0])
+            dth__set_err(why, len, "%s", isfinite(H) ? "outside the model's domain" : "H is not finite");
+    }
+    dth_free(m->alloc, g);
+    return rc;
+}
+
 size_t dth_model_work_size(const dth_model *m)
 {
     size_t d = 2 * m->info.n + 1;

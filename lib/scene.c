@@ -587,17 +587,31 @@ static int bad(char *err, size_t len, const entry *e, const char *fmt, ...)
     return DTH_EINVAL;
 }
 
-/* Whole-string decimal integer in [lo, hi]. */
+/* A count: a whole-string decimal integer, or a number with an integer value ("1e6"), in
+ * [lo, hi]. 0, or PARSE_NOT_INT (not an integer), PARSE_LOW / PARSE_HIGH (an integer below lo,
+ * above hi). */
+enum { PARSE_NOT_INT = -1, PARSE_LOW = -2, PARSE_HIGH = -3 };
 static int parse_long(const char *v, long lo, long hi, long *out)
 {
     while (*v == ' ' || *v == '\t') v++;
-    if (!*v) return -1;
+    if (!*v) return PARSE_NOT_INT;
     char *end;
     errno = 0;
     long x = strtol(v, &end, 10);
-    if (end == v || errno) return -1;
-    while (*end == ' ' || *end == '\t') end++;
-    if (*end || x < lo || x > hi) return -1;
+    const char *rest = end;
+    while (*rest == ' ' || *rest == '\t') rest++;
+    if (end == v || *rest) {
+        /* not plain decimal: a number whose value is an integer (1e6, 2.0) counts too */
+        double d;
+        if (dth_parse_double(v, &d) || d != floor(d)) return PARSE_NOT_INT;
+        if (d < (double)lo || !(d > -0x1p63)) return PARSE_LOW;
+        if (d > (double)hi || !(d < 0x1p63)) return PARSE_HIGH;
+        x = (long)d;
+    } else if (errno == ERANGE) {
+        return x < 0 ? PARSE_LOW : PARSE_HIGH;
+    }
+    if (x < lo) return PARSE_LOW;
+    if (x > hi) return PARSE_HIGH;
     *out = x;
     return 0;
 }
@@ -660,6 +674,15 @@ typedef struct setup_ctx {
     const entry *q, *p, *t, *wp, *h, *steps, *t_end, *every, *dt, *start;
 } setup_ctx;
 
+/* The message for a count that parse_long refused. */
+static int bad_count(setup_ctx *c, const entry *e, int why, long lo, long hi)
+{
+    if (why == PARSE_HIGH)
+        return bad(c->err, c->errlen, e, "'%s' is too large (an integer from %ld to %ld)", e->value, lo, hi);
+    if (hi < LONG_MAX) return bad(c->err, c->errlen, e, "'%s' is not an integer in %ld..%ld", e->value, lo, hi);
+    return bad(c->err, c->errlen, e, "'%s' is not an integer >= %ld", e->value, lo);
+}
+
 static int check_initial(setup_ctx *c, dth_run_setup *rs, const entry *e)
 {
     const dth_allocator *a = c->s->alloc;
@@ -717,12 +740,14 @@ static int check_integrator(setup_ctx *c, dth_run_setup *rs, const entry *e)
         if (rs->opt.h == 0) return bad(c->err, c->errlen, e, "the step must be nonzero (its sign sets the direction of time)");
     } else if (strcmp(k, "steps") == 0) {
         c->steps = e;
-        if (parse_long(v, 0, LONG_MAX, &rs->steps)) return bad(c->err, c->errlen, e, "'%s' is not an integer >= 0", v);
+        int pr = parse_long(v, 0, LONG_MAX, &rs->steps);
+        if (pr) return bad_count(c, e, pr, 0, LONG_MAX);
     } else if (strcmp(k, "t_end") == 0) {
         c->t_end = e;
         if (dth_parse_double(v, &rs->t_end)) return bad(c->err, c->errlen, e, "'%s' is not a finite number", v);
     } else if (strcmp(k, "max_iter") == 0) {
-        if (parse_long(v, 1, 100000, &x)) return bad(c->err, c->errlen, e, "'%s' is not an integer in 1..100000", v);
+        int pr = parse_long(v, 1, 100000, &x);
+        if (pr) return bad_count(c, e, pr, 1, 100000);
         rs->opt.max_iter = (int)x;
     } else if (strcmp(k, "K") == 0) {
         if (dth_parse_double(v, &rs->opt.K) || rs->opt.K < 0)
@@ -748,7 +773,8 @@ static int check_output(setup_ctx *c, dth_run_setup *rs, const entry *e)
         if (!rs->out_file) return DTH_ENOMEM;
     } else if (strcmp(k, "every") == 0) {
         c->every = e;
-        if (parse_long(v, 1, LONG_MAX, &rs->every)) return bad(c->err, c->errlen, e, "'%s' is not an integer >= 1", v);
+        int pr = parse_long(v, 1, LONG_MAX, &rs->every);
+        if (pr) return bad_count(c, e, pr, 1, LONG_MAX);
     } else if (strcmp(k, "dt") == 0) {
         c->dt = e;
         if (dth_parse_double(v, &rs->dt) || rs->dt < 0)
@@ -836,6 +862,17 @@ static int check_cross(setup_ctx *c, dth_run_setup *rs)
         return DTH_EINVAL;
     }
     rs->has_t_end = c->t_end != NULL;
+    /* the time must move: a step below the resolution of t (t + h == t, or nearly) never
+     * advances it, and a run to t_end would never end */
+    double h = fabs(rs->opt.h);
+    if (!(h > 2 * DBL_EPSILON * fabs(rs->t0)))
+        return bad(c->err, c->errlen, c->t ? c->t : c->h,
+                   "the time t = %.17g does not advance by steps of h = %.3g (t + h == t in double precision): "
+                   "start the clock nearer 0 or take a larger step", rs->t0, rs->opt.h);
+    if (c->t_end && !(h > 2 * DBL_EPSILON * fabs(rs->t_end)))
+        return bad(c->err, c->errlen, c->t_end,
+                   "t_end = %.17g cannot be reached by steps of h = %.3g (t + h == t in double precision long before)",
+                   rs->t_end, rs->opt.h);
     if (c->t_end && (rs->t_end - rs->t0) * rs->opt.h < 0)
         return bad(c->err, c->errlen, c->t_end, "t_end = %.17g lies behind t = %.17g for h = %.17g (the sign of h is the direction of time)",
                    rs->t_end, rs->t0, rs->opt.h);
@@ -905,6 +942,26 @@ static int setup_regularizer(const dth_scene *s, const dth_registry *reg, dth_ru
     return rc;
 }
 
+/* The model must evaluate at the initial state (q, t, p): else say why, naming initial.q. */
+static int check_start(setup_ctx *c, dth_run_setup *rs, const char *model)
+{
+    size_t n = rs->n;
+    double *y = dth_calloc(c->s->alloc, 2 * n + 1, sizeof *y);
+    if (!y) {
+        dth__set_err(c->err, c->errlen, "out of memory");
+        return DTH_ENOMEM;
+    }
+    memcpy(y, rs->q0, n * sizeof *y);
+    y[n] = rs->t0;
+    memcpy(y + n + 1, rs->p0, n * sizeof *y);
+    char why[200];
+    int rc = dth_model_domain_check(rs->model, y, why, sizeof why);
+    dth_free(c->s->alloc, y);
+    if (rc == DTH_ENOMEM) dth__set_err(c->err, c->errlen, "out of memory");
+    else if (rc) rc = bad(c->err, c->errlen, c->q, "the model '%s' cannot start here (initial.q, initial.p): %s", model, why);
+    return rc;
+}
+
 int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *out, char *err, size_t errlen)
 {
     if (!s || !reg || !out) {
@@ -957,6 +1014,8 @@ int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *
         } else if (dth_model_dof(rs.model) != rs.n) {
             rc = bad(err, errlen, c.q, "model '%s' has %zu degrees of freedom, but %zu q values are given",
                      type->name, dth_model_dof(rs.model), rs.n);
+        } else {
+            rc = check_start(&c, &rs, type->name);
         }
     }
     dth_free(s->alloc, kv);

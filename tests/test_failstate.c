@@ -458,6 +458,37 @@ static void test_absurd_sizes(void)
     }
 }
 
+/* ---- a starting state outside the domain: the reason names the coordinate ---- */
+
+static void test_domain_check(void)
+{
+    static const dth_kv nan_kv[] = {{"nan", "1"}};
+    dth_model *w = new_model(&wall_type, NULL, 0, 1), *wn = new_model(&wall_type, nan_kv, 1, 1);
+    char why[200];
+    double in[3] = {0.2, 0, 1}, out[3] = {0.7, 0, 1}, inf[3] = {0.2, INFINITY, 1};
+    CU_ASSERT(dth_model_domain_check(w, in, why, sizeof why) == DTH_OK && why[0] == '\0');
+    CU_ASSERT(dth_model_domain_check(w, out, why, sizeof why) == DTH_EDOMAIN);
+    CU_ASSERT(strstr(why, "outside the model's domain") != NULL);
+    CU_ASSERT(dth_model_domain_check(wn, out, why, sizeof why) == DTH_EDOMAIN);
+    CU_ASSERT(strstr(why, "H is not finite") != NULL);
+    CU_ASSERT(dth_model_domain_check(w, inf, why, sizeof why) == DTH_EDOMAIN);
+    CU_ASSERT(strstr(why, "t = inf") != NULL);
+    dth_model *k = new_model(&dth_model_kepler, NULL, 0, 2);
+    double y[5] = {0, 0, 0, 0.5, 0.5};
+    CU_ASSERT(dth_model_domain_check(k, y, why, sizeof why) == DTH_EDOMAIN);
+    CU_ASSERT(strstr(why, "q1 = 0, q2 = 0") != NULL);
+    /* the library refuses a start whose time steps of h cannot advance */
+    dth_integrator *it = new_integrator(k, 0.05, DTH_START_MIDPOINT, 30);
+    double q[2] = {1, 0}, p[2] = {0, 1};
+    CU_ASSERT(dth_integrator_start(it, q, p, 1e300) == DTH_EINVAL);
+    CU_ASSERT(strstr(dth_integrator_errmsg(it), "t + h == t") != NULL);
+    CU_ASSERT(dth_integrator_start(it, q, p, 1e14) == DTH_OK);
+    dth_integrator_free(it);
+    dth_model_free(w);
+    dth_model_free(wn);
+    dth_model_free(k);
+}
+
 /* ---- parameter validation: messages name the key ---- */
 
 static void expect_rejected2(const dth_model_type *t, const char *key, const char *value, const char *key2,
@@ -606,6 +637,7 @@ static CU_TestInfo failstate_tests[] = {
     {"a regularizer's bad actions and a failed multi-part commit: state and its own state untouched",
      test_regularizer_failures},
     {"absurd model sizes (n = 2^62, SIZE_MAX, 2^40): refused, no overflow", test_absurd_sizes},
+    {"a state outside the domain: the reason names the coordinate", test_domain_check},
     {"bad model parameters: DTH_EINVAL naming the key", test_param_messages},
     {"fuzz regression: midpoint start overflow gives no DTH_OK with a non-finite vertex", test_fuzz_start_overflow},
     {"fuzz regression: a step whose vertex overflows is not DTH_OK", test_fuzz_step_overflow},
