@@ -496,6 +496,17 @@ int cli_cmd_run(int argc, char **argv)
         cli_error("warning: |h| = %.3g is below the conditioning limit %.3g at the start: the step size is "
                   "known only to about 1e-6 relative or worse (docs/performance.md)", fabs(rs.opt.h), hmin);
 
+    /* ---- a vertex start: the energy the run conserves (every midpoint's) against the initial
+     * state's; an explicit wp: the first step it encodes against h */
+    if (is_dth && !ck && rs.opt.start == DTH_START_VERTEX) {
+        double H0, E = dth_integrator_energy(st.it);
+        if (!dth_model_eval(rs.model, zprev, DTH_EVAL_H, &H0, NULL, NULL) && fabs(E - H0) > 0.01 * fabs(H0))
+            cli_error("warning: a vertex start conserves the energy %.10g at every midpoint; the initial state has "
+                      "%.10g (%.3g %% apart: the vertex lies off the energy surface by the offset that encodes the "
+                      "step; a midpoint start conserves the initial energy)",
+                      E, H0, 100 * fabs(E - H0) / fabs(H0));
+    }
+
     /* ---- the run: rows lag one step behind so each vertex knows its outgoing step */
     double dir = rs.opt.h > 0 ? 1.0 : -1.0;
     const int tty = isatty(STDERR_FILENO);
@@ -522,6 +533,9 @@ int cli_cmd_run(int argc, char **argv)
         step_rec s;
         rc = st_step(&st, &s);
         if (rc) break;
+        if (is_dth && !ck && L.k == 0 && rs.opt.has_wp && fabs(s.lambda / rs.opt.h - 1) > 0.1)
+            cli_error("warning: the explicit [initial] wp encodes a first step of %.6g, not h = %.6g (without wp a vertex "
+                      "start solves for the wp whose first step is h)", s.lambda, rs.opt.h);
         account(&L, &s);
         const double *z = st_vertex(&st);
         if (rs.dt > 0) {
@@ -606,14 +620,16 @@ int cli_cmd_run(int argc, char **argv)
         cli_error("interrupted at k=%ld, t=%.17g (the rows so far are kept)%s", L.k, zprev[n], crossing);
         status = 128 + sig;
     } else if (rc > 0) {
-        cli_error("stopped at k=%ld, t=%.17g: %s (%s)%s", L.k, zprev[n], dth_strerror(rc), st_errmsg(&st), crossing);
+        char hint[128];
+        cli_error("stopped at k=%ld, t=%.17g: %s (%s)%s%s", L.k, zprev[n], dth_strerror(rc), st_errmsg(&st), crossing,
+                  is_dth ? cli_stop_hint(rs.regularize, rc, rs.opt.h, hint, sizeof hint) : "");
         status = CLI_STOPPED;
     } else if (rc < 0) {
         cli_error("error at k=%ld, t=%.17g: %s (%s)", L.k, zprev[n], dth_strerror(rc), st_errmsg(&st));
         status = CLI_FAIL;
     } else {
         status = CLI_OK;
-        if (tty || strcmp(rs.regularize, "none"))
+        if (tty || L.regularized)
             fprintf(stderr, "dth: %ld steps to t = %.17g, %ld rows to %s%s\n", L.k, zprev[n], L.rows,
                     path ? path : "standard output", crossing);
     }

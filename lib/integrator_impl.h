@@ -84,9 +84,9 @@ struct dth_integrator {
     /* regularization (regularize.c): the hook and its workspace (its state: st.psi_sign, and the
      * regularizer's own, saved through its type) */
     dth_regularizer *reg;
-    double *rbuf;     /* (4 + DTH_REG_MAX_SEG) N doubles of hook workspace */
+    double *rbuf;     /* 4 N doubles of hook workspace */
     double *snap;     /* with a regularizer: DTH__STATE_NVEC x N doubles, the vectors of st while a step
-                         may fail after committing (a regularizer's segments, fix-up) */
+                         may fail after committing (a regularizer's segment: the vertex offset afresh) */
     int snapped;      /* snap holds the vectors of this step's start */
     unsigned char *regsnap; /* the regularizer's own state at the start of the step (restored on failure) */
     size_t regsnap_len;
@@ -125,12 +125,10 @@ int dth__branch_select(dth_integrator *it, int rc, dth__solution *sol, dth_branc
 int dth__integrator_commit(dth_integrator *it, double lam);
 /**
  * With a regularizer attached: take the ordinary step `rc` / `sol` (root `br`) if it succeeded
- * without changing the sign of psi, else call the hook and commit what it decides. pre_what != NULL:
- * the hook was already asked (dth__reg_pre) and kept the ordinary step with these flags (KEEP
- * [| FIXUP]); commit it, or return its status.
+ * without changing the sign of psi, else call the hook and commit what it decides. pre != 0: the
+ * hook was already asked (dth__reg_pre) and kept the ordinary step; commit it, or return its status.
  */
-int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_branch br, dth_step_info *info,
-                  const unsigned *pre_what);
+int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_branch br, dth_step_info *info, int pre);
 /** After a step that is not an ordinary DTH step (a regularizer's): the carried vertex offset
  *  from a direct evaluation at the new vertex (no-op when opt.compensate is off). */
 int dth__integrator_rho_reset(dth_integrator *it);
@@ -143,9 +141,8 @@ int dth__reg_replaces_all(const dth_integrator *it);
 #define DTH__REG_PLAIN 1000
 /**
  * For a regularizer that replaces every step: ask the hook before any ordinary step is computed
- * (ev.plain_pending = 1). Returns DTH_OK (its step is committed), a status, or DTH__REG_PLAIN
- * (then *what holds the flags it kept the ordinary step with).
+ * (ev.plain_pending = 1). Returns DTH_OK (its step is committed), a status, or DTH__REG_PLAIN.
  */
-int dth__reg_pre(dth_integrator *it, dth_step_info *info, unsigned *what);
+int dth__reg_pre(dth_integrator *it, dth_step_info *info);
 
 #endif

@@ -6,7 +6,6 @@
  */
 #include <float.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
 #include "dth/regularize.h"
@@ -478,12 +477,15 @@ static dth_reg_event reg_event(dth_integrator *it, int rc, int plain_ok, const d
 static int reg_apply(dth_integrator *it, const dth_reg_event *ev, dth_reg_action *act, dth_step_info *info)
 {
     size_t N = it->N;
-    double *fix = it->rbuf + 2 * N, *ad = it->rbuf + 4 * N;
-    memset(ad, 0, DTH_REG_MAX_SEG * N * sizeof *ad);
-    memset(fix, 0, N * sizeof *fix);
-    *act = (dth_reg_action){DTH_REG_KEEP, 0, {0}, ad, fix, 0.0, 0, NULL};
+    double *ad = it->rbuf + 3 * N;
+    memset(ad, 0, N * sizeof *ad);
+    *act = (dth_reg_action){DTH_REG_KEEP, 0.0, ad, 0.0, 0, NULL};
     int r = dth_regularizer_apply(it->reg, ev, act);
     info->iters += act->iters;
+    if (!r && act->what != DTH_REG_KEEP && act->what != DTH_REG_REPLACE) {
+        act->why = "it answered an unknown action";
+        r = DTH_EREFUSED;
+    }
     if (r)
         snprintf(it->errmsg, sizeof it->errmsg, "regularizer '%s' stopped the run: %s",
                  dth_regularizer_get_type(it->reg)->name, act->why ? act->why : dth_strerror(r));
@@ -493,28 +495,13 @@ static int reg_apply(dth_integrator *it, const dth_reg_event *ev, dth_reg_action
 static int reg_finish(dth_integrator *it, const dth_reg_action *act, int rc, int plain_ok, const dth__solution *sol,
                       dth_branch br, dth_step_info *info);
 
-/* An action the integrator cannot take: DTH_EREFUSED, with what was wrong in the message. */
-static int refuse(dth_integrator *it, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-static int refuse(dth_integrator *it, const char *fmt, ...)
-{
-    int k = snprintf(it->errmsg, sizeof it->errmsg, "regularizer '%s' returned an invalid action: ",
-                     dth_regularizer_get_type(it->reg)->name);
-    if (k > 0 && (size_t)k < sizeof it->errmsg) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(it->errmsg + k, sizeof it->errmsg - (size_t)k, fmt, ap);
-        va_end(ap);
-    }
-    return DTH_EREFUSED;
-}
-
 int dth__reg_replaces_all(const dth_integrator *it)
 {
     const dth_regularizer_type *t = it->reg ? dth_regularizer_get_type(it->reg) : NULL;
     return t && t->replaces_all && t->replaces_all(it->reg->self);
 }
 
-int dth__reg_pre(dth_integrator *it, dth_step_info *info, unsigned *what)
+int dth__reg_pre(dth_integrator *it, dth_step_info *info)
 {
     int r0 = known_psi_sign(it);
     if (r0) return r0;
@@ -523,18 +510,16 @@ int dth__reg_pre(dth_integrator *it, dth_step_info *info, unsigned *what)
     dth_reg_action act;
     int r = reg_apply(it, &ev, &act, info);
     if (r) return r;
-    if (!(act.what & DTH_REG_REPLACE)) {
-        /* compute the ordinary step; dth__reg_step then takes it (with the fix-up, if any). Its
-         * failure, if any, writes the message afresh */
-        *what = act.what;
+    if (act.what == DTH_REG_KEEP) {
+        /* compute the ordinary step; dth__reg_step then takes it. Its failure, if any, writes the
+         * message afresh */
         it->errmsg[0] = '\0';
         return DTH__REG_PLAIN;
     }
     return reg_finish(it, &act, DTH_EUNSUPPORTED, 0, NULL, DTH_BRANCH_REG, info);
 }
 
-int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_branch br, dth_step_info *info,
-                  const unsigned *pre_what)
+int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_branch br, dth_step_info *info, int pre)
 {
     size_t N = it->N;
     int m = it->m;
@@ -554,9 +539,9 @@ int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_bran
         if (it->auton) dd[it->n] = 0.5 * sol->lambda;
     }
     dth_reg_action act;
-    if (pre_what) {
+    if (pre) {
         /* the hook was asked before the ordinary step (dth__reg_pre) and kept it */
-        act = (dth_reg_action){*pre_what, 0, {0}, it->rbuf + 4 * N, it->rbuf + 2 * N, 0.0, 0, NULL};
+        act = (dth_reg_action){DTH_REG_KEEP, 0.0, it->rbuf + 3 * N, 0.0, 0, NULL};
         if (!plain_ok) {
             /* say that the hook had no step of its own here */
             const char *name = dth_regularizer_get_type(it->reg)->name;
@@ -595,92 +580,61 @@ int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_bran
     return reg_finish(it, &act, rc, plain_ok, sol, br, info);
 }
 
-/* Commit the hook's answer: its segments, or the ordinary step (plain_ok), then the fix-up. Every
- * check is done before the state is touched. */
-static int reg_finish(dth_integrator *it, const dth_reg_action *act_in, int rc, int plain_ok, const dth__solution *sol,
+/* Commit the hook's answer: its segment, or the ordinary step (plain_ok). Every check is done
+ * before the state is touched. */
+static int reg_finish(dth_integrator *it, const dth_reg_action *act, int rc, int plain_ok, const dth__solution *sol,
                       dth_branch br, dth_step_info *info)
 {
     size_t N = it->N;
     int m = it->m, r, sa = it->st.psi_sign, sb = 0;
-    double *dd = it->rbuf + N, *fix = it->rbuf + 2 * N, *zt = it->rbuf + 3 * N, *ad = it->rbuf + 4 * N;
-    dth_reg_action act = *act_in;
-    if (act.what & ~(unsigned)(DTH_REG_REPLACE | DTH_REG_FIXUP))
-        return refuse(it, "unknown action flags 0x%x", act.what);
-    int nseg = (act.what & DTH_REG_REPLACE) ? (act.nseg == 0 ? 1 : act.nseg) : 0;
-    if (nseg < 0 || nseg > DTH_REG_MAX_SEG)
-        return refuse(it, "%d segments (1 to %d allowed)", act.nseg, DTH_REG_MAX_SEG);
-    if (!nseg && !plain_ok) return rc;
-    /* check everything, and the sign of psi at the final vertex, before touching the state */
-    double total = 0;
-    for (size_t j = 0; j < N; j++) zt[j] = it->st.z[j] + it->st.zlo[j];
-    if (nseg) {
-        for (int k = 0; k < nseg; k++) {
-            double lam = act.lambda[k];
-            if (!(lam * it->st.dir > 0) || !isfinite(lam))
-                return refuse(it, "segment %d has lambda = %.17g (finite, in the direction of travel %+g)", k + 1,
-                              lam, it->st.dir);
-            for (size_t j = 0; j < N; j++) {
-                double dj = ad[(size_t)k * N + j];
-                if (!isfinite(dj)) return refuse(it, "segment %d: offset component %zu is %g", k + 1, j, dj);
-                if (it->auton && j == N - 1 && dj != 0)
-                    return refuse(it, "segment %d changes wp (%g) of an autonomous model", k + 1, dj);
-                zt[j] += 2 * dj;
-            }
-            total += lam;
-        }
-    } else {
-        for (size_t j = 0; j < N; j++) zt[j] += 2 * dd[j];
-        total = sol->lambda;
+    double *dd = it->rbuf + N, *zt = it->rbuf + 2 * N, *ad = it->rbuf + 3 * N;
+    int replace = act->what == DTH_REG_REPLACE;
+    if (!replace && !plain_ok) return rc;
+    /* check everything, and the sign of psi at the new vertex, before touching the state */
+    const double *dk = replace ? ad : dd;
+    double lam = replace ? act->lambda : sol->lambda;
+    if (replace && (!(lam * it->st.dir > 0) || !isfinite(lam))) {
+        snprintf(it->errmsg, sizeof it->errmsg, "regularizer '%s' answered a step %.17g against the direction of travel",
+                 dth_regularizer_get_type(it->reg)->name, lam);
+        return DTH_EREFUSED;
     }
-    if (act.what & DTH_REG_FIXUP)
-        for (size_t j = 0; j < N; j++) {
-            if (!isfinite(fix[j])) return refuse(it, "fix-up component %zu is %g", j, fix[j]);
-            if (it->auton && j == N - 1 && fix[j] != 0)
-                return refuse(it, "the fix-up changes wp (%g) of an autonomous model", fix[j]);
-            zt[j] += fix[j];
+    for (size_t j = 0; j < N; j++) {
+        if (replace && (!isfinite(dk[j]) || (it->auton && j == N - 1 && dk[j] != 0))) {
+            snprintf(it->errmsg, sizeof it->errmsg, "regularizer '%s' answered a non-finite offset or one that changes wp",
+                     dth_regularizer_get_type(it->reg)->name);
+            return DTH_EREFUSED;
         }
+        zt[j] = it->st.z[j] + (it->st.zlo[j] + 2 * dk[j]);
+    }
     r = psi_sign_at(it, zt, &sb);
     if (r) return r;
-    /* a commit below may be followed by a failure (a later segment's, the fix-up's offset): keep a
-     * copy of the vectors for dth_integrator_step to undo the step with */
-    dth__state_snapshot(it);
-    if (nseg) {
-        for (int k = 0; k < nseg; k++) {
-            const double *dk = ad + (size_t)k * N;
-            double lam = act.lambda[k];
-            for (int a = 0; a < m - 1; a++) it->x[a] = dk[it->act[a]];
-            it->x[m - 1] = lam;
-            for (size_t j = 0; j < N; j++) it->zb[j] = it->st.z[j] + (it->st.zlo[j] + dk[j]);
-            if (it->auton) it->zb[it->n] = it->st.z[it->n] + (it->st.zlo[it->n] + 0.5 * lam);
-            r = dth__integrator_commit(it, lam);
-            if (r) return r;
-        }
-        it->st.fact_valid = 0; /* no factors of these segments: no tangent map */
-        info->residual = act.residual;
+    if (replace) {
+        for (int a = 0; a < m - 1; a++) it->x[a] = dk[it->act[a]];
+        it->x[m - 1] = lam;
+        for (size_t j = 0; j < N; j++) it->zb[j] = it->st.z[j] + (it->st.zlo[j] + dk[j]);
+        if (it->auton) it->zb[it->n] = it->st.z[it->n] + (it->st.zlo[it->n] + 0.5 * lam);
+    }
+    /* it->x / it->zb hold the ordinary solution otherwise. After a replacing segment's commit the
+     * carried vertex offset is evaluated afresh, which may fail: keep a copy of the vectors for
+     * dth_integrator_step to undo the step with */
+    if (replace) dth__state_snapshot(it);
+    r = dth__integrator_commit(it, lam);
+    if (r) return r;
+    if (replace) {
+        it->st.fact_valid = 0; /* no factors of this segment: no tangent map */
+        info->residual = act->residual;
         info->branch = DTH_BRANCH_REG;
         info->flags |= DTH_STEP_REGULARIZED;
     } else {
-        /* it->x / it->zb still hold the ordinary solution */
-        r = dth__integrator_commit(it, sol->lambda);
-        if (r) return r;
         info->residual = sol->residual;
         info->branch = br;
-    }
-    if (act.what & DTH_REG_FIXUP) {
-        for (size_t j = 0; j < N; j++) {
-            double e, s2 = two_sum(it->st.z[j], fix[j] + it->st.zlo[j], &e);
-            it->st.z[j] = s2;
-            it->st.zlo[j] = e;
-        }
-        it->st.fact_valid = 0;
-        info->flags |= DTH_STEP_REGULARIZED;
     }
     if (sb != sa) info->flags |= DTH_STEP_CROSSING;
     it->st.psi_sign = sb;
     it->st.psi_known = 1;
-    info->lambda = total;
-    /* a regularizer's segments or fix-up: the carried vertex offset afresh (an ordinary step kept
-     * here has it already) */
-    if (nseg || (act.what & DTH_REG_FIXUP)) return dth__integrator_rho_reset(it);
+    info->lambda = lam;
+    /* a regularizer's segment: the carried vertex offset afresh (an ordinary step kept here has it
+     * already) */
+    if (replace) return dth__integrator_rho_reset(it);
     return DTH_OK;
 }

@@ -896,7 +896,9 @@ static int setup_regularizer(const dth_scene *s, const dth_registry *reg, dth_ru
             if (!strcmp(s->e[i].key, "method")) em = &s->e[i];
             else np++;
         }
-    const dth_regularizer_type *t = dth_registry_find_regularizer(reg, em ? em->value : "none");
+    /* default: `smooth` for DTH (ordinary steps, a changeover around psi = 0), none for baselines */
+    const char *def = strcmp(rs->method, "dth") ? "none" : "smooth";
+    const dth_regularizer_type *t = dth_registry_find_regularizer(reg, em ? em->value : def);
     if (!t) {
         char names[256];
         size_t len = 0;

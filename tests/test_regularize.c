@@ -2,8 +2,8 @@
 /*
  * Regularization across psi = 0 (paper, section 7): the cubic-model roots, the kicked segment
  * (midpoint on H = 0, exact time advance, reversal symmetry, quadratic invariants kept), the
- * registry, and the shipped regularizers on the rotating pendulum (raw DTH's fold at vertex 15,
- * energy exactness through crossings, retracing a symkick crossing backward).
+ * registry, and raw DTH's fold at vertex 15 on the rotating pendulum (the regularizers have their
+ * own suites: test_smooth, test_prescribed).
  */
 #include <float.h>
 #include <math.h>
@@ -29,13 +29,15 @@ static dth_regularizer *regul(const dth_regularizer_type *t, const dth_kv *kv, s
     return r;
 }
 
-/* The rotating pendulum of the notes: q0 = 0, p0 = 2.2, h = 0.05, vertex start. */
+/* The rotating pendulum of the notes: q0 = 0, p0 = 2.2, h = 0.05, vertex start with the notes' offset. */
 static dth_integrator *pendulum_run(const dth_model *m, dth_regularizer *r)
 {
     dth_options o;
     dth_options_default(&o);
     o.h = 0.05;
     o.start = DTH_START_VERTEX;
+    o.has_wp = 1; /* the notes' Taylor offset wp = -H_phys + psi h^2/8 */
+    o.wp = -(0.5 * 2.2 * 2.2 - 1) + 2.2 * 2.2 * 0.05 * 0.05 / 8;
     o.regularizer = r;
     dth_integrator *it = NULL;
     double q0 = 0, p0 = 2.2;
@@ -165,10 +167,12 @@ static void test_registry(void)
     CU_ASSERT_FATAL(dth_registry_add_builtin(reg) == DTH_OK);
     CU_ASSERT(dth_registry_regularizer_count(reg) >= 3);
     CU_ASSERT_PTR_EQUAL(dth_registry_find_regularizer(reg, "none"), &dth_reg_none);
-    CU_ASSERT_PTR_EQUAL(dth_registry_find_regularizer(reg, "reseed"), &dth_reg_reseed);
-    CU_ASSERT_PTR_EQUAL(dth_registry_find_regularizer(reg, "symkick"), &dth_reg_symkick);
+    CU_ASSERT_PTR_EQUAL(dth_registry_find_regularizer(reg, "smooth"), &dth_reg_smooth);
+    CU_ASSERT_PTR_EQUAL(dth_registry_find_regularizer(reg, "prescribed"), &dth_reg_prescribed);
+    CU_ASSERT_PTR_NULL(dth_registry_find_regularizer(reg, "reseed")); /* retired */
+    CU_ASSERT_PTR_NULL(dth_registry_find_regularizer(reg, "symkick"));
     CU_ASSERT_PTR_NULL(dth_registry_find_regularizer(reg, "nope"));
-    CU_ASSERT_PTR_EQUAL(dth_registry_regularizer_at(reg, 0), &dth_reg_none);
+    CU_ASSERT_PTR_EQUAL(dth_registry_regularizer_at(reg, 0), &dth_reg_smooth); /* the default first */
     CU_ASSERT_PTR_NULL(dth_registry_regularizer_at(reg, 99));
     CU_ASSERT_EQUAL(dth_registry_add_regularizer(reg, &dth_reg_none), DTH_EINVAL); /* duplicate */
     dth_registry_free(reg);
@@ -176,11 +180,11 @@ static void test_registry(void)
     dth_model *m = model(&dth_model_pendulum, 1);
     dth_regularizer *r = NULL;
     char err[256] = "";
-    dth_kv bad = {"nosuch", "1"}, badv = {"margin", "-1"};
-    CU_ASSERT_EQUAL(dth_regularizer_new(&dth_reg_symkick, &bad, 1, m, NULL, &r, err, sizeof err), DTH_EINVAL);
+    dth_kv bad = {"nosuch", "1"}, badv = {"inner", "-1"};
+    CU_ASSERT_EQUAL(dth_regularizer_new(&dth_reg_smooth, &bad, 1, m, NULL, &r, err, sizeof err), DTH_EINVAL);
     CU_ASSERT_PTR_NOT_NULL(strstr(err, "nosuch"));
-    CU_ASSERT_EQUAL(dth_regularizer_new(&dth_reg_symkick, &badv, 1, m, NULL, &r, err, sizeof err), DTH_EINVAL);
-    CU_ASSERT_PTR_NOT_NULL(strstr(err, "margin"));
+    CU_ASSERT_EQUAL(dth_regularizer_new(&dth_reg_smooth, &badv, 1, m, NULL, &r, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "inner"));
     CU_ASSERT_PTR_NULL(r);
     dth_model_free(m);
 }
@@ -206,86 +210,12 @@ static void test_none_ends(void)
     dth_model_free(m);
 }
 
-/* reseed with a fixed crossing step: many crossings, every midpoint on H = 0, wp bit-identical. */
-static void test_reseed_energy(void)
-{
-    dth_model *m = model(&dth_model_pendulum, 1);
-    dth_kv kv = {"step", "0.1"};
-    dth_regularizer *r = regul(&dth_reg_reseed, &kv, 1, m);
-    CU_ASSERT_FATAL(r != NULL);
-    dth_integrator *it = pendulum_run(m, r);
-    double wp0 = dth_integrator_vertex(it)[3], worst = 0;
-    long crossings = 0, k;
-    int rc = DTH_OK;
-    for (k = 0; k < 20000 && rc == DTH_OK; k++) {
-        dth_step_info inf;
-        rc = dth_integrator_step(it, &inf);
-        if (rc) break;
-        if (inf.flags & DTH_STEP_CROSSING) crossings++;
-        worst = fmax(worst, energy_ulps(m, dth_integrator_midpoint(it)));
-        CU_ASSERT_EQUAL(dth_integrator_vertex(it)[3], wp0);
-        if (dth_integrator_vertex(it)[3] != wp0) break;
-    }
-    CU_ASSERT_EQUAL(rc, DTH_OK);
-    CU_ASSERT(crossings >= 200);
-    CU_ASSERT(worst <= 16);
-    dth_integrator_free(it);
-    dth_regularizer_free(r);
-    dth_model_free(m);
-}
-
-/* symkick: carries the pendulum through crossings with exact energy, and a backward run from
- * after the first crossing retraces it (the crossing chain is its own reverse). */
-static void test_symkick(void)
-{
-    dth_model *m = model(&dth_model_pendulum, 1);
-    dth_regularizer *r = regul(&dth_reg_symkick, NULL, 0, m);
-    CU_ASSERT_FATAL(r != NULL);
-    dth_integrator *it = pendulum_run(m, r);
-    double wp0 = dth_integrator_vertex(it)[3], worst = 0, z0[4];
-    dth_step_info inf;
-    CU_ASSERT_FATAL(dth_integrator_step(it, &inf) == DTH_OK);
-    memcpy(z0, dth_integrator_vertex(it), sizeof z0);
-    long crossings = 0, k;
-    for (k = 0; k < 40; k++) {
-        CU_ASSERT_FATAL(dth_integrator_step(it, &inf) == DTH_OK);
-        if (inf.flags & DTH_STEP_CROSSING) {
-            crossings++;
-            CU_ASSERT_EQUAL(inf.branch, DTH_BRANCH_REG);
-        }
-        worst = fmax(worst, energy_ulps(m, dth_integrator_midpoint(it)));
-        CU_ASSERT_EQUAL(dth_integrator_vertex(it)[3], wp0);
-    }
-    CU_ASSERT_EQUAL(crossings, 1);
-    CU_ASSERT(worst <= 16);
-    dth_integrator_reverse(it);
-    for (long j = 0; j < k; j++) CU_ASSERT_FATAL(dth_integrator_step(it, &inf) == DTH_OK);
-    double err = 0;
-    for (int j = 0; j < 4; j++) err = fmax(err, fabs(dth_integrator_vertex(it)[j] - z0[j]));
-    CU_ASSERT(err <= 1e-9 * 2.2);
-    /* further on: at least 5 crossings with every midpoint on H = 0 */
-    dth_integrator_reverse(it);
-    crossings = 0;
-    for (k = 0; k < 400; k++) {
-        if (dth_integrator_step(it, &inf) != DTH_OK) break;
-        if (inf.flags & DTH_STEP_CROSSING) crossings++;
-        worst = fmax(worst, energy_ulps(m, dth_integrator_midpoint(it)));
-    }
-    CU_ASSERT(crossings >= 5);
-    CU_ASSERT(worst <= 16);
-    dth_integrator_free(it);
-    dth_regularizer_free(r);
-    dth_model_free(m);
-}
-
 static CU_TestInfo tests[] = {
     {"cubic-model roots", test_cubic_root},
     {"kicked segment: energy, time, reversal, L", test_kicked_segment},
     {"quadratic invariants: decided once per model", test_quadratic_mask},
     {"registry and parameters", test_registry},
     {"none ends at the fold (vertex 15)", test_none_ends},
-    {"reseed step=0.1: crossings, exact energy", test_reseed_energy},
-    {"symkick: exact energy, crossing retraced", test_symkick},
     CU_TEST_INFO_NULL,
 };
 

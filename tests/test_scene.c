@@ -264,7 +264,8 @@ static const bad_case bad_cases[] = {
     {BASE_PEND "steps = 10\n[initial]\nwp = 1\n", 10, "initial.wp", "start=vertex"},
     {BASE_PEND "steps = 10\n[initial]\nx = 1\n", 10, "initial.x", "unknown key"},
     {BASE_PEND "steps = 10\n[regularize]\nmethod = tunnel\n", 10, "regularize.method", "tunnel"},
-    {BASE_PEND "steps = 10\n[regularize]\neps = 1\n", 10, "regularize.eps", "no parameters"},
+    {BASE_PEND "steps = 10\n[regularize]\neps = 1\n", 10, "regularize.eps", "'smooth' has no parameter"},
+    {BASE_PEND "steps = 10\n[regularize]\nmethod = none\neps = 1\n", 11, "regularize.eps", "no parameters"},
     {BASE_PEND "steps = 10\n[output]\nevery = 0\n", 10, "output.every", "0"},
     {BASE_PEND "steps = 10\n[output]\ndt = -1\n", 10, "output.dt", "-1"},
     {BASE_PEND "steps = 10\n[output]\ndt = 0.5\nevery = 2\n", 10, "output.dt", "every"},
@@ -561,6 +562,38 @@ static void test_nul_and_line_limit(void)
     dth_scene_free(s);
 }
 
+/* Without [regularize] method=, DTH runs get the default regularizer `smooth` (a new scene crosses
+ * psi = 0) and the baselines none; method = none keeps raw DTH. */
+static void test_default_regularizer(void)
+{
+    dth_registry *reg = registry();
+    struct {
+        const char *text, *want;
+        int has;
+    } c[] = {
+        {BASE_PEND "steps = 10\n", "smooth", 1},
+        {BASE_PEND "method = gauss4\nsteps = 10\n", "none", 0},
+        {BASE_PEND "steps = 10\n[regularize]\nmethod = none\n", "none", 0},
+        {BASE_PEND "steps = 10\n[regularize]\nouter = 5\n", "smooth", 1},
+    };
+    for (size_t i = 0; i < sizeof c / sizeof c[0]; i++) {
+        char path[64], err[512];
+        write_scene(c[i].text, path, sizeof path);
+        dth_scene *s;
+        CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+        CU_ASSERT_FATAL(dth_scene_load(s, path, err, sizeof err) == DTH_OK);
+        dth_run_setup rs;
+        CU_ASSERT_EQUAL_FATAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_OK);
+        CU_ASSERT_STRING_EQUAL(rs.regularize, c[i].want);
+        CU_ASSERT_EQUAL(rs.regularizer != NULL, c[i].has);
+        CU_ASSERT(rs.opt.regularizer == rs.regularizer);
+        dth_run_setup_clear(&rs);
+        dth_scene_free(s);
+        unlink(path);
+    }
+    dth_registry_free(reg);
+}
+
 static CU_TestInfo scene_tests[] = {
     {"scene text from memory", test_load_mem},
     {"indented lines continue a list", test_continuation},
@@ -572,6 +605,7 @@ static CU_TestInfo scene_tests[] = {
     {"bad override values name the override", test_bad_override_values},
     {"dth_scene_text loads back to the same entries (random overrides and files)", test_text_round_trip},
     {"a NUL byte is refused; the 197-character line limit, exactly", test_nul_and_line_limit},
+    {"default regularizer: smooth for DTH, none for baselines", test_default_regularizer},
     CU_TEST_INFO_NULL,
 };
 

@@ -72,11 +72,15 @@ got=$(sed -n 2p "$T/one.csv" | cut -d, -f7,8)
 [ "$got" = "$want" ] || fail "one-point map roots $got, dth roots $want"
 ok "one-point map = dth roots at the initial vertex"
 
-# ---- the trajectory: starts at the scene's (q, p), stops with DTH_EFOLD at the first psi = 0 crossing
+# ---- the trajectory: starts at the scene's (q, p); with the default regularizer it reaches t_end
+# through the psi = 0 crossings, raw DTH stops with DTH_EFOLD at the first one
 [ "$(head -1 "$T/m1-traj.csv")" = "k,t,q,p,lambda,end" ] || fail "trajectory header: $(head -1 "$T/m1-traj.csv")"
 [ "$(sed -n 2p "$T/m1-traj.csv" | cut -d, -f1,3,4)" = "0,0,2.2000000000000002" ] || fail "trajectory start: $(sed -n 2p "$T/m1-traj.csv")"
-[ "$(tail -1 "$T/m1-traj.csv" | cut -d, -f1,6)" = "15,DTH_EFOLD" ] || fail "trajectory end: $(tail -1 "$T/m1-traj.csv")"
-grep -q "note: the trajectory stopped at k=15" "$T/m1.err" || fail "no note on the stop: $(cat "$T/m1.err")"
+[ "$(tail -1 "$T/m1-traj.csv" | cut -d, -f6)" = "t_end" ] || fail "trajectory end: $(tail -1 "$T/m1-traj.csv")"
+"$DTH" map "$SC/pendulum-rotation.ini" --q 0:0:1 --p 2.2:2.2:1 --out "$T/raw" -s regularize.method=none 2>"$T/raw.err" ||
+    fail "raw map: $(cat "$T/raw.err")"
+[ "$(tail -1 "$T/raw-traj.csv" | cut -d, -f1,6)" = "15,DTH_EFOLD" ] || fail "raw trajectory end: $(tail -1 "$T/raw-traj.csv")"
+grep -q "note: the trajectory stopped at k=15" "$T/raw.err" || fail "no note on the stop: $(cat "$T/raw.err")"
 awk -F, 'NR > 2 && $6 == "" && !($5 > 0) { print "row " NR ": lambda " $5; bad = 1 } END { exit bad }' "$T/m1-traj.csv" ||
     fail "trajectory steps"
 ok "trajectory and its end"

@@ -10,10 +10,10 @@
  *   - failed with a recoverable status (no root, no convergence, singular, branch statuses), or
  *   - succeeded but psi has a different sign at z_k and at z_(k+1) (the step crossed psi = 0).
  * The hook sees the vertex, the incoming step and the ordinary candidate, and answers with an
- * action: keep the ordinary step, replace it by its own segment (a midpoint offset d = zbar - z_k
- * and a time step lambda; the integrator sets z_(k+1) = z_k + 2 d), and/or add a fix-up to the new
- * vertex. Returning a nonzero status (typically DTH_EREFUSED) ends the step with that status and
- * leaves the integrator's state untouched.
+ * action: keep the ordinary step, or replace it by its own segment (a midpoint offset
+ * d = zbar - z_k and a time step lambda; the integrator sets z_(k+1) = z_k + 2 d). Returning a
+ * nonzero status (typically DTH_EREFUSED) ends the step with that status and leaves the
+ * integrator's state untouched.
  *
  * A type whose instance replaces every step (replaces_all) is instead called at every step, before
  * any ordinary step is computed.
@@ -61,28 +61,21 @@ typedef struct dth_reg_event {
                                  computes it and takes it, or ends the step with its status */
 } dth_reg_event;
 
-/** dth_reg_action.what (bit flags). */
+/** dth_reg_action.what. */
 enum {
-    DTH_REG_KEEP = 0u,    /**< keep the ordinary step (its status is returned if it failed) */
-    DTH_REG_REPLACE = 1u, /**< replace it by the segment (d, lambda) */
-    DTH_REG_FIXUP = 2u    /**< add `fix` to the new vertex after the step */
+    DTH_REG_KEEP = 0u,   /**< keep the ordinary step (its status is returned if it failed) */
+    DTH_REG_REPLACE = 1u /**< replace it by the segment (d, lambda) */
 };
 
-/** Most segments one replacement may chain (recorded as one step). */
-#define DTH_REG_MAX_SEG 5
-
 /**
- * The hook's answer. The integrator owns `d` (DTH_REG_MAX_SEG * N doubles) and `fix` (N doubles),
- * zeroed before the call. A replacement is a chain of nseg segments committed in order as one
- * step: segment j has midpoint offset d + j N relative to its own start vertex and time step
- * lambda[j]. The step record then reports the total time advanced.
+ * The hook's answer. The integrator owns `d` (N doubles), zeroed before the call. A replacement is
+ * one segment from the vertex: midpoint offset d = zbar - z_k and time step lambda (the integrator
+ * sets z_(k+1) = z_k + 2 d).
  */
 typedef struct dth_reg_action {
-    unsigned what;   /**< DTH_REG_* flags */
-    int nseg;        /**< segments in the replacement (1 .. DTH_REG_MAX_SEG; 0 reads as 1) */
-    double lambda[DTH_REG_MAX_SEG]; /**< their time steps (sign = direction of travel) */
-    double *d;       /**< midpoint offsets zbar - z of the replacing segments (nseg * N) */
-    double *fix;     /**< change added to the new vertex (N), with DTH_REG_FIXUP */
+    unsigned what;   /**< DTH_REG_KEEP or DTH_REG_REPLACE */
+    double lambda;   /**< the replacing segment's time step (sign = direction of travel) */
+    double *d;       /**< its midpoint offset zbar - z (N) */
     double residual; /**< |H(zbar)| at the replacing segment's midpoint */
     int iters;       /**< iterations spent (for the step record) */
     const char *why; /**< with a nonzero return: why, in a few words (static storage), or NULL;
@@ -144,12 +137,10 @@ DTH_API int dth_regularizer_apply(dth_regularizer *r, const dth_reg_event *ev, d
 
 /** Raw DTH: never changes anything (the run ends with the ordinary step's status). */
 DTH_API extern const dth_regularizer_type dth_reg_none;
-/** Kicked segment of the incoming length, then re-seed the new vertex's offset (not reversible). */
-DTH_API extern const dth_regularizer_type dth_reg_reseed;
-/** Symmetric kicked segment: energy-exact, time-reversible, momentum-exact (not symplectic). */
-DTH_API extern const dth_regularizer_type dth_reg_symkick;
 /** Every step a kicked segment with lambda = arc/|u(zbar)|^alpha: reversible, energy-exact (not symplectic). */
 DTH_API extern const dth_regularizer_type dth_reg_prescribed;
+/** Ordinary DTH where the step is healthy, a smooth changeover to a step law around psi = 0 (the default). */
+DTH_API extern const dth_regularizer_type dth_reg_smooth;
 
 /* ---- building blocks for writing regularizers ---- */
 

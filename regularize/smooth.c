@@ -1,0 +1,429 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * Regularizer "smooth" (paper, section 7, with Lemma g_taylor and Theorem EU_2's s = -(psi'/psi)
+ * lambda): ordinary DTH steps wherever the step is healthy, and a C-infinity changeover to kicked
+ * segments of a step law around each psi = 0 crossing or fold. A changeover step solves, at its own
+ * midpoint zbar,
+ *     zbar = z_a + (lambda J grad H(zbar) + mu n(zbar)) / 2,   H(zbar) = 0,
+ *     (1 - w) mu = w sigma (lambda - L),
+ * where
+ *   L = dir l(zbar), l the positive root of |psi| l^2/8 + |psi'| l^3/24 = off (the cubic model of the
+ *     step constraint with its terms all adding, for a constant vertex offset off): the ordinary
+ *     step of a vertex with offset off where |psi'| l << |psi|, finite at psi = 0;
+ *   w = bump(x), x = |psi / psi'|(zbar) / l(zbar), the distance to the crossing in steps: w = 0 for
+ *     x >= outer (mu = 0, the ordinary DTH step), w = 1 for x <= inner (lambda = L);
+ *   sigma = -sign(psi(zbar)) dir. With this sign the changeover contracts the excess e of the
+ *     vertex offset over the law's (psi L^2/8): one step multiplies e by (1 + a)/(1 - a) with
+ *     a = 2 c sigma w / ((1 - w) L psi) <= 0 (c = grad H . n > 0), so |factor| <= 1, and the
+ *     lambda-derivative of the changeover equation never vanishes. The other sign amplifies e and
+ *     has a fold at a = 1 (docs/regularization.md shows why no sign is exactly reversible).
+ * Every ordinary stretch therefore leaves a band with its offset pinned to the law, |H(z)| ~ off,
+ * so the step does not drift from crossing to crossing. Ordinary steps are taken only where the
+ * changeover weight vanishes at both vertices (a condition on the unordered pair): they are exactly
+ * DTH steps (symplectic, their own reverse). Law steps (w = 1) are their own reverse too; the
+ * changeover steps (0 < w < 1) are neither symplectic nor reversible (sigma reads dir).
+ */
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+#include "dth/regularize.h"
+#include "reg_common.h"
+
+typedef struct smooth {
+    const dth_model *model;
+    size_t n;
+    double off;        /* the law's vertex offset (> 0 once fixed) */
+    int off_fixed;     /* off set (parameter, or from the first step): a constant after that */
+    double inner, outer;
+    double *ks, *work, *d, *y, *g, *zb, *zc;
+    double wc, lc;     /* the weight and the law's step at the vertex zc, cached (the next step starts there) */
+    int cache_ok;
+} smooth;
+
+static const dth_param_spec params[] = {
+    {"invariant", "", "the step law's constant K in l^6 (psi^4 + (psi' l)^4)^(1/2) = K (> 0); default: the first step's, so the law continues the ordinary steps"},
+    {"inner", "1", "law steps where |psi/psi'| <= inner law steps from the crossing, at the midpoint (> 0)"},
+    {"outer", "3.2", "ordinary DTH steps where |psi/psi'| >= outer law steps from the crossing, at both vertices (> inner)"},
+};
+
+static int param_err(const dth_reg_args *a, const char *key, const char *what)
+{
+    if (a->err && a->errlen) snprintf(a->err, a->errlen, "parameter '%s' must be %s", key, what);
+    return DTH_EINVAL;
+}
+
+static int create(const dth_reg_args *a, void **self)
+{
+    size_t n = dth_model_dof(a->model), N = 2 * n + 2;
+    size_t nks = dth_kicked_segment_work_size(a->model), nw = dth_model_work_size(a->model);
+    smooth *r = dth_calloc(a->alloc, 1, sizeof *r);
+    if (!r) return DTH_ENOMEM;
+    *self = r;
+    r->inner = 1.0;
+    r->outer = 3.2;
+    for (size_t i = 0; i < a->nkv; i++) {
+        const char *k = a->kv[i].key, *v = a->kv[i].value;
+        if (!strcmp(k, "invariant")) {
+            if (dth_parse_double(v, &r->off) || !(r->off > 0) || !isfinite(r->off)) return param_err(a, k, "a number > 0");
+            r->off_fixed = 1;
+        }
+        if (!strcmp(k, "inner") && (dth_parse_double(v, &r->inner) || !(r->inner > 0) || !isfinite(r->inner)))
+            return param_err(a, k, "a number > 0");
+        if (!strcmp(k, "outer") && (dth_parse_double(v, &r->outer) || !isfinite(r->outer)))
+            return param_err(a, k, "a number");
+    }
+    if (!(r->outer > r->inner)) return param_err(a, "outer", "larger than inner");
+    r->ks = dth_calloc(a->alloc, nks + nw + 5 * N, sizeof(double));
+    if (!r->ks) return DTH_ENOMEM;
+    r->model = a->model;
+    r->n = n;
+    r->work = r->ks + nks;
+    r->d = r->work + nw;
+    r->y = r->d + N;
+    r->g = r->y + N;
+    r->zb = r->g + N;
+    r->zc = r->zb + N;
+    return DTH_OK;
+}
+
+static void destroy(void *self, const dth_allocator *alloc)
+{
+    smooth *r = self;
+    if (!r) return;
+    dth_free(alloc, r->ks);
+    dth_free(alloc, r);
+}
+
+/* C-infinity step: 0 for t <= 0, 1 for t >= 1. */
+static double smoothstep(double t)
+{
+    if (t <= 0) return 0;
+    if (t >= 1) return 1;
+    double a = exp(-1 / t), b = exp(-1 / (1 - t));
+    return a / (a + b);
+}
+
+/*
+ * The law's step: the positive root l of  l^6 psi_e^2 = K  with  psi_e^4 = psi^4 + (psi' l)^4
+ * (INFINITY if none). Ordinary DTH keeps l^6 psi^2 nearly constant: its vertex offset
+ * rho = psi lambda^2/8 changes by lambda^3 psi'/24 per step (psi' = D^3 H[u, u, u]), so rho^3/psi,
+ * i.e. lambda^6 psi^2, is its adiabatic invariant (lambda ~ psi^(-1/3); measured on the rotating
+ * pendulum: 0.0404 against 0.0403 predicted between psi = 4.84 and 1.15). The psi' term keeps l
+ * finite at psi = 0, l = (K / psi'^2)^(1/8), and changes l by under 0.2 % where
+ * |psi / psi'| >= 2 l (a 4-norm, so that the law is ordinary DTH's step already near the band).
+ */
+static double law(double K, double psi, double dpsi)
+{
+    double a = psi * psi, b = dpsi * dpsi;
+    double l = a > 0 ? pow(K / a, 1.0 / 6) : INFINITY;
+    if (b > 0) l = fmin(l, pow(K / b, 1.0 / 8));
+    if (!isfinite(l) || !(l > 0)) return INFINITY;
+    /* Newton on s = log l: phi(s) = 6 s + log(a^2 + b^2 l^4)/2 - log K, phi' in [6, 8] */
+    double lk = log(K), a2 = a * a, b2 = b * b;
+    for (int k = 0; k < 60; k++) {
+        double l4 = l * l * l * l, q = a2 + b2 * l4;
+        double phi = 6 * log(l) + 0.5 * log(q) - lk, dphi = 6 + 2 * b2 * l4 / q;
+        double ds = phi / dphi;
+        l *= exp(-ds);
+        if (fabs(ds) <= 2 * DBL_EPSILON) break;
+    }
+    return l;
+}
+
+/* psi_e = (psi^4 + (psi' l)^4)^(1/4), the law's regularized psi. */
+static double psi_e(double psi, double dpsi, double l)
+{
+    double a = psi * psi, b = dpsi * dpsi * l * l;
+    return sqrt(sqrt(a * a + b * b));
+}
+
+/* The changeover weight at a point y (length 2n+2; psi does not read wp), the sign of psi there,
+ * the law's step l(y) and the scale s(y) of the law's term (below). A function of the point only. */
+static int weight(smooth *r, const double *y, double *w, int *psi_sign, double *lstep, double *scale)
+{
+    double psi, dpsi;
+    int rc = dth_model_psi(r->model, y, &psi, &dpsi, r->work);
+    if (rc) return rc;
+    double l = law(r->off, psi, dpsi);
+    if (!isfinite(l)) return DTH_EDOMAIN; /* psi = psi' = 0: an equilibrium */
+    *lstep = l;
+    *psi_sign = psi > 0 ? 1 : (psi < 0 ? -1 : 0);
+    double x = psi == 0 ? 0 : (dpsi != 0 ? fabs(psi) / (fabs(dpsi) * l) : INFINITY);
+    /* two C-infinity half steps, 1 -> 1/2 and 1/2 -> 0, around a plateau w = 1/2 on the middle
+     * 60 % of [inner, outer], where the changeover sets the vertex offset to the law's outright
+     * (contraction factor 1 - 2 w = 0) */
+    double wd = 0.2 * (r->outer - r->inner);
+    *w = 0.5 * (1 - smoothstep((x - r->inner) / wd)) + 0.5 * (1 - smoothstep((x - (r->outer - wd)) / wd));
+    if (scale) {
+        /* s = l |psi|_reg / (2 c), c = |grad_(q,p) H|^2 ~ grad H . n: the changeover's contraction
+         * factor of the offset excess is then 1 - 2 w (docs/regularization.md) */
+        double H, c = 0;
+        size_t n = r->n;
+        rc = dth_model_eval(r->model, y, DTH_EVAL_H | DTH_EVAL_GRAD, &H, r->g, NULL);
+        if (rc) return rc;
+        for (size_t i = 0; i < n; i++) c += r->g[i] * r->g[i] + r->g[n + 1 + i] * r->g[n + 1 + i];
+        if (!(c > 0)) return DTH_EDOMAIN;
+        *scale = l * psi_e(psi, dpsi, l) / (2 * c);
+    }
+    return DTH_OK;
+}
+
+/* Fix the law's offset once, from a step lam whose midpoint is y: the law then gives that step. */
+static int fix_offset(smooth *r, const double *y, double lam)
+{
+    double psi, dpsi, l = fabs(lam);
+    int rc = dth_model_psi(r->model, y, &psi, &dpsi, r->work);
+    if (rc) return rc;
+    double l2 = l * l, pe = psi_e(psi, dpsi, l);
+    r->off = l2 * l2 * l2 * pe * pe;
+    if (!(r->off > 0) || !isfinite(r->off)) return DTH_EREFUSED;
+    r->off_fixed = 1;
+    return DTH_OK;
+}
+
+/* The changeover weight at the step's start vertex: a floor for the weight at the midpoint. */
+typedef struct blend {
+    double wa, la; /* the weight and the law's step at the start vertex */
+} blend;
+
+/*
+ * The changeover residual of the kicked segment (r->d, mu) of step lam from z + zlo, as
+ *     R = sign(psi) dir (1 - w) mu + w s (lambda - L)
+ * (the changeover equation times -sigma, the law's term scaled by s = l |psi|_e / (2 c) so that the
+ * offset excess contracts by 1 - 2 w per step), with w = max(w(zbar), w(z_a)), sign(psi), s and L
+ * at the segment's own midpoint. The floor w(z_a) keeps a step that starts in the band from
+ * landing on an ordinary root (w(zbar) = 0) far beyond it; ordinary steps (w = 0 at both vertices)
+ * and law steps (w = 1 at both) stay their own reverse. R is increasing in lambda and continuous
+ * where psi(zbar) changes sign (w = 1 there).
+ */
+static int residual(smooth *r, const dth_reg_event *ev, const blend *b, double lam, double mu, double *R)
+{
+    size_t N = ev->N;
+    for (size_t j = 0; j < N; j++) r->zb[j] = ev->z[j] + (ev->zlo[j] + r->d[j]);
+    double w, l, sc;
+    int sg;
+    int rc = weight(r, r->zb, &w, &sg, &l, &sc);
+    if (rc) return rc;
+    w = fmax(w, b->wa);
+    *R = (sg ? sg : 1) * ev->dir * (1 - w) * mu + w * sc * (lam - ev->dir * l);
+    return DTH_OK;
+}
+
+/* One evaluation: the kicked segment of step lam (its seed r->d, mu rescaled from step `from`),
+ * then its changeover residual. */
+static int eval_at(smooth *r, const dth_reg_event *ev, const blend *b, double from, double lam, double *mu,
+                   double *res, int *total, double *R)
+{
+    size_t N = ev->N;
+    if (from != 0 && from != lam) {
+        double s = lam / from;
+        for (size_t j = 0; j < N; j++) r->d[j] *= s;
+        *mu *= s;
+    }
+    int ki = 0;
+    int rc = dth_kicked_segment(r->model, ev->z, ev->zlo, lam, r->d, mu, res, &ki, r->ks);
+    *total += ki;
+    if (rc) return rc;
+    return residual(r, ev, b, lam, *mu, R);
+}
+
+/*
+ * Solve the changeover segment from the step lam0 (offset d0, or an Euler half step): bracket the
+ * root of R (increasing in lambda) between lam0 / 1024 and 8 max(lam0, the law's step at the start
+ * vertex), then the Illinois variant of regula falsi, each evaluation a kicked segment seeded from
+ * the last one.
+ */
+static int solve(smooth *r, const dth_reg_event *ev, const blend *b, double lam0, const double *d0, double *lam_out,
+                 double *mu, double *res, int *iters)
+{
+    size_t N = ev->N;
+    double lam = lam0, R = 0;
+    int total = 0, rc, k;
+    if (d0) memcpy(r->d, d0, N * sizeof *r->d);
+    else {
+        for (size_t j = 0; j < N - 1; j++) r->y[j] = ev->z[j] + ev->zlo[j];
+        double H;
+        rc = dth_model_eval(r->model, r->y, DTH_EVAL_H | DTH_EVAL_GRAD, &H, r->g, NULL);
+        if (rc) return rc;
+        memset(r->d, 0, N * sizeof *r->d);
+        for (size_t i = 0; i < r->n; i++) {
+            r->d[i] = 0.5 * lam * r->g[r->n + 1 + i];
+            r->d[r->n + 1 + i] = -0.5 * lam * r->g[i];
+        }
+    }
+    *mu = 0;
+    /* where the kicked segment of the starting step has no solution (an unresolved passage, e.g.
+     * a Kepler pericentre), start from halved steps */
+    double *dsave = r->y;
+    memcpy(dsave, r->d, N * sizeof *r->d);
+    for (int half = 0;; half++) {
+        rc = eval_at(r, ev, b, 0, lam, mu, res, &total, &R);
+        if (rc <= 0 || half == 3) break;
+        lam *= 0.5;
+        for (size_t j = 0; j < N; j++) r->d[j] = 0.5 * dsave[j];
+        memcpy(dsave, r->d, N * sizeof *r->d);
+        *mu = 0;
+    }
+    if (rc) return rc;
+    double la = lam, Ra = R, lb = lam, Rb = R, f = 1.02;
+    for (k = 0; R != 0 && (Ra > 0) == (Rb > 0); k++) {
+        double ln = (R < 0) == (ev->dir > 0) ? lam * f : lam / f;
+        if (k == 80 || fabs(ln) > 8 * fmax(fabs(lam0), b->la) || fabs(ln) < fabs(lam0) / 1024) return DTH_ENOCONV;
+        rc = eval_at(r, ev, b, lam, ln, mu, res, &total, &R);
+        if (rc) return rc;
+        lam = ln;
+        if ((R > 0) == (Ra > 0)) la = lam, Ra = R;
+        else lb = lam, Rb = R;
+        f = 1 + 1.5 * (f - 1);
+    }
+    int side = 0;
+    for (k = 0; R != 0 && fabs(lb - la) > 4 * DBL_EPSILON * fabs(lam); k++) {
+        if (k == 100) return DTH_ENOCONV;
+        double ln = (la * Rb - lb * Ra) / (Rb - Ra);
+        if (!(ln > fmin(la, lb) && ln < fmax(la, lb))) ln = 0.5 * (la + lb);
+        rc = eval_at(r, ev, b, lam, ln, mu, res, &total, &R);
+        if (rc) return rc;
+        lam = ln;
+        if ((R > 0) == (Ra > 0)) {
+            la = lam, Ra = R;
+            if (side == -1) Rb *= 0.5;
+            side = -1;
+        } else {
+            lb = lam, Rb = R;
+            if (side == 1) Ra *= 0.5;
+            side = 1;
+        }
+    }
+    *lam_out = lam;
+    *iters = total;
+    return DTH_OK;
+}
+
+static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
+{
+    smooth *r = self;
+    size_t N = ev->N;
+    /* the step to start from: the ordinary one if it exists and is within a factor 2 of the
+     * incoming one (a far root of the ordinary constraint, e.g. a ghost, is no guide), else the
+     * incoming one; the bracket then stays within a factor 8 of it, so the root found continues
+     * the trajectory */
+    int plain = ev->plain_status == DTH_OK && ev->plain_lambda != 0 && ev->plain_d &&
+                (ev->lam_in == 0 ||
+                 (fabs(ev->plain_lambda) <= 2 * fabs(ev->lam_in) && 2 * fabs(ev->plain_lambda) >= fabs(ev->lam_in)));
+    double lam0 = plain ? ev->plain_lambda : ev->lam_in;
+    const double *d0 = plain ? ev->plain_d : ev->in_d;
+    if (!(lam0 * ev->dir > 0)) {
+        act->why = "no step to start the changeover from";
+        return DTH_EREFUSED;
+    }
+    if (!r->off_fixed) {
+        for (size_t j = 0; j < N; j++) r->y[j] = ev->z[j] + (ev->zlo[j] + (d0 ? d0[j] : 0));
+        int rc = fix_offset(r, r->y, lam0);
+        if (rc) return rc;
+    }
+    double lam = 0, mu = 0, res = 0, l;
+    int iters = 0;
+    blend b;
+    int sg;
+    for (size_t j = 0; j < N; j++) r->y[j] = ev->z[j] + ev->zlo[j];
+    int rc = weight(r, r->y, &b.wa, &sg, &l, NULL);
+    if (rc) return rc;
+    b.la = l;
+    rc = solve(r, ev, &b, lam0, d0, &lam, &mu, &res, &iters);
+    if (rc > 0 && b.wa < 1) {
+        /* no changeover segment (a vertex far off the law's offset): a law step */
+        int more = 0;
+        b.wa = 1;
+        rc = solve(r, ev, &b, lam0, d0, &lam, &mu, &res, &more);
+        iters += more;
+    }
+    act->iters = iters;
+    if (rc > 0) act->why = "no changeover or law segment between 1/1024 of the incoming step and 8 times the law's";
+    if (rc) return rc < 0 ? rc : DTH_EREFUSED;
+    memcpy(act->d, r->d, N * sizeof *act->d);
+    act->lambda = lam;
+    act->what = DTH_REG_REPLACE;
+    act->residual = res;
+    return DTH_OK;
+}
+
+/* The changeover weight and the law's step at a vertex z, cached for the last vertex asked (the
+ * next step starts there). */
+static int vertex_weight(smooth *r, const double *z, double *w, double *l)
+{
+    size_t N = 2 * r->n + 2;
+    if (r->cache_ok && !memcmp(z, r->zc, N * sizeof *z)) {
+        *w = r->wc;
+        *l = r->lc;
+        return DTH_OK;
+    }
+    int sg;
+    int rc = weight(r, z, w, &sg, l, NULL);
+    if (rc) return rc;
+    memcpy(r->zc, z, N * sizeof *z);
+    r->wc = *w;
+    r->lc = *l;
+    r->cache_ok = 1;
+    return DTH_OK;
+}
+
+/* Take the ordinary step where the changeover weight is 0 at both of its vertices and its size is
+ * within a factor 2 of the law's there (a ghost root is far larger): conditions on the unordered
+ * pair, so an ordinary step stays its own reverse. */
+static int admit(void *self, const double *za, const double *zb, double lambda)
+{
+    smooth *r = self;
+    size_t N = 2 * r->n + 2;
+    if (!r->off_fixed) {
+        for (size_t j = 0; j < N; j++) r->zb[j] = 0.5 * (za[j] + zb[j]);
+        if (fix_offset(r, r->zb, lambda)) return -1;
+    }
+    double wa, wb, la, lb;
+    if (vertex_weight(r, za, &wa, &la)) return -1;
+    if (wa != 0) return 0;
+    if (vertex_weight(r, zb, &wb, &lb)) return -1;
+    double q = fabs(lambda) / sqrt(la * lb);
+    return wb == 0 && q >= 0.5 && q <= 2;
+}
+
+/* The state a checkpoint keeps: the law's offset once fixed (the weight cache is only a cache). */
+static size_t state_size(const void *self)
+{
+    (void)self;
+    return 2 * sizeof(double);
+}
+
+static void save_state(const void *self, void *buf)
+{
+    const smooth *r = self;
+    double s[2] = {r->off, (double)r->off_fixed};
+    memcpy(buf, s, sizeof s);
+}
+
+static int load_state(void *self, const void *buf, size_t len)
+{
+    smooth *r = self;
+    double s[2];
+    if (len != sizeof s) return -1;
+    memcpy(s, buf, sizeof s);
+    if (!(s[1] == 0 || s[1] == 1) || (s[1] == 1 && !(s[0] > 0 && isfinite(s[0])))) return -1;
+    r->off = s[0];
+    r->off_fixed = (int)s[1];
+    r->cache_ok = 0;
+    return 0;
+}
+
+const dth_regularizer_type dth_reg_smooth = {
+    .name = "smooth",
+    .doc = "ordinary DTH (symplectic) wherever the step is healthy; around psi = 0 and folds a C-infinity changeover to kicked segments of a step law: energy-exact, keeps quadratic invariants, never ends at psi = 0, the step pinned at every crossing; the changeover steps are neither symplectic nor reversible",
+    .params = params,
+    .n_params = sizeof params / sizeof params[0],
+    .create = create,
+    .destroy = destroy,
+    .apply = apply,
+    .admit = admit,
+    .state_size = state_size,
+    .save_state = save_state,
+    .load_state = load_state,
+};
