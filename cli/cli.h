@@ -4,6 +4,7 @@
 #define DTH_CLI_H
 
 #include <stddef.h>
+#include <stdio.h>
 #include "dth/dth.h"
 
 /* Exit codes (docs/user-guide.md). */
@@ -20,8 +21,8 @@ enum {
  * subcommand's name), and that file in cli/meson.build.
  */
 #define CLI_COMMANDS(X)                                                                           \
-    X(run, "SCENE.ini [-s section.key=value]... [-o FILE]",                                       \
-      "integrate a scene and write its trajectory as CSV")                                        \
+    X(run, "SCENE.ini [-s section.key=value]... [-o FILE] [options below]",                      \
+      "integrate a scene and write its trajectory as CSV (or HDF5: -o FILE.h5)")                  \
     X(models, "", "list the registered models, their parameters and defaults")                  \
     X(regularizers, "", "list the regularizers across psi = 0 ([regularize] method=), with parameters") \
     X(roots, "SCENE.ini [-s section.key=value]... [--range L]",                                  \
@@ -38,6 +39,8 @@ void cli_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
 /* Print the usage of every subcommand to stdout or stderr. */
 void cli_usage(int to_stderr);
+/* The options of dth run (its --help; also part of dth --help). */
+void cli_usage_run(FILE *f);
 
 /* A registry with every built-in model (NULL after printing an error). */
 dth_registry *cli_registry(void);
@@ -76,6 +79,11 @@ void cli_out_maybe_flush(cli_out *o);
 int cli_out_finish(cli_out *o);
 /* Close and remove the temporary file (nothing is left behind). */
 void cli_out_abort(cli_out *o);
+
+/* Create the missing folders of a file's path (mkdir -p of its folder). -1 if one could not be made. */
+int cli_make_parents(const char *path);
+/* 1 if the two paths name the same file (existing: same inode; else the same absolute path). */
+int cli_same_file(const char *a, const char *b);
 
 /* Seconds on a monotonic clock. */
 double cli_now(void);

@@ -246,19 +246,6 @@ static int write_traj(cli_out *o, const dth_run_setup *rs, size_t dof, int *stop
     return wrc;
 }
 
-/* Create the directory PREFIX lives in if it is missing (one level, like `out/`). */
-static void make_parent(const char *prefix)
-{
-    const char *slash = strrchr(prefix, '/');
-    if (!slash || slash == prefix) return;
-    size_t len = (size_t)(slash - prefix);
-    char *dir = malloc(len + 1);
-    if (!dir) return;
-    memcpy(dir, prefix, len);
-    dir[len] = '\0';
-    mkdir(dir, 0777); /* an error (it exists, or cannot be made) shows when the file is opened */
-    free(dir);
-}
 
 int cli_cmd_map(int argc, char **argv)
 {
@@ -370,7 +357,7 @@ int cli_cmd_map(int argc, char **argv)
     }
     snprintf(path_map, plen, "%s.csv", prefix);
     snprintf(path_traj, plen, "%s-traj.csv", prefix);
-    make_parent(prefix);
+    cli_make_parents(path_map);
     /* both outputs are opened before the work, so an unwritable prefix fails at once */
     if (cli_out_open(&om, path_map)) goto done;
     if (cli_out_open(&ot, path_traj)) goto done;

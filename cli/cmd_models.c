@@ -1,7 +1,8 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * dth models, dth regularizers: the registered model types and regularizers, one line each:
- * name, parameters with defaults, description.
+ * dth models, dth regularizers: the registered model types and regularizers: a line with the
+ * name, parameters with defaults and the description, then one indented line per parameter
+ * with its own description (from the type's parameter table).
  */
 #include <stdio.h>
 #include <string.h>
@@ -12,6 +13,11 @@ static void print_entry(const char *name, const dth_param_spec *params, size_t n
     printf("%s", name);
     for (size_t j = 0; j < n; j++) printf(" %s=%s", params[j].key, params[j].def ? params[j].def : "?");
     printf(" -- %s\n", doc ? doc : "");
+    size_t w = 0;
+    for (size_t j = 0; j < n; j++) w = strlen(params[j].key) > w ? strlen(params[j].key) : w;
+    for (size_t j = 0; j < n; j++)
+        printf("    %-*s  %s%s%s\n", (int)w, params[j].key, params[j].doc ? params[j].doc : "",
+               params[j].def && params[j].def[0] ? "; default " : "", params[j].def ? params[j].def : "");
 }
 
 /* The common frame: usage, no arguments, the registry; `regularizers` picks the list. */
@@ -20,8 +26,9 @@ static int list(int argc, char **argv, int regularizers)
     const char *what = regularizers ? "regularizers" : "models";
     if (argc > 1) {
         if (!strcmp(argv[1], "-h") || !strcmp(argv[1], "--help")) {
-            printf("usage: dth %s\n  one line per %s: name, parameters as key=default (key=? when required or "
-                   "derived), then the description after ' -- '%s\n", what, regularizers ? "regularizer" : "model",
+            printf("usage: dth %s\n  per %s: a line with the name, the parameters as key=default (key=? when "
+                   "required or\n  derived) and the description after ' -- '%s; then one indented line per "
+                   "parameter\n  with its description\n", what, regularizers ? "regularizer" : "model",
                    regularizers ? " (select with [regularize] method=NAME)" : "");
             return CLI_OK;
         }

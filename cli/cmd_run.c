@@ -1,9 +1,10 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * dth run: integrate a scene with the DTH step (paper, Theorem "DTH Equations"), or a fixed-step
- * baseline method, and write the vertices z_k (or the piecewise-linear trajectory resampled at
- * uniform times) as CSV, with optional per-vertex diagnostics psi, psi', the region of section 5
- * and the branch taken. Also checkpoints and resumes runs bit for bit.
+ * baseline method, through the library's run driver (run.h), and write its samples (vertices,
+ * midpoints or output times) as CSV, with optional diagnostics psi, psi', the region of section 5
+ * and the branch taken. This file handles the command line and writes rows; it also checkpoints
+ * and resumes runs bit for bit.
  */
 #include <math.h>
 #include <stdarg.h>
@@ -13,72 +14,39 @@
 #include <string.h>
 #include <unistd.h>
 #include "cli.h"
-
-/* ---------------------------------------------------------------- the stepper */
-
-/*
- * One interface over the DTH integrator and the fixed-step baselines. For a baseline the CSV's
- * wp column holds -H_phys at the start, so its H column shows the energy error.
- */
-typedef struct stepper {
-    dth_integrator *it; /* method = dth */
-    dth_fixed *fx;      /* a baseline */
-    double *z;          /* baseline: its state as an extended vector (q, t, p, wp) */
-    size_t N;
-    double wp;
-    double h;           /* baseline: its step (exact, not a difference of times) */
-} stepper;
-
-typedef struct step_rec {
-    double lambda;
-    int iters;
-    dth_branch branch;
-    unsigned flags;
-} step_rec;
-
-static const double *st_vertex(const stepper *s)
-{
-    if (s->it) return dth_integrator_vertex(s->it);
-    memcpy(s->z, dth_fixed_state(s->fx), (s->N - 1) * sizeof *s->z);
-    s->z[s->N - 1] = s->wp;
-    return s->z;
-}
-
-static int st_step(stepper *s, step_rec *rec)
-{
-    memset(rec, 0, sizeof *rec);
-    if (s->it) {
-        dth_step_info info;
-        int rc = dth_integrator_step(s->it, &info);
-        rec->lambda = info.lambda;
-        rec->iters = info.iters;
-        rec->branch = info.branch;
-        rec->flags = info.flags;
-        return rc;
-    }
-    dth_fixed_info info;
-    int rc = dth_fixed_step(s->fx, &info);
-    rec->lambda = s->h;
-    rec->iters = info.iters;
-    return rc;
-}
-
-static const char *st_errmsg(const stepper *s)
-{
-    return s->it ? dth_integrator_errmsg(s->it) : dth_fixed_errmsg(s->fx);
-}
+#include "fmt.h"
+#include "h5out.h"
 
 /* ---------------------------------------------------------------- rows */
+
+/* How a column is printed in CSV (HDF5 stores every column as a double: codes for the names). */
+enum { COL_DBL = 0, COL_INT, COL_REGION, COL_BRANCH, COL_EVENT };
 
 typedef struct run {
     const dth_run_setup *rs;
     const dth_model *model;
     size_t n, N, ninv;
-    double *inv, *work, *zi;
+    double *inv, *work;
     char *line;
     size_t linecap, len;
     cli_out out;
     int leg; /* --roundtrip: 1 forward, 2 return (a `leg` column); 0: no column */
+    /* checkpoints and progress */
+    const char *ckpt_path;
+    const dth_scene *scene;
+    dth_integrator *it;
+    int progress;          /* 1: '\r' percentage on a terminal; 2: a line every few seconds */
+    double t_start, last_progress, t_begin, progress_s;
+    long k_begin;
+    int sig;
+    int check_wp;          /* a vertex start with an explicit wp: compare its first step with h */
+    cli_out ev;            /* event rows ([events]) */
+    int has_ev;
+    double *vals;          /* one row's values */
+    unsigned char *kind, *ekind; /* column kinds of the trajectory and events tables */
+    size_t ncol, encol;
+    h5file *h5;            /* HDF5 output instead of CSV */
+    h5table *h5traj, *h5ev;
 } run;
 
 static void put(run *r, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
@@ -92,49 +60,107 @@ static void put(run *r, const char *fmt, ...)
     if (r->len >= r->linecap) r->len = r->linecap - 1; /* cannot happen: linecap is sized for the row */
 }
 
-static int header(run *r)
+/* Column names of the trajectory (ev = 0) or the events table (ev = 1), comma-separated, in r->line. */
+static void column_names(run *r, int ev)
 {
     r->len = 0;
-    put(r, "k,t,lambda");
+    put(r, ev ? "i,event,direction,k,t" : "k,t,lambda");
     for (size_t i = 0; i < r->n; i++) put(r, ",q%zu", i + 1);
     for (size_t i = 0; i < r->n; i++) put(r, ",p%zu", i + 1);
-    put(r, ",wp,H");
-    if (r->rs->diagnostics) {
+    put(r, ",wp,H,E");
+    if (!ev && r->rs->diagnostics) {
         for (size_t i = 0; i < r->ninv; i++) put(r, ",%s", dth_model_invariant_name(r->model, i));
         put(r, ",psi,dpsi,region,iters,branch");
     }
-    if (r->leg) put(r, ",leg");
-    return cli_out_line(&r->out, r->line, r->len);
+    if (!ev && r->leg) put(r, ",leg");
+}
+
+/* The kind of each column: how the CSV prints its value. */
+static void column_kinds(run *r, int ev, unsigned char *kind, size_t *ncol)
+{
+    size_t c = 0, n = r->n;
+    if (ev) {
+        kind[c++] = COL_INT, kind[c++] = COL_EVENT, kind[c++] = COL_INT, kind[c++] = COL_INT;
+    } else {
+        kind[c++] = COL_INT;
+    }
+    kind[c++] = COL_DBL; /* t */
+    if (!ev) kind[c++] = COL_DBL; /* lambda */
+    for (size_t i = 0; i < 2 * n + 3; i++) kind[c++] = COL_DBL; /* q, p, wp, H, E */
+    if (!ev && r->rs->diagnostics) {
+        for (size_t i = 0; i < r->ninv + 2; i++) kind[c++] = COL_DBL;
+        kind[c++] = COL_REGION, kind[c++] = COL_INT, kind[c++] = COL_BRANCH;
+    }
+    if (!ev && r->leg) kind[c++] = COL_INT;
+    *ncol = c;
+}
+
+/* Write the values v (columns of the given kinds) as one CSV line, or one HDF5 row. */
+static int emit_row(run *r, int ev, const double *v)
+{
+    if (r->h5) return h5_row(ev ? r->h5ev : r->h5traj, v) ? -1 : 0;
+    const unsigned char *kind = ev ? r->ekind : r->kind;
+    size_t ncol = ev ? r->encol : r->ncol;
+    char *p = r->line;
+    for (size_t c = 0; c < ncol; c++) {
+        if (c) *p++ = ',';
+        switch (kind[c]) {
+        case COL_INT: p += dth_fmt_long((long)v[c], p); break;
+        case COL_DBL: p += dth_fmt_g17(v[c], p); break;
+        default: {
+            const char *s = kind[c] == COL_REGION ? dth_region_name((dth_region)v[c])
+                            : kind[c] == COL_BRANCH ? dth_branch_name((dth_branch)v[c])
+                                                    : r->rs->event_names[(size_t)v[c]];
+            size_t l = strlen(s);
+            memcpy(p, s, l);
+            p += l;
+        }
+        }
+    }
+    return cli_out_line(ev ? &r->ev : &r->out, r->line, (size_t)(p - r->line));
+}
+
+static int header(run *r)
+{
+    column_names(r, 0);
+    return r->h5 ? 0 : cli_out_line(&r->out, r->line, r->len);
 }
 
 /*
- * One row at the point z: a vertex, or an interpolated point. `in` is the step that arrived
- * there; lambda_root a known root of the step constraint at z (for the local K estimate) and K
- * a fixed K (> 0) or 0.
+ * One row at the point z. `in` is the step that arrived there (or the step whose segment holds
+ * it); lambda_root a known root of the step constraint at z (for the local K estimate) and K a
+ * fixed K (> 0) or 0.
  */
-static int row(run *r, long k, const double *z, const step_rec *in, double lambda_root, double K)
+static int row(run *r, long k, const double *z, const dth_step_info *in, double lambda_root, double K)
 {
-    size_t n = r->n, N = r->N;
-    double Hp, H = NAN;
-    if (dth_model_eval(r->model, z, DTH_EVAL_H, &Hp, NULL, NULL) == DTH_OK) H = z[N - 1] + Hp;
-    r->len = 0;
-    put(r, "%ld,%.17g,%.17g", k, z[n], in->lambda);
-    for (size_t i = 0; i < n; i++) put(r, ",%.17g", z[i]);
-    for (size_t i = 0; i < n; i++) put(r, ",%.17g", z[n + 1 + i]);
-    put(r, ",%.17g,%.17g", z[N - 1], H);
+    size_t n = r->n, N = r->N, c = 0;
+    double *v = r->vals, Hp;
+    if (dth_model_eval(r->model, z, DTH_EVAL_H, &Hp, NULL, NULL) != DTH_OK) Hp = NAN;
+    v[c++] = (double)k;
+    v[c++] = z[n];
+    v[c++] = in->lambda;
+    for (size_t i = 0; i < n; i++) v[c++] = z[i];
+    for (size_t i = 0; i < n; i++) v[c++] = z[n + 1 + i];
+    v[c++] = z[N - 1];
+    v[c++] = z[N - 1] + Hp;
+    v[c++] = Hp;
     if (r->rs->diagnostics) {
         if (r->ninv && dth_model_invariants(r->model, z, r->inv) != DTH_OK)
             for (size_t i = 0; i < r->ninv; i++) r->inv[i] = NAN;
-        for (size_t i = 0; i < r->ninv; i++) put(r, ",%.17g", r->inv[i]);
+        for (size_t i = 0; i < r->ninv; i++) v[c++] = r->inv[i];
         dth_diag d;
-        if (dth_diagnose(r->model, z, lambda_root, K, &d, r->work) == DTH_OK)
-            put(r, ",%.17g,%.17g,%s,%d,%s", d.psi, d.dpsi, dth_region_name(d.region), in->iters,
-                dth_branch_name(in->branch));
-        else
-            put(r, ",nan,nan,-,%d,%s", in->iters, dth_branch_name(in->branch));
+        if (dth_diagnose(r->model, z, lambda_root, K, &d, r->work) != DTH_OK) {
+            d.psi = d.dpsi = NAN;
+            d.region = DTH_REGION_NONE;
+        }
+        v[c++] = d.psi;
+        v[c++] = d.dpsi;
+        v[c++] = (double)d.region;
+        v[c++] = (double)in->iters;
+        v[c++] = (double)in->branch;
     }
-    if (r->leg) put(r, ",%d", r->leg);
-    return cli_out_line(&r->out, r->line, r->len);
+    if (r->leg) v[c++] = r->leg;
+    return emit_row(r, 0, v);
 }
 
 /* K that a vertex's diagnostics use: for rows interpolated inside its outgoing segment. */
@@ -145,43 +171,65 @@ static double vertex_K(run *r, const double *z, double lambda_out)
     return d.K;
 }
 
-/* ---------------------------------------------------------------- run state and statistics */
-
-/* Everything the loop carries from one step to the next: what a checkpoint must hold. */
-typedef struct loop {
-    long k, rows, j;      /* vertex index; output rows; next dense-output sample */
-    step_rec in;          /* the step that arrived at the current vertex */
-    long crossings;       /* steps flagged as crossing psi = 0 */
-    long regularized;     /* steps a regularizer replaced or fixed up */
-    double max_ratio;     /* largest ratio of consecutive steps around a crossing */
-    int prev_crossing;    /* the step that arrived was a crossing */
-} loop;
-
-static void account(loop *L, const step_rec *s)
+/* The driver's sample callback: one row per sample. */
+static int on_sample(void *user, const dth_sample *s)
 {
-    int cross = (s->flags & DTH_STEP_CROSSING) != 0;
-    if (cross) L->crossings++;
-    if (s->flags & DTH_STEP_REGULARIZED) L->regularized++;
-    if ((cross || L->prev_crossing) && L->in.lambda != 0 && s->lambda != 0) {
-        double q = fabs(s->lambda / L->in.lambda);
-        L->max_ratio = fmax(L->max_ratio, fmax(q, 1 / q));
-    }
-    L->prev_crossing = cross;
+    run *r = user;
+    long k = s->kind == DTH_SAMPLE_TIME || (s->kind == DTH_SAMPLE_END && r->rs->dt > 0) ? s->index : s->k;
+    double lambda_root = 0, K = r->rs->opt.K;
+    if (s->kind == DTH_SAMPLE_VERTEX) lambda_root = s->lambda_out;
+    else if (!s->za) lambda_root = -s->step->lambda; /* the end is the last vertex itself */
+    else if (s->kind != DTH_SAMPLE_MIDPOINT && r->rs->diagnostics) K = vertex_K(r, s->za, s->step->lambda);
+    else if (s->kind == DTH_SAMPLE_MIDPOINT) lambda_root = 0;
+    if (row(r, k, s->z, s->step, lambda_root, K)) return DTH_EIO;
+    if (!r->h5) cli_out_maybe_flush(&r->out);
+    return 0;
+}
+
+/* The driver's event callback: one row per located event in the events table. */
+static int on_event(void *user, const dth_sample *s)
+{
+    run *r = user;
+    size_t n = r->n, N = r->N, c = 0;
+    double *v = r->vals, Hp;
+    if (dth_model_eval(r->model, s->z, DTH_EVAL_H, &Hp, NULL, NULL) != DTH_OK) Hp = NAN;
+    v[c++] = (double)s->index;
+    v[c++] = (double)s->event;
+    v[c++] = s->direction;
+    v[c++] = (double)s->k;
+    v[c++] = s->z[n];
+    for (size_t i = 0; i < n; i++) v[c++] = s->z[i];
+    for (size_t i = 0; i < n; i++) v[c++] = s->z[n + 1 + i];
+    v[c++] = s->z[N - 1];
+    v[c++] = s->z[N - 1] + Hp;
+    v[c++] = Hp;
+    if (emit_row(r, 1, v)) return DTH_EIO;
+    if (!r->h5) cli_out_maybe_flush(&r->ev);
+    return 0;
+}
+
+static int ev_header(run *r)
+{
+    column_names(r, 1);
+    return r->h5 ? 0 : cli_out_line(&r->ev, r->line, r->len);
 }
 
 /* ---------------------------------------------------------------- checkpoints */
 
-/* The "cli" blob: the loop state, the output file's progress and the vertex the rows lag on. */
+/* The "cli" blob: the driver's loop state, the output file's progress. */
 typedef struct ckpt_cli {
     uint32_t version;     /* of this blob's layout */
     uint32_t dense;       /* dt > 0 */
-    loop L;
+    dth_run_state S;      /* the run driver's state (run.h) */
     uint64_t csv_bytes;   /* bytes of CSV that belong to rows already final */
     char out_path[1024];  /* where the checkpointed run writes: final name ... */
     char out_tmp[1100];   /* ... and its temporary name while running ("" if none) */
+    uint64_t ev_bytes;    /* the same for the events file */
+    char ev_path[1024];
+    char ev_tmp[1100];
 } ckpt_cli;
 
-enum { CKPT_CLI_VERSION = 1 };
+enum { CKPT_CLI_VERSION = 2 /* 2: the run driver's state */ };
 
 /* Keep an entry in the saved scene? Of steps= and t_end=, only the one in force (one may come
  * from the file and the other from an override that won). */
@@ -242,40 +290,88 @@ static char *scene_text(const dth_scene *s, int has_t_end, size_t *len)
     return t;
 }
 
-static int write_checkpoint(const char *path, const dth_integrator *it, const dth_scene *scene,
-                            const dth_run_setup *rs, const loop *L, cli_out *o)
+static int on_checkpoint(void *user, const dth_run_state *st)
 {
-    if (cli_out_sync(o)) return -1;
+    run *r = user;
+    cli_out *o = &r->out;
+    if (cli_out_sync(o) || (r->has_ev && cli_out_sync(&r->ev))) return DTH_EIO;
     ckpt_cli c;
     memset(&c, 0, sizeof c);
     c.version = CKPT_CLI_VERSION;
-    c.dense = rs->dt > 0;
-    c.L = *L;
+    c.dense = r->rs->dt > 0;
+    c.S = *st;
     c.csv_bytes = o->written;
     if (o->path) snprintf(c.out_path, sizeof c.out_path, "%s", o->path);
     if (o->tmp) snprintf(c.out_tmp, sizeof c.out_tmp, "%s", o->tmp);
+    if (r->has_ev) {
+        c.ev_bytes = r->ev.written;
+        if (r->ev.path) snprintf(c.ev_path, sizeof c.ev_path, "%s", r->ev.path);
+        if (r->ev.tmp) snprintf(c.ev_tmp, sizeof c.ev_tmp, "%s", r->ev.tmp);
+    }
     size_t tlen;
-    char *text = scene_text(scene, rs->has_t_end, &tlen);
-    if (!text) return -1;
+    char *text = scene_text(r->scene, r->rs->has_t_end, &tlen);
+    if (!text) return DTH_ENOMEM;
     dth_blob blobs[] = {{"scene", text, tlen}, {"cli", &c, sizeof c}};
     char err[256];
-    int rc = dth_checkpoint_write_file(it, blobs, 2, path, err, sizeof err);
+    int rc = dth_checkpoint_write_file(r->it, blobs, 2, r->ckpt_path, err, sizeof err);
     free(text);
-    if (rc) cli_error("%s", err);
-    return rc ? -1 : 0;
+    if (rc) {
+        cli_error("%s", err);
+        o->err = 0;
+        return DTH_EIO;
+    }
+    return 0;
+}
+
+/* ---------------------------------------------------------------- progress and stop requests */
+
+static int on_progress(void *user, const dth_run_state *st)
+{
+    run *r = user;
+    if ((r->sig = cli_signal_received()) != 0) return DTH_ESTOPPED;
+    if (r->check_wp && st->k == 1) {
+        r->check_wp = 0;
+        if (fabs(st->in.lambda / r->rs->opt.h - 1) > 0.1)
+            cli_error("warning: the explicit [initial] wp encodes a first step of %.6g, not h = %.6g (without wp a vertex "
+                      "start solves for the wp whose first step is h)", st->in.lambda, r->rs->opt.h);
+    }
+    if (!r->progress) return 0;
+    double now = cli_now();
+    if (now - r->last_progress < (r->progress == 1 ? 0.25 : r->progress_s)) return 0;
+    r->last_progress = now;
+    const dth_run_setup *rs = r->rs;
+    double frac = rs->has_t_end ? (st->t - st->t_first) / (rs->t_end - st->t_first) : (double)st->k / (double)rs->steps;
+    frac = fmin(fmax(frac, 0), 1);
+    if (r->progress == 1) {
+        fprintf(stderr, "\rdth run: %3.0f%%", 100 * frac);
+        return 0;
+    }
+    double el = now - r->t_start, rate = (double)(st->k - r->k_begin) / fmax(el, 1e-9);
+    double done = rs->has_t_end ? (st->t - r->t_begin) / (rs->t_end - r->t_begin)
+                                : (double)(st->k - r->k_begin) / (double)(rs->steps - r->k_begin);
+    double eta = done > 0 ? el * (1 - done) / done : NAN;
+    fprintf(stderr, "dth run: t = %.9g (%.1f%%), k = %ld, %.3g steps/s, elapsed %.1f s, ETA %.1f s\n", st->t,
+            100 * frac, st->k, rate, el, eta);
+    return 0;
 }
 
 /* ---------------------------------------------------------------- the command */
 
-static void usage_run(FILE *f)
+void cli_usage_run(FILE *f)
 {
-    fprintf(f, "usage: dth run SCENE.ini [-s section.key=value]... [-o FILE] [--roundtrip]\n"
+    fprintf(f, "usage: dth run SCENE.ini [-s section.key=value]... [-o FILE] [--events FILE] [--roundtrip]\n"
+               "                [--progress[=SECONDS]] [--no-model-check]\n"
                "                [--checkpoint FILE [--checkpoint-every N]]\n"
                "       dth run --resume CHECKPOINT [-s section.key=value]... [-o FILE] [--checkpoint ...]\n"
                "  -s section.key=value  override a scene key (applied after the file, in order)\n"
-               "  -o FILE               write the CSV to FILE ('-': standard output); wins over [output] file=\n"
+               "  -o FILE               write the CSV to FILE ('-': standard output; FILE.h5 or .hdf5: HDF5),\n"
+               "                        creating missing folders; wins over [output] file=\n"
                "  --roundtrip           after the run, reverse and take as many steps back; rows get a column\n"
                "                        leg (1 forward, 2 back) and stderr the distance to the start\n"
+               "  --progress[=SECONDS]  a progress line on stderr every 5 s (or SECONDS): t, steps/s, ETA;\n"
+               "                        for runs whose stderr is not a terminal (a terminal shows a percentage)\n"
+               "  --events FILE         write the [events] rows to FILE (default: OUT-events.csv next to -o OUT.csv)\n"
+               "  --no-model-check      skip the check of the model's derivatives at the start\n"
                "  --checkpoint FILE     save the full state to FILE (crash-safely) every N steps (default\n"
                "                        1000) and when the run ends; the CSV is flushed to disk first\n"
                "  --resume CHECKPOINT   continue a checkpointed run: the scene comes from the checkpoint,\n"
@@ -283,28 +379,20 @@ static void usage_run(FILE *f)
                "                        output is the rows the run had written plus the rest, bit for bit\n");
 }
 
-static void progress(double frac, int on, double *last)
-{
-    if (!on) return;
-    double now = cli_now();
-    if (now - *last < 0.25) return;
-    *last = now;
-    fprintf(stderr, "\rdth run: %3.0f%%", 100 * fmin(fmax(frac, 0), 1));
-}
-
 int cli_cmd_run(int argc, char **argv)
 {
-    const char *scene_path = NULL, *out_opt = NULL, *ckpt_path = NULL, *resume_path = NULL;
+    const char *scene_path = NULL, *out_opt = NULL, *ckpt_path = NULL, *resume_path = NULL, *ev_opt = NULL;
     long ckpt_every = 1000;
     char err[1024];
-    int roundtrip = 0;
+    int roundtrip = 0, want_progress = 0, model_check = 1;
+    double progress_s = 5;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
-            usage_run(stdout);
+            cli_usage_run(stdout);
             return CLI_OK;
         } else if (!strcmp(a, "-s") || !strcmp(a, "-o") || !strcmp(a, "--checkpoint") ||
-                   !strcmp(a, "--checkpoint-every") || !strcmp(a, "--resume")) {
+                   !strcmp(a, "--checkpoint-every") || !strcmp(a, "--resume") || !strcmp(a, "--events")) {
             if (i + 1 >= argc) {
                 cli_error("option %s needs an argument (try dth run --help)", a);
                 return CLI_USAGE;
@@ -313,6 +401,7 @@ int cli_cmd_run(int argc, char **argv)
             if (!strcmp(a, "-o")) out_opt = v;
             else if (!strcmp(a, "--checkpoint")) ckpt_path = v;
             else if (!strcmp(a, "--resume")) resume_path = v;
+            else if (!strcmp(a, "--events")) ev_opt = v;
             else if (!strcmp(a, "--checkpoint-every")) {
                 char *end;
                 ckpt_every = strtol(v, &end, 10);
@@ -323,6 +412,18 @@ int cli_cmd_run(int argc, char **argv)
             }
         } else if (!strcmp(a, "--roundtrip")) {
             roundtrip = 1;
+        } else if (!strcmp(a, "--no-model-check")) {
+            model_check = 0;
+        } else if (!strcmp(a, "--progress") || !strncmp(a, "--progress=", 11)) {
+            want_progress = 1;
+            if (a[10] == '=') {
+                char *end;
+                progress_s = strtod(a + 11, &end);
+                if (*end || end == a + 11 || !(progress_s > 0) || !isfinite(progress_s)) {
+                    cli_error("--progress=SECONDS: '%s' is not a number > 0", a + 11);
+                    return CLI_USAGE;
+                }
+            }
         } else if (a[0] == '-' && a[1]) {
             cli_error("unknown option '%s' (try dth run --help)", a);
             return CLI_USAGE;
@@ -352,12 +453,14 @@ int cli_cmd_run(int argc, char **argv)
     dth_scene *scene = NULL;
     dth_run_setup rs;
     memset(&rs, 0, sizeof rs);
-    stepper st;
-    memset(&st, 0, sizeof st);
+    dth_integrator *it = NULL;
+    dth_fixed *fx = NULL;
     run r;
     memset(&r, 0, sizeof r);
     r.out.fd = -1;
-    double *zprev = NULL, *zstart = NULL;
+    r.ev.fd = -1;
+    double *zstart = NULL;
+    char *ev_path = NULL;
     void *ck = NULL;
     size_t cklen = 0;
     const ckpt_cli *ckc = NULL;
@@ -371,7 +474,8 @@ int cli_cmd_run(int argc, char **argv)
         if (!rc && (dth_checkpoint_blob(ck, cklen, "scene", &text, &tlen) ||
                     dth_checkpoint_blob(ck, cklen, "cli", &cb, &cblen) || cblen != sizeof ckc_copy ||
                     (memcpy(&ckc_copy, cb, sizeof ckc_copy), ckc_copy.version != CKPT_CLI_VERSION))) {
-            snprintf(err, sizeof err, "%s: not a checkpoint of dth run (no scene or loop state)", resume_path);
+            snprintf(err, sizeof err, "%s: not a checkpoint of this version of dth run (no scene or loop state)",
+                     resume_path);
             rc = DTH_EPARSE;
         }
         if (!rc) {
@@ -385,7 +489,7 @@ int cli_cmd_run(int argc, char **argv)
     }
     for (int i = 1; !rc && i < argc; i++) {
         if (!strcmp(argv[i], "-o") || !strcmp(argv[i], "--checkpoint") || !strcmp(argv[i], "--resume") ||
-            !strcmp(argv[i], "--checkpoint-every"))
+            !strcmp(argv[i], "--checkpoint-every") || !strcmp(argv[i], "--events"))
             i++;
         else if (!strcmp(argv[i], "-s"))
             rc = dth_scene_set(scene, argv[++i], err, sizeof err);
@@ -416,16 +520,39 @@ int cli_cmd_run(int argc, char **argv)
         goto done;
     }
 
+    /* the model's derivatives against finite differences at the initial state, once (dth_model_check;
+     * its memory grows as (2n+1)^2: skipped above 200 degrees of freedom) */
+    if (model_check && rs.n <= 200) {
+        double *y = calloc(2 * rs.n + 1, sizeof *y);
+        if (!y) {
+            cli_error("out of memory");
+            status = CLI_FAIL;
+            goto done;
+        }
+        memcpy(y, rs.q0, rs.n * sizeof *y);
+        y[rs.n] = rs.t0;
+        memcpy(y + rs.n + 1, rs.p0, rs.n * sizeof *y);
+        dth_model_check_report rep;
+        rc = dth_model_check(rs.model, y, &rep);
+        free(y);
+        if (rc == DTH_OK && !rep.pass) {
+            cli_error("%s: model '%s' fails its derivative check at the initial state: %s (--no-model-check runs "
+                      "it anyway)", scene_path, dth_model_get_type(rs.model)->name, rep.message);
+            goto done;
+        }
+    }
+
     r.rs = &rs;
     r.model = rs.model;
     r.n = rs.n;
     r.N = 2 * rs.n + 2;
-    st.N = r.N;
+    r.scene = scene;
+    r.ckpt_path = ckpt_path;
     if (is_dth) {
-        rc = dth_integrator_new(rs.model, &rs.opt, &st.it);
-        if (!rc && ck) rc = dth_checkpoint_restore(st.it, ck, cklen, err, sizeof err);
-        else if (!rc) rc = dth_integrator_start(st.it, rs.q0, rs.p0, rs.t0);
-        if (rc && ck && st.it) {
+        rc = dth_integrator_new(rs.model, &rs.opt, &it);
+        if (!rc && ck) rc = dth_checkpoint_restore(it, ck, cklen, err, sizeof err);
+        else if (!rc) rc = dth_integrator_start(it, rs.q0, rs.p0, rs.t0);
+        if (rc && ck && it) {
             cli_error("%s", err);
             goto done;
         }
@@ -435,22 +562,16 @@ int cli_cmd_run(int argc, char **argv)
             cli_error("%s: method '%s': %s", scene_path, rs.method, err);
             goto done;
         }
-        st.z = calloc(r.N, sizeof *st.z);
-        st.h = rs.opt.h;
-        rc = st.z ? dth_fixed_new(rs.model, rs.method, st.h, NULL, &st.fx) : DTH_ENOMEM;
-        if (!rc) rc = dth_fixed_start(st.fx, rs.q0, rs.p0, rs.t0);
-        if (!rc) {
-            double H;
-            rc = dth_model_eval(rs.model, dth_fixed_state(st.fx), DTH_EVAL_H, &H, NULL, NULL);
-            st.wp = -H;
-        }
+        rc = dth_fixed_new(rs.model, rs.method, rs.opt.h, NULL, &fx);
+        if (!rc) rc = dth_fixed_start(fx, rs.q0, rs.p0, rs.t0);
     }
     if (rc) {
         cli_error("%s: cannot start at the initial state: %s (%s)", scene_path, dth_strerror(rc),
-                  st.it || st.fx ? st_errmsg(&st) : "creating the integrator");
+                  it ? dth_integrator_errmsg(it) : fx ? dth_fixed_errmsg(fx) : "creating the integrator");
         status = rc < 0 && rc != DTH_EINVAL ? CLI_FAIL : CLI_USAGE;
         goto done;
     }
+    r.it = it;
 
     r.ninv = dth_model_n_invariants(rs.model);
     r.linecap = 32 * (r.N + r.ninv + 8) + 64;
@@ -458,11 +579,13 @@ int cli_cmd_run(int argc, char **argv)
     r.line = malloc(r.linecap);
     r.inv = calloc(r.ninv + 1, sizeof *r.inv);
     r.work = calloc(dth_model_work_size(rs.model), sizeof *r.work);
-    r.zi = calloc(r.N, sizeof *r.zi);
-    zprev = calloc(r.N, sizeof *zprev);
     zstart = calloc(r.N, sizeof *zstart);
     r.leg = roundtrip;
-    if (!r.line || !r.inv || !r.work || !r.zi || !zprev || !zstart) {
+    size_t maxcol = 2 * r.N + r.ninv + 16;
+    r.vals = calloc(maxcol, sizeof *r.vals);
+    r.kind = calloc(maxcol, 1);
+    r.ekind = calloc(maxcol, 1);
+    if (!r.line || !r.inv || !r.work || !zstart || !r.vals || !r.kind || !r.ekind) {
         cli_error("out of memory");
         status = CLI_FAIL;
         goto done;
@@ -473,15 +596,129 @@ int cli_cmd_run(int argc, char **argv)
         cli_error("--checkpoint needs an output file (-o FILE or [output] file=): standard output cannot be resumed");
         goto done;
     }
-    if (cli_out_open(&r.out, path)) goto done; /* CLI_USAGE: the output cannot be written */
+    column_kinds(&r, 0, r.kind, &r.ncol);
+    column_kinds(&r, 1, r.ekind, &r.encol);
+    size_t plen = path ? strlen(path) : 0;
+    int is_h5 = path && ((plen > 3 && !strcmp(path + plen - 3, ".h5")) || (plen > 5 && !strcmp(path + plen - 5, ".hdf5")));
+    if (is_h5 && (ckpt_path || resume_path)) {
+        cli_error("checkpoints cover CSV output only (the output '%s' is HDF5)", path);
+        goto done;
+    }
+    if (is_h5 && (ev_opt || rs.events_file)) {
+        cli_error("with HDF5 output the events are the table /events of '%s': give no events file", path);
+        goto done;
+    }
+    r.has_ev = rs.nevents > 0 && !is_h5;
+    if (r.has_ev) {
+        const char *ep = ev_opt ? ev_opt : rs.events_file;
+        if (ep) {
+            ev_path = strdup(ep);
+        } else if (path) {
+            /* OUT.csv -> OUT-events.csv */
+            size_t l = strlen(path);
+            ev_path = malloc(l + 16);
+            if (ev_path) {
+                memcpy(ev_path, path, l + 1);
+                if (l > 4 && !strcmp(path + l - 4, ".csv")) ev_path[l - 4] = '\0';
+                strcat(ev_path, "-events.csv");
+            }
+        } else {
+            cli_error("the scene has [events] and the trajectory goes to standard output: give the events file "
+                      "([events] file= or --events FILE)");
+            goto done;
+        }
+        if (!ev_path) {
+            cli_error("out of memory");
+            status = CLI_FAIL;
+            goto done;
+        }
+    }
+    /* an output that would overwrite an input */
+    const char *outs[2] = {path, ev_path};
+    for (int i = 0; i < 2; i++) {
+        if (!outs[i]) continue;
+        const char *clash = cli_same_file(outs[i], scene_path) ? "the scene file"
+                            : cli_same_file(outs[i], ckpt_path) ? "the checkpoint file"
+                            : resume_path && cli_same_file(outs[i], resume_path) ? "the checkpoint file" : NULL;
+        if (i == 1 && !clash && cli_same_file(ev_path, path)) clash = "the trajectory's output";
+        if (clash) {
+            cli_error("refusing to write %s '%s': it is %s", i ? "events to" : "the output to", outs[i], clash);
+            goto done;
+        }
+    }
+    if (ckpt_path && cli_same_file(ckpt_path, scene_path)) {
+        cli_error("refusing to write the checkpoint to '%s': it is the scene file", ckpt_path);
+        goto done;
+    }
+    if (path) cli_make_parents(path);
+    if (ev_path) cli_make_parents(ev_path);
+    if (is_h5) {
+        char herr[1200];
+        size_t tl;
+        char *text = scene_text(scene, rs.has_t_end, &tl);
+        r.h5 = text ? h5_open(path, herr, sizeof herr) : NULL;
+        if (!r.h5) {
+            cli_error("%s", text ? herr : "out of memory");
+            free(text);
+            goto done;
+        }
+        /* provenance: the version and the command line; the scene as run */
+        size_t cl = 64;
+        for (int i = 0; i < argc; i++) cl += strlen(argv[i]) + 1;
+        char *prov = malloc(cl);
+        if (prov) {
+            size_t k = (size_t)snprintf(prov, cl, "dth %s; command: dth", DTH_VERSION_STRING);
+            for (int i = 0; i < argc; i++) k += (size_t)snprintf(prov + k, cl - k, " %s", argv[i]);
+        }
+        column_names(&r, 0);
+        int hrc = !prov || h5_attr(r.h5, "scene", text) || h5_attr(r.h5, "provenance", prov) ||
+                  h5_attr(r.h5, "region_codes", "0 -, 1 I, 2 II, 3 III") ||
+                  h5_attr(r.h5, "branch_codes", "0 -, 1 minus, 2 plus, 3 ghost, 4 exact, 5 reg") ||
+                  !(r.h5traj = h5_table(r.h5, "trajectory", r.ncol, r.line));
+        free(text);
+        free(prov);
+        if (!hrc && rs.nevents) {
+            size_t nl = 8;
+            for (size_t i = 0; i < rs.nevents; i++) nl += strlen(rs.event_names[i]) + 8;
+            char *names = malloc(nl);
+            hrc = !names;
+            if (names) {
+                size_t k = 0;
+                for (size_t i = 0; i < rs.nevents; i++)
+                    k += (size_t)snprintf(names + k, nl - k, "%s%zu %s", i ? ", " : "", i, rs.event_names[i]);
+                column_names(&r, 1);
+                hrc = h5_attr(r.h5, "event_codes", names) || !(r.h5ev = h5_table(r.h5, "events", r.encol, r.line));
+                free(names);
+            }
+        }
+        if (hrc) {
+            cli_error("cannot write '%s': HDF5 error", path);
+            h5_abort(r.h5);
+            r.h5 = NULL;
+            status = CLI_FAIL;
+            goto done;
+        }
+        /* rows go to HDF5; standard output stays empty */
+    } else if (cli_out_open(&r.out, path)) {
+        goto done; /* CLI_USAGE: the output cannot be written */
+    }
+    if (r.has_ev && cli_out_open(&r.ev, ev_path)) {
+        cli_out_abort(&r.out);
+        goto done;
+    }
     if (ckc) {
         /* the rows the checkpointed run had made final: from its temporary file if it was
          * killed, else from the file it finished */
         const char *src = ckc->out_tmp[0] && access(ckc->out_tmp, R_OK) == 0 ? ckc->out_tmp : ckc->out_path;
-        if (!src[0] || cli_out_copy_prefix(&r.out, src, ckc->csv_bytes)) {
+        const char *esrc = ckc->ev_tmp[0] && access(ckc->ev_tmp, R_OK) == 0 ? ckc->ev_tmp : ckc->ev_path;
+        int bad_out = !src[0] || cli_out_copy_prefix(&r.out, src, ckc->csv_bytes);
+        int bad_ev = !bad_out && r.has_ev && (!esrc[0] || cli_out_copy_prefix(&r.ev, esrc, ckc->ev_bytes));
+        if (bad_out || bad_ev) {
             cli_error("%s: the checkpointed run's output '%s' is missing or shorter than its %llu bytes",
-                      resume_path, src[0] ? src : "(standard output)", (unsigned long long)ckc->csv_bytes);
+                      resume_path, bad_out ? (src[0] ? src : "(standard output)") : esrc,
+                      (unsigned long long)(bad_out ? ckc->csv_bytes : ckc->ev_bytes));
             cli_out_abort(&r.out);
+            if (r.has_ev) cli_out_abort(&r.ev);
             goto done;
         }
     }
@@ -489,162 +726,150 @@ int cli_cmd_run(int argc, char **argv)
 
     /* ---- tiny steps: warn when h is below the conditioning limit of the step (methods.h) */
     size_t n = r.n, N = r.N;
-    memcpy(zprev, st_vertex(&st), N * sizeof *zprev);
-    memcpy(zstart, zprev, N * sizeof *zstart);
+    if (it) memcpy(zstart, dth_integrator_vertex(it), N * sizeof *zstart);
+    else {
+        memcpy(zstart, dth_fixed_state(fx), (N - 1) * sizeof *zstart);
+    }
     double hmin;
-    if (is_dth && !ck && dth_step_floor(rs.model, zprev, 1e-6, &hmin, r.work) == DTH_OK && fabs(rs.opt.h) < hmin)
+    if (is_dth && !ck && dth_step_floor(rs.model, zstart, 1e-6, &hmin, r.work) == DTH_OK && fabs(rs.opt.h) < hmin)
         cli_error("warning: |h| = %.3g is below the conditioning limit %.3g at the start: the step size is "
                   "known only to about 1e-6 relative or worse (docs/performance.md)", fabs(rs.opt.h), hmin);
 
     /* ---- a vertex start: the energy the run conserves (every midpoint's) against the initial
-     * state's; an explicit wp: the first step it encodes against h */
+     * state's; an explicit wp: the first step it encodes against h (on_progress, after step 1) */
     if (is_dth && !ck && rs.opt.start == DTH_START_VERTEX) {
-        double H0, E = dth_integrator_energy(st.it);
-        if (!dth_model_eval(rs.model, zprev, DTH_EVAL_H, &H0, NULL, NULL) && fabs(E - H0) > 0.01 * fabs(H0))
+        double H0, E = dth_integrator_energy(it);
+        if (!dth_model_eval(rs.model, zstart, DTH_EVAL_H, &H0, NULL, NULL) && fabs(E - H0) > 0.01 * fabs(H0))
             cli_error("warning: a vertex start conserves the energy %.10g at every midpoint; the initial state has "
                       "%.10g (%.3g %% apart: the vertex lies off the energy surface by the offset that encodes the "
                       "step; a midpoint start conserves the initial energy)",
                       E, H0, 100 * fabs(E - H0) / fabs(H0));
+        r.check_wp = rs.opt.has_wp;
     }
 
-    /* ---- the run: rows lag one step behind so each vertex knows its outgoing step */
-    double dir = rs.opt.h > 0 ? 1.0 : -1.0;
-    const int tty = isatty(STDERR_FILENO);
-    double t_start = cli_now(), last_progress = t_start;
-    const double t_first = ck ? rs.t0 : zprev[n];
-    loop L;
-    memset(&L, 0, sizeof L);
-    if (ckc) L = ckc->L;
-    int werr = 0, sig = 0;
-    rc = DTH_OK;
-    if (!ckc) werr = header(&r);
-    long since_ckpt = 0;
-    for (;;) {
-        int final = rs.has_t_end ? dir * (zprev[n] - rs.t_end) >= 0 : L.k >= rs.steps;
-        if (final || werr) break;
-        if ((sig = cli_signal_received()) != 0) break;
-        if (ckpt_path && since_ckpt >= ckpt_every) {
-            if (write_checkpoint(ckpt_path, st.it, scene, &rs, &L, &r.out)) {
-                werr = 1;
-                break;
-            }
-            since_ckpt = 0;
-        }
-        step_rec s;
-        rc = st_step(&st, &s);
-        if (rc) break;
-        if (is_dth && !ck && L.k == 0 && rs.opt.has_wp && fabs(s.lambda / rs.opt.h - 1) > 0.1)
-            cli_error("warning: the explicit [initial] wp encodes a first step of %.6g, not h = %.6g (without wp a vertex "
-                      "start solves for the wp whose first step is h)", s.lambda, rs.opt.h);
-        account(&L, &s);
-        const double *z = st_vertex(&st);
-        if (rs.dt > 0) {
-            /* samples t0 + j dt inside the segment zprev -> z, never beyond t_end */
-            double K = rs.diagnostics ? vertex_K(&r, zprev, s.lambda) : 0;
-            for (;; L.j++) {
-                double t = rs.t0 + dir * (double)L.j * rs.dt;
-                if (dir * (t - z[n]) > 0) break;
-                if (rs.has_t_end && dir * (t - rs.t_end) > 1e-9 * rs.dt) break;
-                dth_interpolate(n, zprev, z, t, r.zi);
-                if ((werr = row(&r, L.rows++, r.zi, &s, 0, K)) != 0) break;
-            }
-        } else if (L.k % rs.every == 0) {
-            werr = row(&r, L.k, zprev, &L.in, s.lambda, rs.opt.K);
-            L.rows++;
-        }
-        memcpy(zprev, z, N * sizeof *zprev);
-        L.k++;
-        L.in = s;
-        since_ckpt++;
-        cli_out_maybe_flush(&r.out);
-        progress(rs.has_t_end ? (zprev[n] - t_first) / (rs.t_end - t_first) : (double)L.k / (double)rs.steps, tty,
-                 &last_progress);
-    }
-    /* the state at the last vertex, before its (final) row: what a resumed run continues from */
-    if (ckpt_path && !werr && write_checkpoint(ckpt_path, st.it, scene, &rs, &L, &r.out)) werr = 1;
-    /* the last vertex is always written (in dense mode: when it is itself a sample time) */
-    if (!werr && rs.dt <= 0) {
-        werr = row(&r, L.k, zprev, &L.in, -L.in.lambda, rs.opt.K);
-        L.rows++;
-    } else if (!werr && zprev[n] == rs.t0 + dir * (double)L.j * rs.dt && L.k == 0) {
-        werr = row(&r, L.rows++, zprev, &L.in, 0, rs.opt.K);
-    }
+    /* ---- the run (run.h) */
+    dth_run_config cfg;
+    dth_run_config_default(&cfg);
+    cfg.has_t_end = rs.has_t_end;
+    cfg.t_end = rs.t_end;
+    cfg.steps = rs.steps;
+    cfg.t0 = rs.t0;
+    cfg.points = rs.points;
+    cfg.events = rs.events;
+    cfg.nevents = rs.nevents;
+    cfg.on_event = on_event;
+    cfg.every = rs.every;
+    cfg.dt = rs.dt;
+    cfg.sample = on_sample;
+    cfg.user = &r;
+    cfg.checkpoint = ckpt_path ? on_checkpoint : NULL;
+    cfg.checkpoint_every = ckpt_every;
+    cfg.progress = on_progress;
+    cfg.progress_every = 1;
+    r.progress = want_progress ? 2 : isatty(STDERR_FILENO) ? 1 : 0;
+    r.progress_s = progress_s;
+    r.t_start = r.last_progress = cli_now();
+    dth_run_state S;
+    dth_run_state_init(&S);
+    if (ckc) S = ckc->S;
+    r.k_begin = S.k;
+    r.t_begin = ck ? dth_integrator_vertex(it)[n] : zstart[n];
+    int werr = 0;
+    if (!ckc && (header(&r) || (r.has_ev && ev_header(&r)))) werr = 1;
+    rc = werr ? DTH_OK : it ? dth_run(it, &cfg, &S) : dth_run_fixed(fx, &cfg, &S);
+    if (rc == DTH_EIO && S.stop == DTH_RUN_CALLBACK) werr = 1;
     /* --roundtrip: reverse in place and take as many steps back (paper, time reversibility) */
-    if (roundtrip && !werr && !sig && rc == DTH_OK) {
-        long k1 = L.k;
-        if (st.it) dth_integrator_reverse(st.it);
-        else dth_fixed_set_h(st.fx, st.h = -rs.opt.h);
+    if (roundtrip && !werr && rc == DTH_OK) {
+        long k1 = S.k;
+        if (it) dth_integrator_reverse(it);
+        else dth_fixed_set_h(fx, -rs.opt.h);
         r.leg = 2;
-        for (long kb = 1; kb <= k1 && !werr; kb++) {
-            if ((sig = cli_signal_received()) != 0) break;
-            step_rec s;
-            rc = st_step(&st, &s);
-            if (rc) break;
-            account(&L, &s);
-            L.in = s;
-            L.k++;
-            if (kb % rs.every == 0 || kb == k1) {
-                werr = row(&r, L.k, st_vertex(&st), &s, -s.lambda, rs.opt.K);
-                L.rows++;
-            }
-            cli_out_maybe_flush(&r.out);
-        }
-        memcpy(zprev, st_vertex(&st), N * sizeof *zprev);
-        if (!rc && !sig) {
+        cfg.has_t_end = 0;
+        cfg.steps = 2 * k1;
+        S.k0 = k1;
+        S.t_stop = S.t;
+        rc = it ? dth_run(it, &cfg, &S) : dth_run_fixed(fx, &cfg, &S);
+        if (rc == DTH_EIO && S.stop == DTH_RUN_CALLBACK) werr = 1;
+        if (!rc) {
+            const double *z = it ? dth_integrator_vertex(it) : dth_fixed_state(fx);
             double e = 0, sc = 0;
-            for (size_t i = 0; i < N; i++) {
-                e = fmax(e, fabs(zprev[i] - zstart[i]));
+            for (size_t i = 0; i < (it ? N : N - 1); i++) {
+                e = fmax(e, fabs(z[i] - zstart[i]));
                 sc = fmax(sc, fabs(zstart[i]));
             }
             fprintf(stderr, "dth: round trip of 2 x %ld steps: max |z - z_0| = %.3g (relative %.3g)\n", k1, e,
                     sc > 0 ? e / sc : e);
         }
     }
-    if (tty) fprintf(stderr, "\r%20s\r", "");
+    int sig = r.sig && rc == DTH_ESTOPPED ? r.sig : 0;
+    if (r.progress == 1) fprintf(stderr, "\r%20s\r", "");
     if (werr) {
-        cli_error("cannot write '%s': %s", path ? path : "standard output", strerror(r.out.err));
-        cli_out_abort(&r.out);
+        if (r.h5) {
+            cli_error("cannot write '%s' (HDF5)", path);
+            h5_abort(r.h5);
+            r.h5 = NULL;
+        } else if (r.out.failed) cli_error("cannot write '%s': %s", path ? path : "standard output", strerror(r.out.err));
+        else if (r.ev.failed) cli_error("cannot write '%s': %s", ev_path, strerror(r.ev.err));
+        if (r.out.buf) cli_out_abort(&r.out);
+        if (r.has_ev) cli_out_abort(&r.ev);
         status = CLI_FAIL;
         goto done;
     }
-    if (cli_out_finish(&r.out)) {
+    if (r.h5) {
+        char herr[1200];
+        int hrc = h5_finish(r.h5, herr, sizeof herr);
+        r.h5 = NULL;
+        if (hrc) {
+            cli_error("%s", herr);
+            status = CLI_FAIL;
+            goto done;
+        }
+    } else if (cli_out_finish(&r.out) || (r.has_ev && cli_out_finish(&r.ev))) {
+        if (r.has_ev && r.ev.buf) cli_out_abort(&r.ev);
         status = CLI_FAIL;
         goto done;
     }
     /* how the run ended: always when it could not go on, else for regularized runs and on a tty */
     char crossing[160] = "";
-    if (L.crossings || L.regularized)
+    if (S.crossings || S.regularized)
         snprintf(crossing, sizeof crossing, "; %ld psi = 0 crossings, %ld regularized steps, largest step ratio "
-                 "at a crossing %.3g", L.crossings, L.regularized, L.max_ratio);
+                 "at a crossing %.3g", S.crossings, S.regularized, S.max_ratio);
+    const char *emsg = it ? dth_integrator_errmsg(it) : dth_fixed_errmsg(fx);
     if (sig) {
-        cli_error("interrupted at k=%ld, t=%.17g (the rows so far are kept)%s", L.k, zprev[n], crossing);
+        cli_error("interrupted at k=%ld, t=%.17g (the rows so far are kept)%s", S.k, S.t, crossing);
         status = 128 + sig;
     } else if (rc > 0) {
         char hint[128];
-        cli_error("stopped at k=%ld, t=%.17g: %s (%s)%s%s", L.k, zprev[n], dth_strerror(rc), st_errmsg(&st), crossing,
+        cli_error("stopped at k=%ld, t=%.17g: %s (%s)%s%s", S.k, S.t, dth_strerror(rc), emsg, crossing,
                   is_dth ? cli_stop_hint(rs.regularize, rc, rs.opt.h, hint, sizeof hint) : "");
         status = CLI_STOPPED;
     } else if (rc < 0) {
-        cli_error("error at k=%ld, t=%.17g: %s (%s)", L.k, zprev[n], dth_strerror(rc), st_errmsg(&st));
+        cli_error("error at k=%ld, t=%.17g: %s (%s)", S.k, S.t, dth_strerror(rc), emsg);
         status = CLI_FAIL;
     } else {
         status = CLI_OK;
-        if (tty || L.regularized)
-            fprintf(stderr, "dth: %ld steps to t = %.17g, %ld rows to %s%s\n", L.k, zprev[n], L.rows,
+        if (r.progress == 1 || S.regularized)
+            fprintf(stderr, "dth: %ld steps to t = %.17g, %ld rows to %s%s\n", S.k, S.t_stop, S.samples,
                     path ? path : "standard output", crossing);
+        if (r.has_ev && (r.progress == 1 || S.stop == DTH_RUN_EVENT))
+            fprintf(stderr, "dth: %ld events to %s%s\n", S.events, ev_path,
+                    S.stop == DTH_RUN_EVENT ? " (the run ended at a terminal event)" : "");
     }
 done:
+    if (r.h5) h5_abort(r.h5);
     if (r.out.fd >= 0 && r.out.buf) cli_out_abort(&r.out);
+    if (r.ev.fd >= 0 && r.ev.buf) cli_out_abort(&r.ev);
+    free(ev_path);
+    free(r.vals);
+    free(r.kind);
+    free(r.ekind);
     free(r.line);
     free(r.inv);
     free(r.work);
-    free(r.zi);
-    free(zprev);
     free(zstart);
-    free(st.z);
     free(ck);
-    dth_integrator_free(st.it);
-    dth_fixed_free(st.fx);
+    dth_integrator_free(it);
+    dth_fixed_free(fx);
     dth_run_setup_clear(&rs);
     dth_scene_free(scene);
     dth_registry_free(reg);

@@ -22,8 +22,10 @@ void cli_usage(int to_stderr)
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
         fprintf(f, "  dth %s%s%s\n      %s\n", commands[i].name, commands[i].usage[0] ? " " : "", commands[i].usage,
                 commands[i].summary);
-    fprintf(f, "\nexit codes: 0 success, 1 hard error, 2 bad input or usage, 3 trajectory stopped early\n"
-               "see docs/user-guide.md\n");
+    fprintf(f, "\n");
+    cli_usage_run(f);
+    fprintf(f, "\nexit codes: 0 success, 1 hard error, 2 bad input or usage, 3 trajectory stopped early,\n"
+               "128 + signal when interrupted; see docs/user-guide.md\n");
 }
 
 int main(int argc, char **argv)

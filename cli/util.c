@@ -1,5 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /* Helpers shared by the dth subcommands: error lines, the model registry, crash-safe output. */
+#define _XOPEN_SOURCE 700 /* realpath */
 #include <errno.h>
 #include <fcntl.h>
 #include <signal.h>
@@ -58,6 +59,72 @@ void cli_catch_signals(void)
 }
 
 int cli_signal_received(void) { return (int)stop_signal; }
+
+/* ---------------------------------------------------------------- paths */
+
+int cli_make_parents(const char *path)
+{
+    size_t len = strlen(path);
+    char *dir = malloc(len + 1);
+    if (!dir) return -1;
+    memcpy(dir, path, len + 1);
+    char *slash = strrchr(dir, '/');
+    int rc = 0;
+    if (slash && slash != dir) {
+        *slash = '\0';
+        /* each prefix in turn, like mkdir -p; an error shows when the file is opened */
+        for (char *p = dir + 1; ; p++) {
+            if (*p == '/' || *p == '\0') {
+                char c = *p;
+                *p = '\0';
+                if (mkdir(dir, 0777) && errno != EEXIST) rc = -1;
+                *p = c;
+                if (!c) break;
+            }
+        }
+    }
+    free(dir);
+    return rc;
+}
+
+/* An absolute form of path without symbolic links in its folder: realpath of the folder + name. */
+static char *canon(const char *path)
+{
+    char *r = realpath(path, NULL);
+    if (r) return r;
+    const char *slash = strrchr(path, '/');
+    const char *base = slash ? slash + 1 : path;
+    char *dir;
+    if (slash) {
+        size_t l = (size_t)(slash - path);
+        char *d = malloc(l + 2);
+        if (!d) return NULL;
+        memcpy(d, path, l);
+        d[l] = '\0';
+        if (!l) strcpy(d, "/");
+        dir = realpath(d, NULL);
+        free(d);
+    } else {
+        dir = realpath(".", NULL);
+    }
+    if (!dir) return NULL;
+    char *out = malloc(strlen(dir) + strlen(base) + 2);
+    if (out) sprintf(out, "%s/%s", dir, base);
+    free(dir);
+    return out;
+}
+
+int cli_same_file(const char *a, const char *b)
+{
+    if (!a || !b) return 0;
+    struct stat sa, sb;
+    if (stat(a, &sa) == 0 && stat(b, &sb) == 0) return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+    char *ca = canon(a), *cb = canon(b);
+    int same = ca && cb && !strcmp(ca, cb);
+    free(ca);
+    free(cb);
+    return same;
+}
 
 /* ---------------------------------------------------------------- crash-safe output */
 

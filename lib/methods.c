@@ -176,6 +176,8 @@ int dth_fixed_set_h(dth_fixed *f, double h)
 
 const double *dth_fixed_state(const dth_fixed *f) { return f->y; }
 long dth_fixed_steps(const dth_fixed *f) { return f->steps; }
+double dth_fixed_h(const dth_fixed *f) { return f->h; }
+const dth_model *dth_fixed_model(const dth_fixed *f) { return f->model; }
 const char *dth_fixed_name(const dth_fixed *f) { return f->m->name; }
 int dth_fixed_order(const dth_fixed *f) { return f->m->order; }
 const char *dth_fixed_errmsg(const dth_fixed *f) { return f->errmsg; }

@@ -426,10 +426,52 @@ int dth_model_psi(const dth_model *m, const double *y, double *psi, double *dpsi
 
 /* ---------------------------------------------------------------- model checker */
 
+/* Name of entry i of y = (q, t, p): "q3", "t", "p1". */
+static void yname(size_t n, size_t i, char *buf, size_t len)
+{
+    if (i < n) snprintf(buf, len, "q%zu", i + 1);
+    else if (i == n) snprintf(buf, len, "t");
+    else snprintf(buf, len, "p%zu", i - n);
+}
+
+/* The verdict: pass when every mismatch is within the threshold; the message names the worst. */
+static void check_verdict(size_t n, dth_model_check_report *rep)
+{
+    double tol = rep->tol;
+    char a[24], b[24], entry[64];
+    const char *what = "gradient";
+    double worst = rep->grad_err;
+    yname(n, rep->grad_idx, a, sizeof a);
+    snprintf(entry, sizeof entry, "dH/d%s", a);
+    if (rep->hess_err > worst) {
+        worst = rep->hess_err;
+        what = "Hessian";
+        yname(n, rep->hess_i, a, sizeof a);
+        yname(n, rep->hess_j, b, sizeof b);
+        snprintf(entry, sizeof entry, "d2H/d%s d%s", a, b);
+    }
+    if (rep->sym_err > worst) {
+        worst = rep->sym_err, what = "Hessian symmetry";
+        snprintf(entry, sizeof entry, "H_ij - H_ji");
+    }
+    if (rep->third_err > worst) {
+        worst = rep->third_err, what = "third derivative";
+        snprintf(entry, sizeof entry, "D3H[u,u,u]");
+    }
+    if (rep->band_err > worst) {
+        worst = rep->band_err, what = "banded Hessian";
+        snprintf(entry, sizeof entry, "hess_band");
+    }
+    rep->pass = worst <= tol;
+    snprintf(rep->message, sizeof rep->message, "%s: worst %s %s mismatches finite differences by %.2g (relative; threshold %.1e)",
+             rep->pass ? "pass" : "FAIL", what, entry, worst, tol);
+}
+
 int dth_model_check(const dth_model *m, const double *y, dth_model_check_report *rep)
 {
     if (!m || !y || !rep) return DTH_EINVAL;
     memset(rep, 0, sizeof *rep);
+    rep->tol = DTH_MODEL_CHECK_TOL;
     size_t n = m->info.n, d = 2 * n + 1;
     double *buf = dth_calloc(m->alloc, 3 * d * d + 6 * d, sizeof(double));
     if (!buf) return DTH_ENOMEM;
@@ -510,6 +552,7 @@ int dth_model_check(const dth_model *m, const double *y, dth_model_check_report 
         dth_free(m->alloc, band);
     }
     dth_free(m->alloc, buf);
+    if (!rc) check_verdict(n, rep);
     return rc;
 }
 

@@ -567,9 +567,20 @@ void dth_run_setup_clear(dth_run_setup *rs)
     dth_free(rs->alloc, rs->q0);
     dth_free(rs->alloc, rs->p0);
     dth_free(rs->alloc, rs->out_file);
+    dth_free(rs->alloc, rs->events);
+    dth_free(rs->alloc, rs->event_specs);
+    dth_free(rs->alloc, (void *)rs->event_names);
+    dth_free(rs->alloc, rs->event_dofs);
+    dth_free(rs->alloc, rs->events_file);
     rs->model = NULL;
     rs->q0 = rs->p0 = NULL;
     rs->out_file = NULL;
+    rs->events = NULL;
+    rs->event_specs = NULL;
+    rs->event_names = NULL;
+    rs->event_dofs = NULL;
+    rs->events_file = NULL;
+    rs->nevents = 0;
 }
 
 /* "ORIGIN: section.key: message" */
@@ -671,7 +682,11 @@ typedef struct setup_ctx {
     const dth_scene *s;
     char *err;
     size_t errlen;
-    const entry *q, *p, *t, *wp, *h, *steps, *t_end, *every, *dt, *start;
+    const entry *q, *p, *t, *wp, *h, *steps, *t_end, *every, *dt, *start, *points, *method;
+    /* [events] */
+    const entry *section, *section_value, *section_dir, *section_term, *time, *time_term, *dist, *dist_dofs,
+        *dist_dir, *dist_term;
+    int points_kind; /* -1 auto, else dth_points */
 } setup_ctx;
 
 /* The message for a count that parse_long refused. */
@@ -720,6 +735,7 @@ static int check_integrator(setup_ctx *c, dth_run_setup *rs, const entry *e)
     const char *k = e->key, *v = e->value;
     long x;
     if (strcmp(k, "method") == 0) {
+        c->method = e;
         if (strcmp(v, "dth") != 0 && !dth_fixed_method_doc(v)) {
             char avail[256] = "dth";
             for (size_t i = 0; i < dth_fixed_method_count(); i++) {
@@ -771,6 +787,12 @@ static int check_output(setup_ctx *c, dth_run_setup *rs, const entry *e)
         dth_free(c->s->alloc, rs->out_file);
         rs->out_file = dup_s(c->s->alloc, v);
         if (!rs->out_file) return DTH_ENOMEM;
+    } else if (strcmp(k, "points") == 0) {
+        c->points = e;
+        if (!strcmp(v, "auto")) c->points_kind = -1;
+        else if (!strcmp(v, "vertices")) c->points_kind = DTH_POINTS_VERTICES;
+        else if (!strcmp(v, "midpoints")) c->points_kind = DTH_POINTS_MIDPOINTS;
+        else return bad(c->err, c->errlen, e, "'%s' is not one of auto, vertices, midpoints", v);
     } else if (strcmp(k, "every") == 0) {
         c->every = e;
         int pr = parse_long(v, 1, LONG_MAX, &rs->every);
@@ -784,8 +806,153 @@ static int check_output(setup_ctx *c, dth_run_setup *rs, const entry *e)
         else if (!strcmp(v, "no") || !strcmp(v, "false") || !strcmp(v, "0")) rs->diagnostics = 0;
         else return bad(c->err, c->errlen, e, "'%s' is not yes or no", v);
     } else {
-        return bad(c->err, c->errlen, e, "unknown key (known in [output]: file, every, dt, diagnostics)");
+        return bad(c->err, c->errlen, e, "unknown key (known in [output]: file, points, every, dt, diagnostics)");
     }
+    return DTH_OK;
+}
+
+/* yes/no */
+static int parse_bool(const char *v, int *out)
+{
+    if (!strcmp(v, "yes") || !strcmp(v, "true") || !strcmp(v, "1")) *out = 1;
+    else if (!strcmp(v, "no") || !strcmp(v, "false") || !strcmp(v, "0")) *out = 0;
+    else return -1;
+    return 0;
+}
+
+static int parse_direction(const char *v, int *out)
+{
+    if (!strcmp(v, "up")) *out = 1;
+    else if (!strcmp(v, "down")) *out = -1;
+    else if (!strcmp(v, "both")) *out = 0;
+    else return -1;
+    return 0;
+}
+
+/* [events]: each key on its own; the events are built once n is known (build_events). */
+static int check_events(setup_ctx *c, dth_run_setup *rs, const entry *e)
+{
+    const char *k = e->key, *v = e->value;
+    int b;
+    double x;
+    if (!strcmp(k, "file")) {
+        if (!v[0]) return bad(c->err, c->errlen, e, "empty file name");
+        dth_free(c->s->alloc, rs->events_file);
+        rs->events_file = dup_s(c->s->alloc, v);
+        return rs->events_file ? DTH_OK : DTH_ENOMEM;
+    }
+    if (!strcmp(k, "section")) {
+        c->section = e;
+        if ((v[0] != 'q' && v[0] != 'p') || parse_long(v + 1, 1, 1000000000L, &(long){0}))
+            return bad(c->err, c->errlen, e, "'%s' is not a coordinate q<i> or p<i> (1-based i)", v);
+    } else if (!strcmp(k, "section_value")) {
+        c->section_value = e;
+        if (dth_parse_double(v, &x)) return bad(c->err, c->errlen, e, "'%s' is not a finite number", v);
+    } else if (!strcmp(k, "section_direction") || !strcmp(k, "distance_direction")) {
+        if (k[1] == 'e') c->section_dir = e;
+        else c->dist_dir = e;
+        if (parse_direction(v, &b)) return bad(c->err, c->errlen, e, "'%s' is not one of up, down, both", v);
+    } else if (!strcmp(k, "section_terminal") || !strcmp(k, "time_terminal") || !strcmp(k, "distance_terminal")) {
+        if (k[0] == 's') c->section_term = e;
+        else if (k[0] == 't') c->time_term = e;
+        else c->dist_term = e;
+        if (parse_bool(v, &b)) return bad(c->err, c->errlen, e, "'%s' is not yes or no", v);
+    } else if (!strcmp(k, "time")) {
+        c->time = e;
+        size_t cnt = count_items(v);
+        double *list = dth_calloc(c->s->alloc, cnt, sizeof *list);
+        if (!list) return DTH_ENOMEM;
+        int r = dth__parse_list(v, list, cnt, &cnt);
+        dth_free(c->s->alloc, list);
+        if (r) return bad(c->err, c->errlen, e, "'%s' is not a comma-separated list of finite times", v);
+    } else if (!strcmp(k, "distance")) {
+        c->dist = e;
+        if (dth_parse_double(v, &x) || !(x > 0)) return bad(c->err, c->errlen, e, "'%s' is not a finite number > 0", v);
+    } else if (!strcmp(k, "distance_dofs")) {
+        c->dist_dofs = e;
+        for (const char *p = v; *p; p++)
+            if (!strchr("0123456789, \t", *p))
+                return bad(c->err, c->errlen, e, "'%s' is not a comma-separated list of degrees of freedom (1-based)", v);
+    } else {
+        return bad(c->err, c->errlen, e,
+                   "unknown key (known in [events]: section, section_value, section_direction, section_terminal, "
+                   "time, time_terminal, distance, distance_dofs, distance_direction, distance_terminal, file)");
+    }
+    return DTH_OK;
+}
+
+/* The events of [events], once the model's n is known. */
+static int build_events(setup_ctx *c, dth_run_setup *rs)
+{
+    const dth_allocator *a = c->s->alloc;
+    size_t n = rs->n, nt = c->time ? count_items(c->time->value) : 0;
+    size_t ne = (c->section ? 1 : 0) + nt + (c->dist ? 1 : 0);
+    const entry *orphan = !c->section ? (c->section_value ? c->section_value : c->section_dir ? c->section_dir : c->section_term)
+                                      : NULL;
+    if (orphan) return bad(c->err, c->errlen, orphan, "needs [events] section= (the coordinate of the section)");
+    orphan = !c->dist ? (c->dist_dofs ? c->dist_dofs : c->dist_dir ? c->dist_dir : c->dist_term) : NULL;
+    if (orphan) return bad(c->err, c->errlen, orphan, "needs [events] distance= (the radius)");
+    if (!c->time && c->time_term) return bad(c->err, c->errlen, c->time_term, "needs [events] time= (the times)");
+    if (!ne) return DTH_OK;
+    rs->events = dth_calloc(a, ne, sizeof *rs->events);
+    rs->event_specs = dth_calloc(a, ne, sizeof *rs->event_specs);
+    rs->event_names = dth_calloc(a, ne, sizeof *rs->event_names);
+    size_t nd = c->dist_dofs ? count_items(c->dist_dofs->value) : 0;
+    rs->event_dofs = dth_calloc(a, nd + 1, sizeof *rs->event_dofs);
+    if (!rs->events || !rs->event_specs || !rs->event_names || !rs->event_dofs) return DTH_ENOMEM;
+    size_t i = 0;
+    int b;
+    if (c->section) {
+        long idx;
+        parse_long(c->section->value + 1, 1, 1000000000L, &idx);
+        if ((size_t)idx > n)
+            return bad(c->err, c->errlen, c->section, "'%s': the model has %zu degrees of freedom", c->section->value, n);
+        dth_event_spec *sp = &rs->event_specs[i];
+        sp->index = c->section->value[0] == 'q' ? (size_t)idx - 1 : n + (size_t)idx;
+        if (c->section_value) dth_parse_double(c->section_value->value, &sp->value);
+        rs->events[i] = (dth_event){dth_event_coordinate, sp, 1, 0};
+        if (c->section_dir) parse_direction(c->section_dir->value, &rs->events[i].direction);
+        if (c->section_term) parse_bool(c->section_term->value, &rs->events[i].terminal);
+        rs->event_names[i++] = "section";
+    }
+    if (nt) {
+        double *list = dth_calloc(a, nt, sizeof *list);
+        if (!list) return DTH_ENOMEM;
+        dth__parse_list(c->time->value, list, nt, &nt);
+        int term = 0;
+        if (c->time_term) parse_bool(c->time_term->value, &term);
+        for (size_t j = 0; j < nt; j++, i++) {
+            rs->event_specs[i].value = list[j];
+            rs->events[i] = (dth_event){dth_event_time, &rs->event_specs[i], 0, term};
+            rs->event_names[i] = "time";
+        }
+        dth_free(a, list);
+    }
+    if (c->dist) {
+        dth_event_spec *sp = &rs->event_specs[i];
+        dth_parse_double(c->dist->value, &sp->value);
+        if (c->dist_dofs) {
+            const char *v = c->dist_dofs->value;
+            size_t m = 0;
+            while (*v) {
+                char *end;
+                long d = strtol(v, &end, 10);
+                if (end == v || d < 1 || (size_t)d > n)
+                    return bad(c->err, c->errlen, c->dist_dofs, "'%s': degrees of freedom are 1..%zu", c->dist_dofs->value, n);
+                rs->event_dofs[m++] = (size_t)d - 1;
+                v = end;
+                while (*v == ' ' || *v == '\t' || *v == ',') v++;
+            }
+            if (!m) return bad(c->err, c->errlen, c->dist_dofs, "empty list of degrees of freedom");
+            sp->dofs = rs->event_dofs;
+            sp->ndofs = m;
+        }
+        rs->events[i] = (dth_event){dth_event_distance, sp, 0, 0};
+        if (c->dist_dir) parse_direction(c->dist_dir->value, &rs->events[i].direction);
+        if (c->dist_term) parse_bool(c->dist_term->value, &b), rs->events[i].terminal = b;
+        rs->event_names[i++] = "distance";
+    }
+    rs->nevents = i;
     return DTH_OK;
 }
 
@@ -816,11 +983,13 @@ static int check_keys(setup_ctx *c, const dth_model_type *type, dth_run_setup *r
             continue; /* checked by setup_regularizer once the model exists */
         } else if (strcmp(sec, "output") == 0) {
             rc = check_output(c, rs, e);
+        } else if (strcmp(sec, "events") == 0) {
+            rc = check_events(c, rs, e);
         } else if (!sec[0]) {
             dth__set_err(c->err, c->errlen, "%s: key '%s' is outside any [section]", e->origin, k);
             return DTH_EINVAL;
         } else {
-            dth__set_err(c->err, c->errlen, "%s: unknown section [%s] (known: model, initial, integrator, regularize, output)",
+            dth__set_err(c->err, c->errlen, "%s: unknown section [%s] (known: model, initial, integrator, regularize, output, events)",
                     e->origin, sec);
             return DTH_EINVAL;
         }
@@ -881,6 +1050,20 @@ static int check_cross(setup_ctx *c, dth_run_setup *rs)
     if (c->every && c->dt && rs->dt > 0 && rs->every != 1)
         return bad(c->err, c->errlen, c->dt, "dt > 0 resamples at uniform times and cannot be combined with every= (%s)",
                    c->every->origin);
+    int is_dth = strcmp(rs->method, "dth") == 0;
+    if (rs->dt > 0) {
+        if (c->points && c->points_kind >= 0)
+            return bad(c->err, c->errlen, c->points, "dt > 0 writes output times and cannot be combined with points=%s (%s)",
+                       c->points->value, c->dt->origin);
+        rs->points = DTH_POINTS_TIMES;
+    } else if (c->points && c->points_kind >= 0) {
+        if (c->points_kind == DTH_POINTS_MIDPOINTS && !is_dth)
+            return bad(c->err, c->errlen, c->points, "midpoints exist for method = dth only (%s)",
+                       c->method ? c->method->origin : "method");
+        rs->points = (dth_points)c->points_kind;
+    } else {
+        rs->points = is_dth && rs->opt.start == DTH_START_MIDPOINT ? DTH_POINTS_MIDPOINTS : DTH_POINTS_VERTICES;
+    }
     return DTH_OK;
 }
 
@@ -1022,6 +1205,8 @@ int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *
     }
     dth_free(s->alloc, kv);
     dth_free(s->alloc, kv_entry);
+    if (!rc) rc = build_events(&c, &rs);
+    if (rc == DTH_ENOMEM) dth__set_err(err, errlen, "out of memory");
     if (!rc) rc = setup_regularizer(s, reg, &rs, err, errlen);
     if (rc) {
         dth_run_setup_clear(&rs);

@@ -59,7 +59,14 @@ ci_cli_smoke() {
     expect 2 "$@" "$dth" run "$p" -s initial.q=nan
     expect 2 "$@" "$dth" run "$p" -s model.omega2=-1
     expect 2 "$@" "$dth" run "$p" -s bad
-    expect 2 "$@" "$dth" run "$p" -o /nonexistent-dir/x.csv
+    expect 2 "$@" "$dth" run "$p" -o /dev/null/x.csv
+    # the run driver's other paths: events (section, time, terminal distance), output times, HDF5
+    expect 0 "$@" "$dth" run "$p" -s events.section=p1 -s events.section_direction=both -s events.time=1.5 \
+        -o "$tmp/ev.csv"
+    expect 0 "$@" "$dth" run "$p" -s output.points=vertices -s events.distance=0.5 -s events.distance_terminal=yes \
+        -o "$tmp/evt.csv"
+    expect 0 "$@" "$dth" run "$root/scenes/kepler-e06.ini" -s output.dt=0.1 -s events.section=q2 -o "$tmp/k.h5"
+    expect 0 "$@" "$dth" run "$p" --progress=0.01 -s integrator.steps=2000 -o "$tmp/pr.csv"
     expect 2 "$@" "$dth" run
     expect 2 "$@" "$dth" frobnicate
     printf '[model]\nname = pendulum\n[initial]\nq = 1,\n' >"$tmp/bad.ini"

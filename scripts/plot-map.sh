@@ -1,37 +1,43 @@
 #!/bin/sh
 # SPDX-License-Identifier: MIT
-# Phase-plane well-posedness map like the paper's Figure 1 (section 1; regions of section 5): runs
-# `dth map` from an existing build directory (it builds nothing) and renders PREFIX.png and PREFIX.svg
-# with gnuplot: regions I / II shaded, the curves psi = 0 (region III) and [psi, H] = 0, and the
-# scene's DTH trajectory with its end point marked.
-# usage: scripts/plot-map.sh BUILDDIR
-#            regenerates docs/figures/map-pendulum.{png,svg} (scenes/pendulum-rotation.ini; the CSV
-#            files go to a temporary directory)
-#        scripts/plot-map.sh BUILDDIR SCENE PREFIX --q a:b:n --p c:d:m [other dth map options]
-#            writes PREFIX.csv, PREFIX-traj.csv, PREFIX.png and PREFIX.svg
+# Phase-plane well-posedness map like the paper's Figure 1 (section 1; regions of section 5), drawn
+# with gnuplot from the files `dth map SCENE --out PREFIX` writes (PREFIX.csv and PREFIX-traj.csv):
+# regions I / II shaded, the curves psi = 0 (region III) and [psi, H] = 0, and the scene's DTH
+# trajectory with its end point marked. Writes OUT.png and OUT.svg.
+# usage: scripts/plot-map.sh MAP.csv OUT.png [TITLE]
+#            (MAP-traj.csv beside MAP.csv; the data first and the picture second, as plot.sh)
+#        scripts/plot-map.sh --figure BUILDDIR
+#            runs BUILDDIR/cli/dth map on scenes/pendulum-rotation.ini (raw DTH) and regenerates
+#            docs/figures/map-pendulum.{png,svg}
 set -eu
 root=$(cd "$(dirname "$0")/.." && pwd)
-[ $# -ge 1 ] || { echo "usage: $0 BUILDDIR [SCENE PREFIX --q a:b:n --p c:d:m [dth map options]]" >&2; exit 2; }
-dth=$1/cli/dth
-[ -x "$dth" ] || { echo "$0: no dth executable at $dth (build first: ninja -C $1)" >&2; exit 2; }
+usage="usage: $0 MAP.csv OUT.png [TITLE] | $0 --figure BUILDDIR"
 command -v gnuplot >/dev/null || { echo "$0: gnuplot not found" >&2; exit 2; }
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-if [ $# -eq 1 ]; then
+h=
+L=
+if [ "${1:-}" = "--figure" ]; then
+    [ $# -eq 2 ] || { echo "$usage" >&2; exit 2; }
+    dth=$2/cli/dth
+    [ -x "$dth" ] || { echo "$0: no dth executable at $dth (build first: ninja -C $2)" >&2; exit 2; }
     scene=$root/scenes/pendulum-rotation.ini
     fig=$root/docs/figures/map-pendulum
     data=$tmp/map
-    set -- --q -3.6:3.6:361 --p -3.2:3.2:321
+    # One thread unless told otherwise: with Debian's pthread OpenBLAS every LAPACK call takes a
+    # global lock (blas_memory_alloc), and the map's tiny factorizations from two threads run slower.
+    OMP_NUM_THREADS=${OMP_NUM_THREADS:-1} "$dth" map "$scene" --out "$data" --q -3.6:3.6:361 --p -3.2:3.2:321 \
+        -s regularize.method=none
+    h=$(awk -F= '/^[ \t]*h[ \t]*=/ { v = $2; sub(/;.*/, "", v); gsub(/[ \t]/, "", v) } END { print v }' "$scene")
+    L=$(awk -v h="$h" 'BEGIN { print 16 * (h < 0 ? -h : h) }')
+    title="$(basename "$scene"): well-posedness of the DTH step at each (q, p) taken as a vertex (h = $h)"
 else
-    [ $# -ge 3 ] || { echo "usage: $0 BUILDDIR SCENE PREFIX --q a:b:n --p c:d:m [dth map options]" >&2; exit 2; }
-    scene=$2
-    fig=$3
-    data=$3
-    shift 3
+    [ $# -ge 2 ] && [ $# -le 3 ] || { echo "$usage" >&2; exit 2; }
+    data=${1%.csv}
+    case $2 in *.png) fig=${2%.png} ;; *) echo "$usage" >&2; exit 2 ;; esac
+    title=${3:-$(basename "$1")}
+    [ -r "$data.csv" ] && [ -r "$data-traj.csv" ] || { echo "$0: need $data.csv and $data-traj.csv (dth map --out $data)" >&2; exit 1; }
 fi
-# One thread unless told otherwise: with Debian's pthread OpenBLAS every LAPACK call takes a global
-# lock (blas_memory_alloc), and the map's tiny factorizations from two threads run slower than one.
-OMP_NUM_THREADS=${OMP_NUM_THREADS:-1} "$dth" map "$scene" --out "$data" "$@"
 
 # grid for gnuplot: "q p psi dpsi code", one block per q value (region code 0 "-", 1 I, 2 II, 3 III,
 # 4 root search failed), and the trajectory's last row (where it ended, and why)
@@ -42,15 +48,7 @@ awk -F, 'NR == 1 { next }
       print $1, $2, ($3 == "" ? "NaN" : $3), ($4 == "" ? "NaN" : $4), code }' "$data.csv" >"$tmp/grid.dat"
 awk -F, 'NR > 1 { print $3, $4 }' "$data-traj.csv" >"$tmp/traj.dat"
 tail -1 "$data-traj.csv" | awk -F, '{ print $3, $4, "\"" ($6 == "t_end" || $6 == "steps" || $6 == "limit" ? "end" : "stop: " $6) "\"" }' >"$tmp/end.dat"
-name=$(basename "$scene")
-h=$(awk -F= '/^[ \t]*h[ \t]*=/ { v = $2; sub(/;.*/, "", v); gsub(/[ \t]/, "", v) } END { print v }' "$scene")
-L=
-prev=
-for a in "$@"; do
-    case $prev in --range) L=$a ;; -s) case $a in integrator.h=*) h=${a#integrator.h=} ;; esac ;; esac
-    prev=$a
-done
-[ -n "$L" ] || L=$(awk -v h="$h" 'BEGIN { print 16 * (h < 0 ? -h : h) }')
+if [ -n "$L" ]; then kest="(K estimated on |lambda| <= $L)"; else kest="(K as dth map estimated it)"; fi
 
 # the two zero sets as gnuplot contour lines
 gnuplot <<EOF
@@ -69,7 +67,7 @@ for term in png svg; do
     gnuplot <<EOF
 set terminal $t
 set output "$fig.$term"
-set title "$name: well-posedness of the DTH step at each (q, p) taken as a vertex (h = $h)"
+set title "$title"
 set xlabel "q"
 set ylabel "p"
 set size ratio -1
@@ -82,7 +80,7 @@ set palette maxcolors 5
 set palette defined (0 "#9e9e9e", 1 "#e8f1fa", 2 "#fdd8a8", 3 "#d7301f", 4 "#404040")
 unset colorbox
 set style fill solid 1.0 noborder
-set label 1 "vertex offset psi h^2/8 at every point\nregion I: [psi,H]^2 <= 24 K |psi|, II: >\n(K estimated on |lambda| <= $L)\ncircle: where the trajectory ends" at screen 0.705, screen 0.68 left font "sans,11"
+set label 1 "vertex offset psi h^2/8 at every point\nregion I: [psi,H]^2 <= 24 K |psi|, II: >\n$kest\ncircle: where the trajectory ends" at screen 0.705, screen 0.68 left font "sans,11"
 plot "$tmp/grid.dat" using 1:2:5 with image notitle, \
      NaN with boxes fc rgb "#e8f1fa" title "region I", \
      NaN with boxes fc rgb "#fdd8a8" title "region II", \

@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
 # Install what is missing (Debian 12 packages), then configure and build dth in ./build.
-# Usage: bash scripts/setup.sh [builddir]   (idempotent; safe to run on every invocation)
+# Usage: bash scripts/setup.sh [builddir [meson options...]]   (idempotent; safe to run on every
+# invocation). Options such as --prefix=/opt/dth reconfigure an existing build directory.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 builddir=${1:-build}
+[ $# -gt 0 ] && shift
 
 packages=(gcc pkg-config meson ninja-build liblapacke-dev libopenblas-dev libcunit1-dev
-          libinih-dev libgsl-dev gnuplot-nox)
+          libinih-dev libgsl-dev gnuplot-nox libhdf5-dev)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -21,6 +23,8 @@ if [ ${#missing[@]} -gt 0 ]; then
 fi
 
 if [ ! -f "$builddir/build.ninja" ]; then
-  meson setup "$builddir" >/dev/null
+  meson setup "$builddir" -Dhdf5=enabled "$@" >/dev/null
+elif [ $# -gt 0 ]; then
+  meson setup --reconfigure "$builddir" "$@" >/dev/null
 fi
 ninja -C "$builddir" >/dev/null

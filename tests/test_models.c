@@ -73,6 +73,7 @@ static void check_derivatives(const dth_model *m)
         CU_ASSERT(rep.sym_err <= 1e-14);
         CU_ASSERT(rep.third_err < 1e-5);
         CU_ASSERT(rep.band_err <= 1e-14);
+        CU_ASSERT(rep.pass && rep.tol == DTH_MODEL_CHECK_TOL && !strncmp(rep.message, "pass", 4));
         if (rep.grad_err >= 1e-6 || rep.hess_err >= 1e-6 || rep.third_err >= 1e-5)
             fprintf(stderr, "%s: grad %.3g hess %.3g third %.3g\n", dth_model_get_type(m)->name,
                     rep.grad_err, rep.hess_err, rep.third_err);
@@ -81,6 +82,50 @@ static void check_derivatives(const dth_model *m)
 }
 
 static void test_derivatives(void) { for_each_model(check_derivatives); }
+
+/* A pendulum whose Hessian has the wrong sign: the check must fail and name the entry. */
+static int bad_eval(const void *self, const double *y, unsigned what, double *H, double *grad, double *hess)
+{
+    (void)self;
+    if (what & DTH_EVAL_H) *H = 0.5 * y[2] * y[2] - cos(y[0]);
+    if (what & DTH_EVAL_GRAD) grad[0] = sin(y[0]), grad[1] = 0, grad[2] = y[2];
+    if (what & DTH_EVAL_HESS) {
+        for (int i = 0; i < 9; i++) hess[i] = 0;
+        hess[0] = -cos(y[0]); /* wrong sign: d2H/dq2 = +cos q */
+        hess[8] = 1;
+    }
+    return 0;
+}
+
+static int bad_create(const dth_model_args *a, void **self, dth_model_info *info)
+{
+    (void)a;
+    *self = NULL;
+    info->n = 1;
+    info->autonomous = 1;
+    info->separable = 1;
+    return 0;
+}
+
+static const dth_model_type bad_type = {.name = "bad_pendulum", .doc = "pendulum with a wrong Hessian sign",
+                                        .create = bad_create, .eval = bad_eval};
+
+static void test_check_verdict(void)
+{
+    dth_model *m = NULL;
+    char err[128];
+    CU_ASSERT_FATAL(dth_model_new(&bad_type, NULL, 0, 1, NULL, &m, err, sizeof err) == DTH_OK);
+    double y[3] = {0.7, 0, 0.3};
+    dth_model_check_report rep;
+    CU_ASSERT_FATAL(dth_model_check(m, y, &rep) == DTH_OK);
+    CU_ASSERT(!rep.pass);
+    CU_ASSERT(rep.hess_err > 0.5);
+    CU_ASSERT(strstr(rep.message, "FAIL") != NULL);
+    CU_ASSERT(strstr(rep.message, "d2H/dq1 dq1") != NULL);
+    CU_ASSERT(strstr(rep.message, "threshold 1.0e-05") != NULL);
+    printf("  %s\n", rep.message);
+    dth_model_free(m);
+}
 
 /* psi' = [psi, H] = grad psi . J grad H, computed by differencing psi along the flow. */
 static void check_dpsi(const dth_model *m)
@@ -229,6 +274,7 @@ static CU_TestInfo conformance[] = {
     {"psi' matches a difference of psi along the flow", test_dpsi},
     {"exact solutions solve the equations of motion", test_exact},
     {"invariants are constant along the flow", test_invariants},
+    {"a wrong Hessian sign fails the check, naming the entry", test_check_verdict},
     CU_TEST_INFO_NULL,
 };
 static CU_TestInfo params[] = {

@@ -14,15 +14,15 @@ fails=0
 fail() { echo "FAIL: $*" >&2; fails=$((fails + 1)); }
 ok() { echo "ok: $*"; }
 
-# ---- smoke: header, row count, k, t increasing, wp identical on every row, H column present
-"$DTH" run "$SC/pendulum.ini" -s integrator.steps=100 >"$T/smoke.csv" 2>"$T/smoke.err"
+# ---- smoke (vertex rows): header, row count, k, t increasing, wp identical on every row, H column present
+"$DTH" run "$SC/pendulum.ini" -s integrator.steps=100 -s output.points=vertices >"$T/smoke.csv" 2>"$T/smoke.err"
 rc=$?
 [ $rc -eq 0 ] || fail "smoke run exit $rc"
 [ -s "$T/smoke.err" ] && fail "smoke run wrote to stderr: $(cat "$T/smoke.err")"
-[ "$(head -1 "$T/smoke.csv")" = "k,t,lambda,q1,p1,wp,H" ] || fail "header: $(head -1 "$T/smoke.csv")"
+[ "$(head -1 "$T/smoke.csv")" = "k,t,lambda,q1,p1,wp,H,E" ] || fail "header: $(head -1 "$T/smoke.csv")"
 [ "$(wc -l <"$T/smoke.csv")" -eq 102 ] || fail "smoke rows: $(wc -l <"$T/smoke.csv") lines, want 102"
 awk -F, 'NR == 1 { next }
-    NF != 7 { print "row " NR ": " NF " fields"; bad = 1 }
+    NF != 8 { print "row " NR ": " NF " fields"; bad = 1 }
     $1 != NR - 2 { print "row " NR ": k = " $1; bad = 1 }
     NR == 2 { wp = $6; if ($3 != 0) { print "lambda at k=0 is " $3; bad = 1 } }
     NR > 2 && $6 != wp { print "row " NR ": wp " $6 " != " wp; bad = 1 }
@@ -35,28 +35,47 @@ awk -F, 'NR == 1 { next }
 [ "$(sed -n 3p "$T/smoke.csv" | cut -d, -f3)" = "0.050000000000000003" ] || fail "first lambda"
 ok "smoke run"
 
-# ---- t_end: the last row is the first vertex at or beyond t_end (here 20), forward and backward
-"$DTH" run "$SC/pendulum.ini" >"$T/tend.csv" || fail "t_end run"
-tail -2 "$T/tend.csv" | awk -F, 'NR == 1 && !($2 < 20) { bad = 1 } NR == 2 && !($2 >= 20) { bad = 1 } END { exit bad }' ||
+# ---- the default for a midpoint start: midpoint rows; the first is the initial condition, E is exact
+"$DTH" run "$SC/pendulum.ini" -s integrator.steps=100 >"$T/mid.csv" || fail "midpoint run"
+[ "$(wc -l <"$T/mid.csv")" -eq 101 ] || fail "midpoint rows: $(wc -l <"$T/mid.csv")"
+[ "$(sed -n 2p "$T/mid.csv" | cut -d, -f1,2,4,5)" = "0,0,1,0" ] || fail "first midpoint row: $(sed -n 2p "$T/mid.csv")"
+awk -F, 'NR == 2 { e0 = $8 } NR > 2 { d = $8 - e0; if (d < 0) d = -d; if (d > 1e-14 * (e0 < 0 ? -e0 : e0)) { print "row " NR ": E " $8; bad = 1 } }
+    END { exit bad }' "$T/mid.csv" || fail "midpoint rows: E not exact"
+"$DTH" run "$SC/pendulum.ini" -s integrator.method=rk4 -s output.points=midpoints 2>"$T/x.err"
+[ $? -eq 2 ] && grep -q "midpoints exist for method = dth only" "$T/x.err" || fail "midpoints with rk4: $(cat "$T/x.err")"
+"$DTH" run "$SC/pendulum.ini" -s output.points=vertices -s output.dt=0.1 2>"$T/x.err"
+[ $? -eq 2 ] && grep -q "cannot be combined with points=vertices" "$T/x.err" || fail "points with dt: $(cat "$T/x.err")"
+"$DTH" run "$SC/pendulum.ini" -s output.points=corners 2>"$T/x.err"
+[ $? -eq 2 ] && grep -q "not one of auto, vertices, midpoints" "$T/x.err" || fail "bad points: $(cat "$T/x.err")"
+ok "midpoint rows (the default of a midpoint start)"
+
+# ---- t_end: vertex rows end with the dense output at exactly t_end (here 20), forward and backward;
+# midpoint rows stop at the last midpoint before it
+"$DTH" run "$SC/pendulum.ini" -s output.points=vertices >"$T/tend.csv" || fail "t_end run"
+tail -2 "$T/tend.csv" | awk -F, 'NR == 1 && !($2 < 20) { bad = 1 } NR == 2 && $2 != "20" { bad = 1 } END { exit bad }' ||
     fail "t_end rows: $(tail -2 "$T/tend.csv" | cut -d, -f1,2 | tr '\n' ' ')"
-"$DTH" run "$SC/pendulum.ini" -s integrator.h=-0.05 -s integrator.t_end=-3 >"$T/back.csv" || fail "backward run"
-tail -2 "$T/back.csv" | awk -F, 'NR == 1 && !($2 > -3) { bad = 1 } NR == 2 && !($2 <= -3) { bad = 1 } END { exit bad }' ||
+"$DTH" run "$SC/pendulum.ini" -s output.points=vertices -s integrator.h=-0.05 -s integrator.t_end=-3 >"$T/back.csv" ||
+    fail "backward run"
+tail -2 "$T/back.csv" | awk -F, 'NR == 1 && !($2 > -3) { bad = 1 } NR == 2 && $2 != "-3" { bad = 1 } END { exit bad }' ||
     fail "backward t_end rows: $(tail -2 "$T/back.csv" | cut -d, -f1,2 | tr '\n' ' ')"
+"$DTH" run "$SC/pendulum.ini" >"$T/tendm.csv" || fail "t_end midpoint run"
+awk -F, 'NR > 1 && !($2 <= 20) { bad = 1 } END { exit bad || !($2 > 19.9) }' "$T/tendm.csv" || fail "t_end midpoint rows"
 ok "t_end"
 
 # ---- -o FILE: same bytes as stdout, no temporary left behind
-"$DTH" run "$SC/pendulum.ini" -s integrator.steps=100 -o "$T/out.csv" || fail "-o run"
+"$DTH" run "$SC/pendulum.ini" -s integrator.steps=100 -s output.points=vertices -o "$T/out.csv" || fail "-o run"
 cmp -s "$T/out.csv" "$T/smoke.csv" || fail "-o output differs from stdout output"
 [ -z "$(ls "$T" | grep '\.tmp\.')" ] || fail "temporary file left: $(ls "$T")"
 # [output] file= is used when there is no -o, and -o wins over it
 "$DTH" run "$SC/pendulum.ini" -s integrator.steps=3 -s "output.file=$T/fromscene.csv" >"$T/stdout.txt" || fail "file= run"
 [ -s "$T/fromscene.csv" ] && [ ! -s "$T/stdout.txt" ] || fail "[output] file= not used"
 "$DTH" run "$SC/pendulum.ini" -s integrator.steps=3 -s "output.file=$T/never.csv" -o - >"$T/dash.csv" || fail "-o - run"
-[ ! -e "$T/never.csv" ] && [ "$(wc -l <"$T/dash.csv")" -eq 5 ] || fail "-o - does not win over file="
+[ ! -e "$T/never.csv" ] && [ "$(wc -l <"$T/dash.csv")" -eq 4 ] || fail "-o - does not win over file="
 ok "output files"
 
 # ---- every= and dense output
-"$DTH" run "$SC/pendulum.ini" -s integrator.steps=10 -s output.every=3 >"$T/every.csv" || fail "every run"
+"$DTH" run "$SC/pendulum.ini" -s integrator.steps=10 -s output.every=3 -s output.points=vertices >"$T/every.csv" ||
+    fail "every run"
 [ "$(cut -d, -f1 "$T/every.csv" | tr '\n' ' ')" = "k 0 3 6 9 10 " ] || fail "every=3 rows: $(cut -d, -f1 "$T/every.csv" | tr '\n' ' ')"
 "$DTH" run "$SC/pendulum.ini" -s output.dt=0.5 >"$T/dense.csv" || fail "dt run"
 [ "$(wc -l <"$T/dense.csv")" -eq 42 ] || fail "dt=0.5 to t_end=20: $(wc -l <"$T/dense.csv") lines, want 42"
@@ -67,14 +86,14 @@ awk -F, 'NR > 1 && ($1 != NR - 2 || $2 != (NR - 2) * 0.5) { print "dense row " N
 ok "every= and dt="
 
 # ---- diagnostics columns (with the model's invariants) on the harmonic scene
-"$DTH" run "$SC/harmonic.ini" -s integrator.steps=5 >"$T/harm.csv" || fail "harmonic run"
-[ "$(head -1 "$T/harm.csv")" = "k,t,lambda,q1,q2,p1,p2,wp,H,E1,E2,psi,dpsi,region,iters,branch" ] ||
+"$DTH" run "$SC/harmonic.ini" -s integrator.steps=5 -s output.points=vertices >"$T/harm.csv" || fail "harmonic run"
+[ "$(head -1 "$T/harm.csv")" = "k,t,lambda,q1,q2,p1,p2,wp,H,E,E1,E2,psi,dpsi,region,iters,branch" ] ||
     fail "harmonic header: $(head -1 "$T/harm.csv")"
-awk -F, 'NR > 1 && ($14 != "I" || NF != 16) { print "row " NR ": region " $14; bad = 1 } END { exit bad }' \
+awk -F, 'NR > 1 && ($15 != "I" || NF != 17) { print "row " NR ": region " $15; bad = 1 } END { exit bad }' \
     "$T/harm.csv" || fail "harmonic region column"
 # branch: "-" before the first step, then the exact first step of a midpoint start, then "plus"
-[ "$(cut -d, -f16 "$T/harm.csv" | sed -n '2,4p' | tr '\n' ' ')" = "- exact plus " ] ||
-    fail "harmonic branch column: $(cut -d, -f16 "$T/harm.csv" | sed -n '2,4p' | tr '\n' ' ')"
+[ "$(cut -d, -f17 "$T/harm.csv" | sed -n '2,4p' | tr '\n' ' ')" = "- exact plus " ] ||
+    fail "harmonic branch column: $(cut -d, -f17 "$T/harm.csv" | sed -n '2,4p' | tr '\n' ' ')"
 ok "diagnostics columns"
 
 # ---- the default regularizer carries the rotating pendulum through psi = 0 (exit 0)
@@ -151,8 +170,18 @@ expect2 "override names itself" "$DTH" run "$SC/pendulum.ini" -s integrator.h=na
 grep -qF -- "-s integrator.h=nan: integrator.h:" "$T/x.err" || fail "override message: $(cat "$T/x.err")"
 expect2 "unknown command" "$DTH" frobnicate
 expect2 "missing -o argument" "$DTH" run "$SC/pendulum.ini" -o
-expect2 "output dir missing" "$DTH" run "$SC/pendulum.ini" -o "$T/nodir/out.csv"
-[ -e "$T/nodir" ] && fail "created $T/nodir"
+expect2 "output dir cannot be made" "$DTH" run "$SC/pendulum.ini" -o /dev/null/sub/out.csv
+grep -q "cannot write '/dev/null/sub/out.csv'" "$T/x.err" || fail "uncreatable folder: $(cat "$T/x.err")"
+# -o creates missing folders, as dth map does
+"$DTH" run "$SC/pendulum.ini" -s integrator.steps=3 -o "$T/new/sub/out.csv" 2>"$T/x.err" && [ -s "$T/new/sub/out.csv" ] ||
+    fail "-o into a missing folder: $(cat "$T/x.err")"
+# an output that would overwrite the scene or the checkpoint is refused (and the scene is intact)
+cp "$SC/pendulum.ini" "$T/scene.ini"
+expect2 "output = scene" "$DTH" run "$T/scene.ini" -o "$T/./scene.ini"
+grep -q "it is the scene file" "$T/x.err" || fail "output = scene message: $(cat "$T/x.err")"
+cmp -s "$T/scene.ini" "$SC/pendulum.ini" || fail "the scene was overwritten"
+expect2 "output = checkpoint" "$DTH" run "$T/scene.ini" -o "$T/c.ckpt" --checkpoint "$T/c.ckpt"
+grep -q "it is the checkpoint file" "$T/x.err" || fail "output = checkpoint message: $(cat "$T/x.err")"
 expect2 "output is a directory" "$DTH" run "$SC/pendulum.ini" -o "$T"
 # a write failure during the run (a full device) is a hard error: exit 1, one line
 "$DTH" run "$SC/pendulum.ini" -o /dev/full 2>"$T/full.err"
@@ -163,10 +192,18 @@ ok "bad command lines"
 
 # ---- other subcommands
 "$DTH" --version | grep -qx 'dth [0-9][0-9.]*' || fail "--version"
-"$DTH" --help | grep -q 'dth run SCENE.ini' || fail "--help"
+"$DTH" --help >"$T/help.txt" || fail "--help exit"
+for opt in 'dth run SCENE.ini' -o --roundtrip --checkpoint --checkpoint-every --resume --progress --events \
+           --no-model-check 'dth map' 'dth roots' 'dth models' 'dth regularizers' 'exit codes'; do
+    grep -q -- "$opt" "$T/help.txt" || fail "--help lacks $opt"
+done
+"$DTH" run --help | grep -q -- --no-model-check || fail "dth run --help"
 "$DTH" models >"$T/models.txt" || fail "models exit"
 grep -q '^pendulum omega2=1 -- ' "$T/models.txt" || fail "models: pendulum line: $(cat "$T/models.txt")"
 grep -q '^harmonic .*omega=1' "$T/models.txt" || fail "models: harmonic line"
+# each parameter's description on its own indented line
+grep -q '^    omega2  squared small-oscillation frequency' "$T/models.txt" || fail "models: no parameter descriptions"
+"$DTH" regularizers | grep -q '^    alpha  *step law' || fail "regularizers: no parameter descriptions"
 ok "--version, --help, models"
 
 # ---- killed runs: SIGTERM finishes the file (exit 143); SIGKILL leaves a temporary of whole lines
@@ -201,7 +238,7 @@ for f in "$T/term.csv" "$T/$tmp"; do
         [ "$f" = "$T/term.csv" ] && fail "$f (SIGTERM: finished by dth) does not end with a newline"
         [ $((size % 4096)) -eq 0 ] || fail "$f does not end with a newline, and is not cut at a page boundary ($size bytes)"
     fi
-    awk -F, -v cut=$cut 'NR == 1 && $0 != "k,t,lambda,q1,p1,wp,H" { bad = 1 } { last = NR } NF != 7 { if (bad_nr) bad = 1; bad_nr = NR }
+    awk -F, -v cut=$cut 'NR == 1 && $0 != "k,t,lambda,q1,p1,wp,H,E" { bad = 1 } { last = NR } NF != 8 { if (bad_nr) bad = 1; bad_nr = NR }
         END { if (bad_nr && !(cut && bad_nr == last)) bad = 1; exit bad || NR < 2 }' "$f" ||
         fail "$f is not a clean CSV"
 done

@@ -88,5 +88,54 @@ head -c 100 "$T/steps-part.csv" >"$T/steps-part2.csv" && mv "$T/steps-part2.csv"
 [ $? -eq 2 ] || fail "--checkpoint to standard output accepted"
 ok "bad checkpoints refused"
 
+# ---- events ([events]): their own CSV; a Poincare section p1 = 0 of the pendulum (turning points)
+"$DTH" run "$SC/pendulum.ini" -s events.section=p1 -s events.section_direction=both -o "$T/ev/pend.csv" 2>"$T/ev.err" ||
+    fail "section run: $(cat "$T/ev.err")"
+[ "$(head -1 "$T/ev/pend-events.csv")" = "i,event,direction,k,t,q1,p1,wp,H,E" ] ||
+    fail "events header: $(head -1 "$T/ev/pend-events.csv")"
+# turning points every half period (3.35): 5 by t = 20, alternating direction, p1 = 0 to round-off
+awk -F, 'NR > 1 { n++; p = $7 < 0 ? -$7 : $7; if (p > 1e-14 || $2 != "section") bad = 1
+    if (NR > 2 && $3 == last) bad = 1; last = $3 } END { exit bad || n != 5 }' "$T/ev/pend-events.csv" ||
+    fail "section events: $(cat "$T/ev/pend-events.csv")"
+"$DTH" run "$SC/pendulum.ini" -s events.section=p1 -s events.section_direction=up -o "$T/ev/up.csv" 2>/dev/null
+[ "$(awk -F, 'NR > 1 && $3 != 1' "$T/ev/up-events.csv" | wc -l)" -eq 0 ] && [ "$(wc -l <"$T/ev/up-events.csv")" -eq 4 ] ||
+    fail "section_direction=up: $(cat "$T/ev/up-events.csv")"
+# time events land exactly on their times; --events names the file
+"$DTH" run "$SC/pendulum.ini" -s events.time=1.5,2.75 --events "$T/ev/times.csv" -o "$T/ev/t.csv" 2>/dev/null ||
+    fail "time events"
+[ "$(cut -d, -f5 "$T/ev/times.csv" | tr '\n' ' ')" = "t 1.5 2.75 " ] || fail "time events: $(cat "$T/ev/times.csv")"
+# a terminal event ends the run there: the last trajectory row is at the event's time
+"$DTH" run "$SC/pendulum.ini" -s output.points=vertices -s events.distance=0.5 -s events.distance_direction=down \
+    -s events.distance_terminal=yes -o "$T/ev/term.csv" 2>"$T/ev.err" || fail "terminal event: $(cat "$T/ev.err")"
+te=$(sed -n 2p "$T/ev/term-events.csv" | cut -d, -f5)
+[ "$(wc -l <"$T/ev/term-events.csv")" -eq 2 ] && [ "$(tail -1 "$T/ev/term.csv" | cut -d, -f2)" = "$te" ] ||
+    fail "terminal event: last row $(tail -1 "$T/ev/term.csv" | cut -d, -f2), event at $te"
+grep -q "terminal event" "$T/ev.err" || fail "terminal event message: $(cat "$T/ev.err")"
+# events with the trajectory on standard output need a file; bad keys name themselves
+"$DTH" run "$SC/pendulum.ini" -s events.section=q1 >/dev/null 2>"$T/ev.err"
+[ $? -eq 2 ] && grep -q "give the events file" "$T/ev.err" || fail "events to stdout: $(cat "$T/ev.err")"
+"$DTH" run "$SC/pendulum.ini" -s events.section=q2 -o "$T/ev/x.csv" 2>"$T/ev.err"
+[ $? -eq 2 ] && grep -q "events.section: 'q2': the model has 1 degrees of freedom" "$T/ev.err" || fail "section q2: $(cat "$T/ev.err")"
+"$DTH" run "$SC/pendulum.ini" -s events.section_value=1 -o "$T/ev/x.csv" 2>"$T/ev.err"
+[ $? -eq 2 ] && grep -q "needs \[events\] section=" "$T/ev.err" || fail "orphan section_value: $(cat "$T/ev.err")"
+"$DTH" run "$SC/pendulum.ini" -s events.section=p1 -o "$T/ev/same.csv" --events "$T/ev/same.csv" 2>"$T/ev.err"
+[ $? -eq 2 ] && grep -q "it is the trajectory's output" "$T/ev.err" || fail "events = output: $(cat "$T/ev.err")"
+# checkpoint/resume carries the events file too
+resume_check events "$SC/kepler-e06.ini" "-s integrator.t_end=30" "-s integrator.t_end=11" -s events.section=q2
+cmp -s "$T/events-ref-events.csv" "$T/events-res-events.csv" || fail "events: resumed events file differs"
+[ "$(wc -l <"$T/events-ref-events.csv")" -ge 4 ] || fail "events: too few in the reference"
+ok "events: sections, times, terminal, files, resume"
+
+# ---- --progress: lines on stderr for a run whose stderr is not a terminal
+"$DTH" run "$SC/pendulum.ini" -s integrator.steps=300000 -o "$T/prog.csv" --progress=0.1 2>"$T/prog.err" ||
+    fail "--progress run"
+grep -q '^dth run: t = .*steps/s.*ETA' "$T/prog.err" || fail "--progress: $(cat "$T/prog.err")"
+"$DTH" run "$SC/pendulum.ini" -s integrator.steps=10 -o "$T/prog.csv" 2>"$T/prog.err" && [ ! -s "$T/prog.err" ] ||
+    fail "without --progress, stderr: $(cat "$T/prog.err")"
+"$DTH" run "$SC/pendulum.ini" --progress=0 2>"$T/prog.err"
+[ $? -eq 2 ] || fail "--progress=0 accepted"
+"$DTH" run "$SC/pendulum.ini" -s integrator.steps=10 --no-model-check >/dev/null || fail "--no-model-check"
+ok "--progress, --no-model-check"
+
 [ $fails -eq 0 ] && echo "all run checks passed"
 exit $((fails != 0))

@@ -14,5 +14,6 @@
 #include "dth/scene.h"
 #include "dth/checkpoint.h"
 #include "dth/methods.h"
+#include "dth/run.h"
 
 #endif

@@ -204,6 +204,8 @@ DTH_API const char *dth_branch_name(dth_branch b);
 /**
  * Dense output on the piecewise-linear trajectory: the point of the segment za -> zb (length
  * dim) whose time coordinate (index n) is t. t outside the segment extrapolates linearly.
+ * Kept for compatibility: its interpolation error h^2 |z''|/8 per segment can exceed the
+ * method's own; dth_dense_eval (run.h) interpolates with the vertices' flows and the midpoint.
  */
 DTH_API void dth_interpolate(size_t n, const double *za, const double *zb, double t, double *z);
 

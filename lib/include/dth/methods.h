@@ -81,6 +81,10 @@ DTH_API int dth_fixed_set_h(dth_fixed *f, double h);
 DTH_API const double *dth_fixed_state(const dth_fixed *f);
 /** Steps taken since start. */
 DTH_API long dth_fixed_steps(const dth_fixed *f);
+/** The current step size h (signed). */
+DTH_API double dth_fixed_h(const dth_fixed *f);
+/** The model it integrates. */
+DTH_API const dth_model *dth_fixed_model(const dth_fixed *f);
 /** The method's name. */
 DTH_API const char *dth_fixed_name(const dth_fixed *f);
 /** Classical order of the method. */

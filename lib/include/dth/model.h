@@ -201,6 +201,9 @@ DTH_API size_t dth_model_work_size(const dth_model *m);
 DTH_API int dth_model_psi(const dth_model *m, const double *y, double *psi, double *dpsi,
                           double *work);
 
+/** Default threshold of dth_model_check's verdict: differencing noise is about 1e-7 or below. */
+#define DTH_MODEL_CHECK_TOL 1e-5
+
 /** Result of dth_model_check. */
 typedef struct dth_model_check_report {
     double grad_err;  /**< largest relative mismatch of the gradient with central differences */
@@ -210,13 +213,19 @@ typedef struct dth_model_check_report {
     double sym_err;   /**< largest |H_ij - H_ji| relative to the Hessian's scale */
     double third_err; /**< relative mismatch of `third` with differences (0 if not provided) */
     double band_err;  /**< largest mismatch of hess_band with the dense Hessian (0 if none) */
+    double tol;       /**< the threshold of the verdict (DTH_MODEL_CHECK_TOL) */
+    int pass;         /**< the verdict: 1 if every mismatch above is <= tol */
+    char message[200]; /**< "pass: ..." or "FAIL: worst Hessian d2H/dq1 dq1 mismatches finite
+                            differences by 2 (relative; threshold 1.0e-05)" */
 } dth_model_check_report;
 
 /**
  * Compare a model's derivatives with finite differences at y, so a user can validate a model
- * before trusting runs. Mismatches around 1e-7 or below are differencing noise; anything
- * above about 1e-5 is a bug in the model.
- * @return DTH_OK (the report is filled), or the status of a failing evaluation.
+ * before trusting runs, and give a verdict: `pass` and a one-line `message` naming the worst
+ * entry and the threshold. Mismatches around 1e-7 or below are differencing noise; anything
+ * above the threshold DTH_MODEL_CHECK_TOL = 1e-5 is a bug in the model. Memory: 3 (2n+1)^2 doubles.
+ * @return DTH_OK (the report is filled, whatever the verdict), or the status of a failing
+ * evaluation.
  */
 DTH_API int dth_model_check(const dth_model *m, const double *y, dth_model_check_report *rep);
 

@@ -7,7 +7,10 @@
  *   [initial]    q=, p= (n comma-separated values each), t= (default 0), wp= (explicit wp)
  *   [integrator] method=dth, start=midpoint|vertex, h=, steps= or t_end=, max_iter=, K=
  *   [regularize] method=none, then the regularizer's parameters
- *   [output]     file=, every=, dt=, diagnostics=yes|no
+ *   [output]     file=, points=auto|vertices|midpoints, every=, dt=, diagnostics=yes|no
+ *   [events]     section=q<i>|p<i>, section_value=, section_direction=up|down|both,
+ *                section_terminal=, time= (list), time_terminal=, distance=, distance_dofs=,
+ *                distance_direction=, distance_terminal=, file=
  * Unknown sections and keys are errors naming the file and line (or the -s override).
  * steps= and t_end= exclude each other, except that an override of one replaces the other
  * when that one comes from a file.
@@ -21,6 +24,7 @@
 #include "dth/model.h"
 #include "dth/models.h"
 #include "dth/integrator.h"
+#include "dth/run.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -91,8 +95,18 @@ typedef struct dth_run_setup {
     char regularize[32];/**< regularizer name ("none") */
     char *out_file;     /**< output path or NULL for stdout (owned) */
     long every;         /**< write every k-th vertex (>= 1) */
-    double dt;          /**< resample at uniform times (0: write vertices) */
+    double dt;          /**< output times t0 + j dt (0: vertices or midpoints) */
+    dth_points points;  /**< what is written: [output] points= resolved (auto: MIDPOINTS for a DTH
+                             midpoint start, whose first midpoint is the initial condition, else
+                             VERTICES; TIMES when dt > 0) */
     int diagnostics;    /**< write psi, dpsi, region, iters */
+    dth_event *events;  /**< [events] as event functions for dth_run (owned; each user points into
+                             event_specs), nevents of them */
+    dth_event_spec *event_specs; /**< their parameters (owned) */
+    const char **event_names;    /**< "section", "time" or "distance" for each (owned array) */
+    size_t nevents;
+    size_t *event_dofs;          /**< distance_dofs as 0-based indices (owned) */
+    char *events_file;           /**< [events] file= (owned), NULL if not given */
     const dth_allocator *alloc; /**< what the owned members were allocated with */
     dth_regularizer *regularizer; /**< [regularize] method= other than none (owned; also in
                                        opt.regularizer), NULL for raw DTH */

@@ -29,6 +29,7 @@ extern "C" {
     X(DTH_EDOMAIN, 7, "the model returned NaN or Inf, or left its domain")                      \
     X(DTH_EREFUSED, 8, "the regularizer refused to carry the trajectory on")                    \
     X(DTH_ESTEPSIZE, 9, "the step size left the allowed range")                                 \
+    X(DTH_ESTOPPED, 10, "the run was stopped by the caller (a callback of the run driver)")      \
     X(DTH_EINVAL, -1, "invalid argument")                                                       \
     X(DTH_ENOMEM, -2, "out of memory")                                                          \
     X(DTH_ELAPACK, -3, "LAPACK reported an illegal argument")                                   \

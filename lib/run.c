@@ -1,0 +1,600 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The run driver (run.h): the loop over steps with samples at vertices, midpoints (where the
+ * paper's energy constraint H(zbar) = 0 holds) or output times, dense output of the method's
+ * order, events located on it, an exact end at t_end, checkpoint and progress callbacks.
+ */
+#include <math.h>
+#include <string.h>
+#include "dth/run.h"
+#include "integrator_impl.h"
+
+void dth_run_state_init(dth_run_state *st)
+{
+    if (st) memset(st, 0, sizeof *st);
+}
+
+void dth_run_config_default(dth_run_config *cfg)
+{
+    if (!cfg) return;
+    memset(cfg, 0, sizeof *cfg);
+    cfg->t0 = NAN;
+    cfg->points = DTH_POINTS_VERTICES;
+    cfg->every = 1;
+}
+
+/* ---------------------------------------------------------------- dense output */
+
+int dth_flow(const dth_model *model, const double *z, double *u, double *work)
+{
+    size_t n = dth_model_dof(model), N = 2 * n + 2;
+    int rc = dth_model_eval(model, z, DTH_EVAL_GRAD, NULL, work, NULL);
+    if (rc) return rc;
+    for (size_t i = 0; i < n; i++) {
+        u[i] = work[n + 1 + i];
+        u[n + 1 + i] = -work[i];
+    }
+    u[n] = 1;
+    u[N - 1] = -work[n];
+    return DTH_OK;
+}
+
+void dth_dense_eval(size_t n, const double *za, const double *zb, const double *zm, const double *ua,
+                    const double *ub, double t, double *z)
+{
+    size_t N = 2 * n + 2;
+    double ta = za[n], tb = zb[n], h = tb - ta;
+    const double *node = t == ta ? za : t == tb ? zb : zm && t == zm[n] ? zm : NULL;
+    if (node || h == 0) {
+        memcpy(z, node ? node : za, N * sizeof *z);
+        z[n] = t;
+        return;
+    }
+    double th = (t - ta) / h, om = 1 - th;
+    /* cubic Hermite basis on [0, 1] */
+    double h00 = (1 + 2 * th) * om * om, h01 = th * th * (3 - 2 * th);
+    double h10 = th * om * om, h11 = -th * th * om;
+    double w = 16 * th * th * om * om; /* theta^2 (1 - theta)^2, scaled to 1 at theta = 1/2 */
+    for (size_t j = 0; j < N; j++) {
+        double c = h00 * za[j] + h01 * zb[j] + h * (h10 * ua[j] + h11 * ub[j]);
+        if (zm) c += w * (zm[j] - 0.5 * (za[j] + zb[j]) - 0.125 * h * (ua[j] - ub[j]));
+        z[j] = c;
+    }
+    z[n] = t;
+}
+
+/* ---------------------------------------------------------------- built-in events */
+
+int dth_event_coordinate(void *user, size_t n, const double *z, double *g)
+{
+    const dth_event_spec *e = user;
+    if (!e || e->index >= 2 * n + 2) return DTH_EINVAL;
+    *g = z[e->index] - e->value;
+    return DTH_OK;
+}
+
+int dth_event_time(void *user, size_t n, const double *z, double *g)
+{
+    const dth_event_spec *e = user;
+    if (!e) return DTH_EINVAL;
+    *g = z[n] - e->value;
+    return DTH_OK;
+}
+
+int dth_event_distance(void *user, size_t n, const double *z, double *g)
+{
+    const dth_event_spec *e = user;
+    if (!e) return DTH_EINVAL;
+    size_t m = e->dofs ? e->ndofs : n;
+    double s = 0;
+    for (size_t i = 0; i < m; i++) {
+        size_t d = e->dofs ? e->dofs[i] : i;
+        if (d >= n) return DTH_EINVAL;
+        s += z[d] * z[d];
+    }
+    *g = sqrt(s) - e->value;
+    return DTH_OK;
+}
+
+/* ---------------------------------------------------------------- the driver */
+
+typedef struct drv {
+    const dth_run_config *cfg;
+    dth_run_state *st;
+    dth_integrator *it;
+    dth_fixed *fx;
+    const dth_model *model;
+    size_t n, N;
+    double dir;
+    double wp;            /* baseline: its constant wp */
+    double *za, *zb, *zm; /* the last step's vertices and midpoint */
+    double *ua, *ub;      /* flows at za, zb */
+    double *zi, *zr;      /* scratch points */
+    double *work;         /* 2n+1 */
+    double *ga, *gb;      /* event functions at za, zb */
+    double *glo, *ghi, *tev;
+    int *dev;
+    int ua_ok, ub_ok, use_mid, have_seg;
+    dth_step_info seg;    /* the step za -> zb */
+    long kseg;            /* index of za */
+    int cb_failed;        /* a sample or checkpoint callback failed: no final checkpoint */
+} drv;
+
+static void vertex_now(drv *d, double *z)
+{
+    if (d->it) {
+        memcpy(z, dth_integrator_vertex(d->it), d->N * sizeof *z);
+    } else {
+        memcpy(z, dth_fixed_state(d->fx), (d->N - 1) * sizeof *z);
+        z[d->N - 1] = d->wp;
+    }
+}
+
+static int do_step(drv *d, dth_step_info *info)
+{
+    if (d->it) return dth_integrator_step(d->it, info);
+    memset(info, 0, sizeof *info);
+    dth_fixed_info fi;
+    int rc = dth_fixed_step(d->fx, &fi);
+    info->lambda = dth_fixed_h(d->fx);
+    info->iters = fi.iters;
+    return rc;
+}
+
+static int flow(drv *d, const double *z, double *u)
+{
+    int rc = dth_flow(d->model, z, u, d->work);
+    if (!rc && d->fx) u[d->N - 1] = 0; /* a baseline carries wp unchanged */
+    return rc;
+}
+
+/* Make sure the flows at both ends of the current segment are known. */
+static int seg_flows(drv *d)
+{
+    int rc = DTH_OK;
+    if (!d->ua_ok && (rc = flow(d, d->za, d->ua)) == DTH_OK) d->ua_ok = 1;
+    if (!rc && !d->ub_ok && (rc = flow(d, d->zb, d->ub)) == DTH_OK) d->ub_ok = 1;
+    return rc;
+}
+
+static void dense(drv *d, double t, double *z)
+{
+    dth_dense_eval(d->n, d->za, d->zb, d->use_mid ? d->zm : NULL, d->ua, d->ub, t, z);
+}
+
+static int emit(drv *d, dth_sample *s)
+{
+    if (!d->cfg->sample) return 0;
+    s->index = d->st->samples++;
+    int rc = d->cfg->sample(d->cfg->user, s);
+    if (rc) d->cb_failed = 1;
+    return rc;
+}
+
+static int ev_eval(drv *d, size_t e, const double *z, double *g)
+{
+    const dth_event *ev = &d->cfg->events[e];
+    int rc = ev->g(ev->user, d->n, z, g);
+    if (rc) d->cb_failed = 1;
+    return rc;
+}
+
+/* dir-aware comparisons of times */
+static int before(const drv *d, double a, double b) { return d->dir * (a - b) < 0; }
+
+/*
+ * Locate the zero of event e on the segment between times lo and hi where g goes from glo to
+ * ghi (signs differ, or ghi == 0): bracketing with Illinois steps, bisection when they stall,
+ * until lo and hi are adjacent doubles. The crossing time (the side where g has crossed) goes to
+ * *t.
+ */
+static int locate(drv *d, size_t e, double lo, double glo, double hi, double ghi, double *t)
+{
+    int side = 0, rc;
+    for (int it = 0; it < 400 && ghi != 0; it++) {
+        if (nextafter(lo, hi) == hi) break;
+        double c = (it % 4 == 3) ? lo + 0.5 * (hi - lo) : (lo * ghi - hi * glo) / (ghi - glo);
+        if (!(d->dir * (c - lo) > 0 && d->dir * (hi - c) > 0)) c = lo + 0.5 * (hi - lo);
+        if (!(d->dir * (c - lo) > 0 && d->dir * (hi - c) > 0)) break;
+        dense(d, c, d->zr);
+        double gc;
+        if ((rc = ev_eval(d, e, d->zr, &gc)) != 0) return rc;
+        if (gc == 0) {
+            hi = c;
+            break;
+        }
+        if ((gc > 0) == (ghi > 0)) {
+            hi = c;
+            ghi = gc;
+            if (side == -1) glo *= 0.5;
+            side = -1;
+        } else {
+            lo = c;
+            glo = gc;
+            if (side == 1) ghi *= 0.5;
+            side = 1;
+        }
+    }
+    *t = hi;
+    return DTH_OK;
+}
+
+/* Does a sign change from a to b count for this event? */
+static int crosses(const dth_event *ev, double a, double b, int *direction)
+{
+    int up = a < 0 && b >= 0, down = a > 0 && b <= 0;
+    *direction = up ? 1 : down ? -1 : 0;
+    if (!up && !down) return 0;
+    return ev->direction == 0 || ev->direction == *direction;
+}
+
+/*
+ * Hand out everything the segment za -> zb holds in the time window (lo, hi]: events, the
+ * pending vertex za, its midpoint, output times. *stop_t gets the time of a terminal event (and
+ * *stop_e its index), else stays NAN. `final`: the segment is the last one (hi may cut it).
+ */
+static int segment(drv *d, double lo, double hi, int lo_closed, double *stop_t, int *stop_e)
+{
+    const dth_run_config *cfg = d->cfg;
+    dth_run_state *st = d->st;
+    size_t n = d->n;
+    int rc;
+    double ta = d->za[n], tb = d->zb[n];
+    *stop_t = NAN;
+    *stop_e = -1;
+    /* ---- events: the first terminal one cuts the window */
+    if (cfg->nevents && before(d, lo, hi)) {
+        int need_dense = 0;
+        for (size_t e = 0; e < cfg->nevents; e++) {
+            d->glo[e] = d->ga[e];
+            d->ghi[e] = d->gb[e];
+            d->tev[e] = NAN;
+        }
+        if (lo != ta || hi != tb) need_dense = 1;
+        /* a sign change anywhere on the segment's vertices, or a window that cuts it */
+        int any = 0;
+        for (size_t e = 0; e < cfg->nevents; e++)
+            if ((d->ga[e] < 0) != (d->gb[e] < 0) || (d->ga[e] > 0) != (d->gb[e] > 0)) any = 1;
+        if (any || need_dense) {
+            if ((rc = seg_flows(d)) != 0) return rc;
+            if (lo != ta) {
+                dense(d, lo, d->zi);
+                for (size_t e = 0; e < cfg->nevents; e++)
+                    if ((rc = ev_eval(d, e, d->zi, &d->glo[e])) != 0) return rc;
+            }
+            if (hi != tb) {
+                dense(d, hi, d->zi);
+                for (size_t e = 0; e < cfg->nevents; e++)
+                    if ((rc = ev_eval(d, e, d->zi, &d->ghi[e])) != 0) return rc;
+            }
+            for (size_t e = 0; e < cfg->nevents; e++) {
+                int dirn;
+                if (!crosses(&cfg->events[e], d->glo[e], d->ghi[e], &dirn)) continue;
+                if ((rc = locate(d, e, lo, d->glo[e], hi, d->ghi[e], &d->tev[e])) != 0) return rc;
+                d->dev[e] = dirn;
+            }
+            /* hand them out in time order; a terminal one ends the window */
+            for (;;) {
+                long best = -1;
+                for (size_t e = 0; e < cfg->nevents; e++)
+                    if (!isnan(d->tev[e]) && (best < 0 || before(d, d->tev[e], d->tev[best]))) best = (long)e;
+                if (best < 0) break;
+                double te = d->tev[best];
+                d->tev[best] = NAN;
+                if (!isnan(*stop_t) && before(d, *stop_t, te)) continue;
+                dense(d, te, d->zi);
+                dth_sample s = {DTH_SAMPLE_EVENT, st->events++, d->kseg, d->zi, &d->seg, 0, d->za, d->zb, (int)best,
+                                d->dev[best]};
+                if (cfg->on_event) {
+                    s.index = st->events - 1;
+                    if ((rc = cfg->on_event(cfg->user, &s)) != 0) {
+                        d->cb_failed = 1;
+                        return rc;
+                    }
+                }
+                if (cfg->events[best].terminal && isnan(*stop_t)) {
+                    *stop_t = te;
+                    *stop_e = (int)best;
+                }
+            }
+        }
+    }
+    double top = isnan(*stop_t) ? hi : *stop_t;
+    /* ---- the pending vertex za (its outgoing step is now known) */
+    if (cfg->points == DTH_POINTS_VERTICES && st->pending) {
+        if ((d->kseg - st->k0) % cfg->every == 0) {
+            dth_sample s = {DTH_SAMPLE_VERTEX, 0, d->kseg, d->za, &st->in, d->seg.lambda, NULL, NULL, -1, 0};
+            if ((rc = emit(d, &s)) != 0) return rc;
+        }
+        st->pending = 0;
+    }
+    /* ---- the midpoint */
+    if (cfg->points == DTH_POINTS_MIDPOINTS && d->use_mid && (d->kseg - st->k0) % cfg->every == 0) {
+        double tm = d->zm[n];
+        if (!before(d, top, tm) && (lo_closed ? !before(d, tm, lo) : before(d, lo, tm))) {
+            dth_sample s = {DTH_SAMPLE_MIDPOINT, 0, d->kseg, d->zm, &d->seg, 0, d->za, d->zb, -1, 0};
+            if ((rc = emit(d, &s)) != 0) return rc;
+        }
+    }
+    /* ---- output times up to the top of the window */
+    if (cfg->points == DTH_POINTS_TIMES) {
+        for (;;) {
+            double t;
+            if (cfg->times) {
+                if ((size_t)st->j >= cfg->ntimes) break;
+                t = cfg->times[st->j];
+            } else {
+                t = st->t_first + d->dir * (double)st->j * cfg->dt;
+            }
+            if (before(d, top, t)) break;
+            if (before(d, t, ta)) { /* behind the segment: only an unordered list gets here */
+                st->j++;
+                continue;
+            }
+            if ((rc = seg_flows(d)) != 0) return rc;
+            dense(d, t, d->zi);
+            dth_sample s = {DTH_SAMPLE_TIME, 0, d->kseg, d->zi, &d->seg, 0, d->za, d->zb, -1, 0};
+            st->j++;
+            if ((rc = emit(d, &s)) != 0) return rc;
+        }
+    }
+    return DTH_OK;
+}
+
+static void account(dth_run_state *st, const dth_step_info *s)
+{
+    int cross = (s->flags & DTH_STEP_CROSSING) != 0;
+    if (cross) st->crossings++;
+    if (s->flags & DTH_STEP_REGULARIZED) st->regularized++;
+    if ((cross || st->prev_crossing) && st->in.lambda != 0 && s->lambda != 0) {
+        double q = fabs(s->lambda / st->in.lambda);
+        st->max_ratio = fmax(st->max_ratio, fmax(q, 1 / q));
+    }
+    st->prev_crossing = cross;
+}
+
+static void swap(double **a, double **b)
+{
+    double *t = *a;
+    *a = *b;
+    *b = t;
+}
+
+static int drive(drv *d)
+{
+    const dth_run_config *cfg = d->cfg;
+    dth_run_state *st = d->st;
+    size_t n = d->n, N = d->N;
+    int rc = DTH_OK;
+    vertex_now(d, d->zb);
+    if (!st->started) {
+        memset(st, 0, sizeof *st);
+        st->started = 1;
+        st->pending = 1;
+        st->t_first = isnan(cfg->t0) ? d->zb[n] : cfg->t0;
+        if (cfg->times)
+            while ((size_t)st->j < cfg->ntimes && before(d, cfg->times[st->j], st->t_first)) st->j++;
+        st->t_stop = st->t_first; /* the window of reported times starts here (inclusive) */
+    }
+    st->t = d->zb[n];
+    st->stop = DTH_RUN_RUNNING;
+    int lo_closed = st->samples == 0 && st->events == 0 && st->k == 0;
+    double t_done = st->t_stop; /* samples and events are handed out for times after this */
+    for (size_t e = 0; e < cfg->nevents; e++)
+        if ((rc = ev_eval(d, e, d->zb, &d->gb[e])) != 0) goto cb;
+
+    /* a resumed run whose last segment was cut (by t_end or a terminal event): the rest of it,
+     * on the segment rebuilt from the midpoint (round-off of z_(k-1) = 2 zbar - z_k) */
+    const double *mid = d->it ? dth_integrator_midpoint(d->it) : NULL;
+    if (mid && st->k > 0 && before(d, t_done, st->t)) {
+        for (size_t j = 0; j < N; j++) d->za[j] = 2 * mid[j] - d->zb[j];
+        memcpy(d->zm, mid, N * sizeof *d->zm);
+        d->use_mid = 1;
+        d->ua_ok = d->ub_ok = 0;
+        d->seg = st->in;
+        d->kseg = st->k - 1;
+        d->have_seg = 1;
+        for (size_t e = 0; e < cfg->nevents; e++)
+            if ((rc = ev_eval(d, e, d->za, &d->ga[e])) != 0) goto cb;
+        int pend = st->pending;
+        st->pending = 0; /* za's own sample went out before */
+        double hi = st->t, stop_t;
+        int stop_e;
+        if (cfg->has_t_end && before(d, cfg->t_end, hi)) hi = cfg->t_end;
+        if (before(d, t_done, hi) && (rc = segment(d, t_done, hi, 0, &stop_t, &stop_e)) != 0) goto cb;
+        st->pending = pend;
+        t_done = hi;
+        st->t_stop = t_done;
+    }
+
+    long since_ckpt = 0, since_prog = 0;
+    int ended_by = DTH_RUN_END, stop_event = -1;
+    double t_stop = NAN;
+    for (;;) {
+        int done = cfg->has_t_end ? !before(d, st->t, cfg->t_end) : st->k >= cfg->steps;
+        if (done) break;
+        if (cfg->checkpoint && cfg->checkpoint_every > 0 && since_ckpt >= cfg->checkpoint_every) {
+            if ((rc = cfg->checkpoint(cfg->user, st)) != 0) {
+                d->cb_failed = 1;
+                goto cb;
+            }
+            since_ckpt = 0;
+        }
+        if (cfg->progress && cfg->progress_every > 0 && since_prog >= cfg->progress_every) {
+            since_prog = 0;
+            if ((rc = cfg->progress(cfg->user, st)) != 0) {
+                ended_by = DTH_RUN_CALLBACK;
+                break;
+            }
+        }
+        dth_step_info info;
+        rc = do_step(d, &info);
+        if (rc) {
+            ended_by = DTH_RUN_FAILED;
+            break;
+        }
+        account(st, &info);
+        /* the new segment: za <- zb, zb <- the new vertex */
+        swap(&d->za, &d->zb);
+        swap(&d->ua, &d->ub);
+        swap(&d->ga, &d->gb);
+        d->ua_ok = d->ub_ok;
+        d->ub_ok = 0;
+        vertex_now(d, d->zb);
+        mid = d->it ? dth_integrator_midpoint(d->it) : NULL;
+        d->use_mid = mid != NULL; /* a regularizer's segment has its midpoint too (z_k + d) */
+        if (d->use_mid) memcpy(d->zm, mid, N * sizeof *d->zm);
+        d->seg = info;
+        d->kseg = st->k;
+        d->have_seg = 1;
+        for (size_t e = 0; e < cfg->nevents; e++)
+            if ((rc = ev_eval(d, e, d->zb, &d->gb[e])) != 0) goto cb;
+        double hi = d->zb[n];
+        if (cfg->has_t_end && before(d, cfg->t_end, hi)) hi = cfg->t_end;
+        rc = segment(d, t_done, hi, lo_closed, &t_stop, &stop_event);
+        lo_closed = 0;
+        /* the step is taken whatever the samples said: the state moves on */
+        st->in = info;
+        st->k++;
+        st->t = d->zb[n];
+        st->pending = 1;
+        t_done = isnan(t_stop) ? hi : t_stop;
+        st->t_stop = t_done;
+        if (rc) goto cb;
+        since_ckpt++;
+        since_prog++;
+        if (!isnan(t_stop)) {
+            ended_by = DTH_RUN_EVENT;
+            break;
+        }
+    }
+    int step_rc = rc;
+    /* the final checkpoint: the integrator at its vertex, whose sample is still pending */
+    if (cfg->checkpoint && (rc = cfg->checkpoint(cfg->user, st)) != 0) {
+        d->cb_failed = 1;
+        goto cb;
+    }
+    if (step_rc) {
+        /* a failed step or a stop request: the last vertex closes the vertex samples */
+        st->stop = ended_by;
+        if (cfg->points == DTH_POINTS_VERTICES && st->pending) {
+            dth_sample s = {DTH_SAMPLE_END, 0, st->k, d->zb, &st->in, 0, NULL, NULL, -1, 0};
+            st->pending = 0;
+            st->t_stop = st->t;
+            if ((rc = emit(d, &s)) != 0) goto cb;
+        }
+        return step_rc;
+    }
+    /* the end sample */
+    int end_sample = cfg->points == DTH_POINTS_VERTICES ||
+                     (cfg->points == DTH_POINTS_TIMES && (cfg->has_t_end || ended_by == DTH_RUN_EVENT));
+    if (ended_by == DTH_RUN_EVENT) {
+        st->t_stop = t_stop;
+    } else if (cfg->has_t_end) {
+        st->t_stop = cfg->t_end;
+    } else {
+        st->t_stop = st->t;
+    }
+    if (end_sample) {
+        double te = st->t_stop;
+        dth_sample s = {DTH_SAMPLE_END, 0, st->k, d->zb, &st->in, 0, NULL, NULL, stop_event, 0};
+        int already = cfg->points == DTH_POINTS_TIMES && st->samples > 0 && st->j > 0 &&
+                      (cfg->times ? cfg->times[st->j - 1] : st->t_first + d->dir * (double)(st->j - 1) * cfg->dt) == te;
+        if (te != st->t) {
+            if (!d->have_seg) { /* nothing to interpolate on (cannot happen after a step) */
+                already = 1;
+            } else {
+                if ((rc = seg_flows(d)) != 0) goto cb;
+                dense(d, te, d->zi);
+                s.z = d->zi;
+                s.step = &d->seg;
+                s.za = d->za;
+                s.zb = d->zb;
+            }
+        } else {
+            st->pending = 0; /* the end is the vertex itself */
+        }
+        if (!already && (rc = emit(d, &s)) != 0) goto cb;
+    }
+    st->stop = ended_by;
+    return DTH_OK;
+cb:
+    st->stop = DTH_RUN_CALLBACK;
+    return rc;
+}
+
+static int run_common(dth_integrator *it, dth_fixed *fx, const dth_run_config *cfg, dth_run_state *st)
+{
+    if (!cfg || !st || (!it && !fx)) return DTH_EINVAL;
+    if (cfg->every < 1) return DTH_EINVAL;
+    if (cfg->points == DTH_POINTS_TIMES && !cfg->times && !(cfg->dt > 0 && isfinite(cfg->dt))) return DTH_EINVAL;
+    if (cfg->points == DTH_POINTS_MIDPOINTS && !it) return DTH_EINVAL;
+    if (cfg->nevents && !cfg->events) return DTH_EINVAL;
+    for (size_t e = 0; e < cfg->nevents; e++)
+        if (!cfg->events[e].g) return DTH_EINVAL;
+    if (cfg->has_t_end && !isfinite(cfg->t_end)) return DTH_EINVAL;
+    drv d;
+    memset(&d, 0, sizeof d);
+    d.cfg = cfg;
+    d.st = st;
+    d.it = it;
+    d.fx = fx;
+    d.model = it ? dth_integrator_model(it) : dth_fixed_model(fx);
+    d.n = dth_model_dof(d.model);
+    d.N = 2 * d.n + 2;
+    size_t N = d.N, ne = cfg->nevents;
+    d.dir = it ? it->st.dir : dth_fixed_h(fx) > 0 ? 1.0 : -1.0;
+    size_t nd = 7 * N + (2 * d.n + 1) + 5 * ne + 1;
+    double *blk = dth_calloc(cfg->alloc, nd, sizeof *blk);
+    int *dev = dth_calloc(cfg->alloc, ne + 1, sizeof *dev);
+    if (!blk || !dev) {
+        dth_free(cfg->alloc, blk);
+        dth_free(cfg->alloc, dev);
+        return DTH_ENOMEM;
+    }
+    double *p = blk;
+    d.za = p, p += N;
+    d.zb = p, p += N;
+    d.zm = p, p += N;
+    d.ua = p, p += N;
+    d.ub = p, p += N;
+    d.zi = p, p += N;
+    d.zr = p, p += N;
+    d.work = p, p += 2 * d.n + 1;
+    d.ga = p, p += ne;
+    d.gb = p, p += ne;
+    d.glo = p, p += ne;
+    d.ghi = p, p += ne;
+    d.tev = p;
+    d.dev = dev;
+    int rc = DTH_OK;
+    if (fx) {
+        if (!st->started) {
+            double H;
+            rc = dth_model_eval(d.model, dth_fixed_state(fx), DTH_EVAL_H, &H, NULL, NULL);
+            st->wp_fixed = -H;
+        }
+        d.wp = st->wp_fixed;
+    }
+    if (!rc && cfg->has_t_end && !st->started) {
+        double t = (it ? dth_integrator_vertex(it) : dth_fixed_state(fx))[d.n];
+        double t0 = isnan(cfg->t0) ? t : cfg->t0;
+        if (d.dir * (cfg->t_end - t0) < 0) rc = DTH_EINVAL;
+    }
+    if (!rc) rc = drive(&d);
+    dth_free(cfg->alloc, blk);
+    dth_free(cfg->alloc, dev);
+    return rc;
+}
+
+int dth_run(dth_integrator *it, const dth_run_config *cfg, dth_run_state *st)
+{
+    if (!it) return DTH_EINVAL;
+    return run_common(it, NULL, cfg, st);
+}
+
+int dth_run_fixed(dth_fixed *fx, const dth_run_config *cfg, dth_run_state *st)
+{
+    if (!fx) return DTH_EINVAL;
+    return run_common(NULL, fx, cfg, st);
+}
