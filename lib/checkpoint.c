@@ -12,7 +12,9 @@
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 #include "dth/checkpoint.h"
 #include "dth_internal.h"
@@ -582,8 +584,10 @@ int dth_checkpoint_write_file(const dth_integrator *it, const dth_blob *blobs, s
     size_t len;
     int rc = dth_checkpoint_save(it, blobs, nblobs, NULL, 0, &len);
     if (rc) return rc;
-    size_t plen = strlen(path);
-    char *tmp = dth_calloc(it->alloc, plen + 5, 1);
+    /* a temporary of its own (path.tmp.PID.XXXXXX: two writers of one path cannot collide; a
+     * killed writer's is recognised by its PID), fsync, rename over path, fsync the folder */
+    size_t plen = strlen(path), tcap = plen + 48;
+    char *tmp = dth_calloc(it->alloc, tcap, 1);
     unsigned char *buf = dth_calloc(it->alloc, len, 1);
     if (!tmp || !buf) {
         dth_free(it->alloc, tmp);
@@ -591,28 +595,27 @@ int dth_checkpoint_write_file(const dth_integrator *it, const dth_blob *blobs, s
         dth__set_err(err, errlen, "out of memory writing checkpoint '%s'", path);
         return DTH_ENOMEM;
     }
-    memcpy(tmp, path, plen);
-    memcpy(tmp + plen, ".tmp", 5);
+    snprintf(tmp, tcap, "%s.tmp.%ld.XXXXXX", path, (long)getpid());
     rc = dth_checkpoint_save(it, blobs, nblobs, buf, len, &len);
-    FILE *f = rc ? NULL : fopen(tmp, "wb");
-    if (!rc && !f) {
-        dth__set_err(err, errlen, "cannot create '%s': %s", tmp, strerror(errno));
+    int fd = rc ? -1 : mkstemp(tmp);
+    if (!rc && fd < 0) {
+        dth__set_err(err, errlen, "cannot write checkpoint '%s': %s", path, strerror(errno));
         rc = DTH_EIO;
     }
-    if (f) {
-        int ok = fwrite(buf, 1, len, f) == len && fflush(f) == 0 && fsync(fileno(f)) == 0;
-        int e = errno;
-        if (fclose(f) != 0 && ok) {
-            ok = 0;
-            e = errno;
+    if (fd >= 0) {
+        int ok = 1, e = 0;
+        for (size_t done = 0; ok && done < len;) {
+            ssize_t w = write(fd, buf + done, len - done);
+            if (w < 0 && errno == EINTR) continue;
+            if (w <= 0) ok = 0, e = w < 0 ? errno : EIO;
+            else done += (size_t)w;
         }
-        if (ok && rename(tmp, path) != 0) {
-            ok = 0;
-            e = errno;
-        }
+        if (ok && fsync(fd) != 0) ok = 0, e = errno;
+        if (close(fd) != 0 && ok) ok = 0, e = errno;
+        if (ok && rename(tmp, path) != 0) ok = 0, e = errno;
         if (!ok) {
             dth__set_err(err, errlen, "cannot write checkpoint '%s': %s", path, strerror(e));
-            remove(tmp);
+            unlink(tmp);
             rc = DTH_EIO;
         }
     }
@@ -626,10 +629,10 @@ int dth_checkpoint_write_file(const dth_integrator *it, const dth_blob *blobs, s
         } else {
             memcpy(tmp, ".", 2);
         }
-        int fd = open(tmp, O_RDONLY);
-        if (fd >= 0) {
-            fsync(fd);
-            close(fd);
+        int dfd = open(tmp, O_RDONLY);
+        if (dfd >= 0) {
+            fsync(dfd);
+            close(dfd);
         }
     }
     dth_free(it->alloc, tmp);
@@ -646,6 +649,15 @@ int dth_checkpoint_read_file(const char *path, const dth_allocator *alloc, void 
     FILE *f = fopen(path, "rb");
     if (!f) {
         dth__set_err(err, errlen, "cannot open checkpoint '%s': %s", path, strerror(errno));
+        return DTH_EIO;
+    }
+    /* a regular file only (a folder opens, and its size says nothing); no larger than a
+     * checkpoint can sensibly be */
+    struct stat sb;
+    if (fstat(fileno(f), &sb) != 0 || !S_ISREG(sb.st_mode)) {
+        dth__set_err(err, errlen, "cannot read checkpoint '%s': %s", path,
+                     S_ISDIR(sb.st_mode) ? strerror(EISDIR) : "not a regular file");
+        fclose(f);
         return DTH_EIO;
     }
     long size = -1;

@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <dirent.h>
 #include <unistd.h>
 #include "cu_main.h"
 #include "dth/dth.h"
@@ -367,6 +368,18 @@ static void test_invalid_content_refused(void)
     dth_model_free(hm);
 }
 
+/* Entries of a folder other than . and .. */
+static int files_in(const char *dir)
+{
+    DIR *d = opendir(dir);
+    int k = 0;
+    if (!d) return -1;
+    for (struct dirent *e; (e = readdir(d));)
+        if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..")) k++;
+    closedir(d);
+    return k;
+}
+
 /* Files: crash-safe replace, no temporary left, read back, errors name the file, ENOMEM clean. */
 static void test_files(void)
 {
@@ -386,6 +399,12 @@ static void test_files(void)
     for (int k = 0; k < 7; k++) CU_ASSERT(dth_integrator_step(A, NULL) == DTH_OK);
     CU_ASSERT(dth_checkpoint_write_file(A, &b, 1, path, err, sizeof err) == DTH_OK); /* replaces */
     CU_ASSERT(access(tmp, F_OK) != 0);
+    CU_ASSERT(files_in(dir) == 1); /* no temporary left: only run.ckpt */
+    /* a folder is no checkpoint: said so (not "out of memory") */
+    void *dbuf = NULL;
+    size_t dlen;
+    CU_ASSERT(dth_checkpoint_read_file(dir, NULL, &dbuf, &dlen, err, sizeof err) == DTH_EIO);
+    CU_ASSERT(strstr(err, "Is a directory") != NULL && dbuf == NULL);
     void *buf = NULL;
     size_t len;
     CU_ASSERT_FATAL(dth_checkpoint_read_file(path, NULL, &buf, &len, err, sizeof err) == DTH_OK);

@@ -81,10 +81,12 @@ DTH_API int dth_checkpoint_blob(const void *buf, size_t len, const char *name, c
 DTH_API int dth_checkpoint_model_name(const void *buf, size_t len, char *name, size_t namelen);
 
 /**
- * Write a checkpoint to `path` crash-safely: into "path.tmp", fflush + fsync, then rename over
- * `path` (and fsync the directory), so `path` always holds either the old or the new checkpoint.
+ * Write a checkpoint to `path` crash-safely: into a temporary of its own, "path.tmp.PID.XXXXXX"
+ * (two writers of one path cannot collide; a killed writer's temporary is recognised by its PID),
+ * write, fsync, then rename over `path` (and fsync the directory), so `path` always holds either
+ * the old or the new checkpoint. On failure the temporary is removed and `path` is unchanged.
  * Memory comes from the integrator's allocator.
- * @return DTH_OK, DTH_EIO (message names the file), DTH_ENOMEM, DTH_EINVAL.
+ * @return DTH_OK, DTH_EIO (message names the file and the system's reason), DTH_ENOMEM, DTH_EINVAL.
  */
 DTH_API int dth_checkpoint_write_file(const dth_integrator *it, const dth_blob *blobs, size_t nblobs,
                                       const char *path, char *err, size_t errlen);
@@ -92,7 +94,8 @@ DTH_API int dth_checkpoint_write_file(const dth_integrator *it, const dth_blob *
 /**
  * Read a whole checkpoint file into memory allocated with `alloc` (free with dth_free) and
  * verify it.
- * @return DTH_OK, DTH_EIO (cannot read), DTH_EPARSE (corrupted / truncated), DTH_ENOMEM.
+ * @return DTH_OK, DTH_EIO (cannot read, or not a regular file), DTH_EPARSE (corrupted /
+ *         truncated), DTH_ENOMEM.
  */
 DTH_API int dth_checkpoint_read_file(const char *path, const dth_allocator *alloc, void **buf,
                                      size_t *len, char *err, size_t errlen);
