@@ -15,6 +15,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 #include "dth/checkpoint.h"
 #include "dth_internal.h"
@@ -577,6 +578,29 @@ int dth_checkpoint_model_name(const void *buf, size_t len, char *name, size_t na
     return DTH_OK;
 }
 
+/* A temporary of the writer's own, "path.tmp.PID.XXXXXX", created with O_EXCL (so it gets the mode
+ * any new file gets, where mkstemp's would be 0600); a name that exists is drawn again. */
+static int open_unique_temp(const char *path, char *tmp, size_t cap)
+{
+    static const char al[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789";
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    uint64_t x = ((uint64_t)ts.tv_nsec << 20) ^ (uint64_t)ts.tv_sec ^ ((uint64_t)getpid() << 32) ^ (uint64_t)(uintptr_t)tmp;
+    for (int attempt = 0; attempt < 100; attempt++) {
+        char s[7];
+        for (int i = 0; i < 6; i++) {
+            x = x * 6364136223846793005ULL + 1442695040888963407ULL;
+            s[i] = al[(x >> 33) % 62];
+        }
+        s[6] = '\0';
+        snprintf(tmp, cap, "%s.tmp.%ld.%s", path, (long)getpid(), s);
+        int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+        if (fd >= 0 || errno != EEXIST) return fd;
+    }
+    errno = EEXIST;
+    return -1;
+}
+
 int dth_checkpoint_write_file(const dth_integrator *it, const dth_blob *blobs, size_t nblobs,
                               const char *path, char *err, size_t errlen)
 {
@@ -595,9 +619,8 @@ int dth_checkpoint_write_file(const dth_integrator *it, const dth_blob *blobs, s
         dth__set_err(err, errlen, "out of memory writing checkpoint '%s'", path);
         return DTH_ENOMEM;
     }
-    snprintf(tmp, tcap, "%s.tmp.%ld.XXXXXX", path, (long)getpid());
     rc = dth_checkpoint_save(it, blobs, nblobs, buf, len, &len);
-    int fd = rc ? -1 : mkstemp(tmp);
+    int fd = rc ? -1 : open_unique_temp(path, tmp, tcap);
     if (!rc && fd < 0) {
         dth__set_err(err, errlen, "cannot write checkpoint '%s': %s", path, strerror(errno));
         rc = DTH_EIO;

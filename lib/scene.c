@@ -1051,6 +1051,11 @@ static int check_cross(setup_ctx *c, dth_run_setup *rs)
         return bad(c->err, c->errlen, c->dt, "dt > 0 resamples at uniform times and cannot be combined with every= (%s)",
                    c->every->origin);
     int is_dth = strcmp(rs->method, "dth") == 0;
+    /* output times far denser than the steps: millions of rows per step fill a disk, they do not
+     * resolve the trajectory (the method's steps do) */
+    if (rs->dt > 0 && !(fabs(rs->opt.h) / rs->dt <= 1e6))
+        return bad(c->err, c->errlen, c->dt, "%.3g asks for %.3g rows per step of h = %.3g: at most 1e6 (a larger dt)",
+                   rs->dt, fabs(rs->opt.h) / rs->dt, rs->opt.h);
     if (rs->dt > 0) {
         if (c->points && c->points_kind >= 0)
             return bad(c->err, c->errlen, c->points, "dt > 0 writes output times and cannot be combined with points=%s (%s)",

@@ -268,6 +268,7 @@ static const bad_case bad_cases[] = {
     {BASE_PEND "steps = 10\n[regularize]\nmethod = none\neps = 1\n", 11, "regularize.eps", "no parameters"},
     {BASE_PEND "steps = 10\n[output]\nevery = 0\n", 10, "output.every", "0"},
     {BASE_PEND "steps = 10\n[output]\ndt = -1\n", 10, "output.dt", "-1"},
+    {BASE_PEND "steps = 10\n[output]\ndt = 1e-12\n", 10, "output.dt", "rows per step"},
     {BASE_PEND "steps = 10\n[output]\ndt = 0.5\nevery = 2\n", 10, "output.dt", "every"},
     {BASE_PEND "steps = 10\n[output]\ndiagnostics = maybe\n", 10, "output.diagnostics", "maybe"},
     {BASE_PEND "steps = 10\n[output]\nfile =\n", 10, "output.file", "empty"},
