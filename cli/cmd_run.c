@@ -529,8 +529,11 @@ int cli_cmd_run(int argc, char **argv)
         if (!rc) rc = dth_fixed_start(fx, rs.q0, rs.p0, rs.t0);
     }
     if (rc) {
-        cli_error("%s: cannot start at the initial state: %s (%s)", scene_path, dth_strerror(rc),
-                  it ? dth_integrator_errmsg(it) : fx ? dth_fixed_errmsg(fx) : "creating the integrator");
+        /* a start the step size spoils (a first vertex that overflows, no offset that gives h): name h */
+        char hh[96] = "";
+        if (rc > 0 && !ck) snprintf(hh, sizeof hh, "; integrator.h = %.6g may be too large for this model", rs.opt.h);
+        cli_error("%s: cannot start at the initial state: %s (%s)%s", scene_path, dth_strerror(rc),
+                  it ? dth_integrator_errmsg(it) : fx ? dth_fixed_errmsg(fx) : "creating the integrator", hh);
         status = rc < 0 && rc != DTH_EINVAL ? CLI_FAIL : CLI_USAGE;
         goto done;
     }
@@ -818,9 +821,15 @@ int cli_cmd_run(int argc, char **argv)
         cli_error("interrupted at k=%ld, t=%.17g (the rows so far are kept)%s", S.k, S.t, crossing);
         status = 128 + sig;
     } else if (rc > 0) {
-        char hint[128];
-        cli_error("stopped at k=%ld, t=%.17g: %s (%s)%s%s", S.k, S.t, dth_strerror(rc), emsg, crossing,
-                  is_dth ? cli_stop_hint(rs.regularize, rc, rs.opt.h, hint, sizeof hint) : "");
+        char hint[160];
+        if (S.k - r.k_begin <= 1 && !ck) /* the first solved step failed: the step size is the key to change */
+            snprintf(hint, sizeof hint, "; the first step failed: a smaller step may pass: -s integrator.h=%.6g",
+                     rs.opt.h / 4);
+        else if (is_dth)
+            cli_stop_hint(rs.regularize, rc, rs.opt.h, hint, sizeof hint);
+        else
+            hint[0] = '\0';
+        cli_error("stopped at k=%ld, t=%.17g: %s (%s)%s%s", S.k, S.t, dth_strerror(rc), emsg, crossing, hint);
         status = CLI_STOPPED;
     } else if (rc < 0) {
         cli_error("error at k=%ld, t=%.17g: %s (%s)", S.k, S.t, dth_strerror(rc), emsg);
