@@ -286,11 +286,14 @@ static int on_progress(void *user, const dth_run_state *st)
 
 /* ---------------------------------------------------------------- resume */
 
-/* Remove the temporaries that killed runs left next to the outputs and the checkpoint. */
-static void clean_stale(const char *path, const char *ev_path, const char *ckpt_path)
+/* Remove the temporaries that killed runs left next to the outputs and the checkpoint, and next to
+ * the outputs a resumed checkpoint names (c may be NULL). */
+static void clean_stale(const char *path, const char *ev_path, const char *ckpt_path, const cli_ckpt *c)
 {
-    const char *p[3] = {path, ev_path, ckpt_path};
-    for (int i = 0; i < 3; i++) {
+    const char *p[5] = {path, ev_path, ckpt_path, c && c->out.path[0] ? c->out.path : NULL,
+                        c && c->ev.path[0] ? c->ev.path : NULL};
+    for (int i = 0; i < 5; i++) {
+        if (i >= 3 && p[i] && ((path && cli_same_file(p[i], path)) || (ev_path && cli_same_file(p[i], ev_path)))) continue;
         int k = p[i] ? cli_clean_stale(p[i], NULL) : 0;
         if (k) cli_error("removed %d temporar%s of '%s' left by runs that no longer run", k, k > 1 ? "ies" : "y", p[i]);
     }
@@ -747,7 +750,7 @@ int cli_cmd_run(int argc, char **argv)
     }
     /* temporaries of runs that were killed: once this run's own checkpoint stands (a resume's rows
      * are in this run's temporary), or at once without checkpoints */
-    if (!werr && (ckpt_path || !ckc)) clean_stale(path, ev_path, ckpt_path);
+    if (!werr && (ckpt_path || !ckc)) clean_stale(path, ev_path, ckpt_path, ckc);
     rc = werr ? DTH_OK : it ? dth_run(it, &cfg, &S) : dth_run_fixed(fx, &cfg, &S);
     if (rc == DTH_EIO && S.stop == DTH_RUN_CALLBACK) werr = 1;
     /* --roundtrip: reverse in place and take as many steps back (paper, time reversibility) */
@@ -805,7 +808,7 @@ int cli_cmd_run(int argc, char **argv)
         status = CLI_FAIL;
         goto done;
     }
-    if (ckc && !ckpt_path) clean_stale(path, ev_path, NULL); /* the resumed run's files are complete */
+    if (ckc && !ckpt_path) clean_stale(path, ev_path, NULL, ckc); /* the resumed run's files are complete */
     /* how the run ended: always when it could not go on, else for regularized runs and on a tty */
     char crossing[160] = "";
     if (S.crossings || S.regularized)
