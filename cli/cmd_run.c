@@ -47,7 +47,6 @@ typedef struct run {
     long ckpt_k;
     long step_k, step_samples; /* samples within the current step (bounded) */
     int too_many;
-    int check_wp;          /* a vertex start with an explicit wp: compare its first step with h */
     cli_out ev;            /* event rows ([events]) */
     int has_ev;
     double *vals;          /* one row's values */
@@ -55,6 +54,7 @@ typedef struct run {
     size_t ncol, encol;
     h5file *h5;            /* HDF5 output instead of CSV */
     h5table *h5traj, *h5ev;
+    int check_wp;          /* an explicit wp: compare the first step it encodes with h */
 } run;
 
 static void put(run *r, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
@@ -76,6 +76,7 @@ static void column_names(run *r, int ev)
     for (size_t i = 0; i < r->n; i++) put(r, ",q%zu", i + 1);
     for (size_t i = 0; i < r->n; i++) put(r, ",p%zu", i + 1);
     put(r, ",wp,H,E");
+    if (!ev && r->rs->regularizer) put(r, ",ordinary"); /* 1: an ordinary (symplectic) DTH step, 0: a regularizer's */
     if (!ev && r->rs->diagnostics) {
         for (size_t i = 0; i < r->ninv; i++) put(r, ",%s", dth_model_invariant_name(r->model, i));
         put(r, ",psi,dpsi,region,iters,branch");
@@ -95,6 +96,7 @@ static void column_kinds(run *r, int ev, unsigned char *kind, size_t *ncol)
     kind[c++] = COL_DBL; /* t */
     if (!ev) kind[c++] = COL_DBL; /* lambda */
     for (size_t i = 0; i < 2 * n + 3; i++) kind[c++] = COL_DBL; /* q, p, wp, H, E */
+    if (!ev && r->rs->regularizer) kind[c++] = COL_INT;   /* ordinary */
     if (!ev && r->rs->diagnostics) {
         for (size_t i = 0; i < r->ninv + 2; i++) kind[c++] = COL_DBL;
         kind[c++] = COL_REGION, kind[c++] = COL_INT, kind[c++] = COL_BRANCH;
@@ -152,6 +154,7 @@ static int row(run *r, long k, const double *z, const dth_step_info *in, double 
     v[c++] = z[N - 1];
     v[c++] = z[N - 1] + Hp;
     v[c++] = Hp;
+    if (r->rs->regularizer) v[c++] = (in->flags & DTH_STEP_REGULARIZED) ? 0 : 1;
     if (r->rs->diagnostics) {
         if (r->ninv && dth_model_invariants(r->model, z, r->inv) != DTH_OK)
             for (size_t i = 0; i < r->ninv; i++) r->inv[i] = NAN;
@@ -189,6 +192,15 @@ static int on_sample(void *user, const dth_sample *s)
     if (++r->step_samples > MAX_SAMPLES_PER_STEP) {
         r->too_many = 1;
         return DTH_ESTOPPED;
+    }
+    if (r->check_wp && s->k == 0) {
+        double lam = s->kind == DTH_SAMPLE_VERTEX ? s->lambda_out : s->za ? s->step->lambda : 0;
+        if (lam != 0) {
+            r->check_wp = 0;
+            if (fabs(lam / r->rs->opt.h - 1) > 0.1)
+                cli_error("warning: the explicit [initial] wp encodes a first step of %.6g, not h = %.6g (without wp a "
+                          "vertex start solves for the wp whose first step is h)", lam, r->rs->opt.h);
+        }
     }
     long k = s->kind == DTH_SAMPLE_TIME || (s->kind == DTH_SAMPLE_END && r->rs->dt > 0) ? s->index : s->k;
     double lambda_root = 0, K = r->rs->opt.K;
@@ -258,12 +270,6 @@ static int on_progress(void *user, const dth_run_state *st)
 {
     run *r = user;
     if ((r->sig = cli_signal_received()) != 0) return DTH_ESTOPPED;
-    if (r->check_wp && st->k == 1) {
-        r->check_wp = 0;
-        if (fabs(st->in.lambda / r->rs->opt.h - 1) > 0.1)
-            cli_error("warning: the explicit [initial] wp encodes a first step of %.6g, not h = %.6g (without wp a vertex "
-                      "start solves for the wp whose first step is h)", st->in.lambda, r->rs->opt.h);
-    }
     if (!r->progress) return 0;
     double now = cli_now();
     if (now - r->last_progress < (r->progress == 1 ? 0.25 : r->progress_s)) return 0;
@@ -697,7 +703,7 @@ int cli_cmd_run(int argc, char **argv)
                   "known only to about 1e-6 relative or worse (docs/performance.md)", fabs(rs.opt.h), hmin);
 
     /* ---- a vertex start: the energy the run conserves (every midpoint's) against the initial
-     * state's; an explicit wp: the first step it encodes against h (on_progress, after step 1) */
+     * state's; an explicit wp: the first step it encodes against h (checked at the first sample) */
     if (is_dth && !ck && rs.opt.start == DTH_START_VERTEX) {
         double H0, E = dth_integrator_energy(it);
         if (!dth_model_eval(rs.model, zstart, DTH_EVAL_H, &H0, NULL, NULL) && fabs(E - H0) > 0.01 * fabs(H0))
@@ -824,12 +830,13 @@ int cli_cmd_run(int argc, char **argv)
         cli_error("interrupted at k=%ld, t=%.17g (the rows so far are kept)%s", S.k, S.t, crossing);
         status = 128 + sig;
     } else if (rc > 0) {
-        char hint[160];
+        char hint[256];
         if (S.k - r.k_begin <= 1 && !ck) /* the first solved step failed: the step size is the key to change */
             snprintf(hint, sizeof hint, "; the first step failed: a smaller step may pass: -s integrator.h=%.6g",
                      rs.opt.h / 4);
         else if (is_dth)
-            cli_stop_hint(rs.regularize, rc, rs.opt.h, hint, sizeof hint);
+            cli_stop_hint(rs.regularize, rc, rs.opt.h, rs.model, dth_integrator_vertex(it), dth_integrator_lambda(it),
+                          hint, sizeof hint);
         else
             hint[0] = '\0';
         cli_error("stopped at k=%ld, t=%.17g: %s (%s)%s%s", S.k, S.t, dth_strerror(rc), emsg, crossing, hint);

@@ -266,10 +266,18 @@ static int solve(smooth *r, const dth_reg_event *ev, const blend *b, double lam0
         *mu = 0;
     }
     if (rc) return rc;
-    double la = lam, Ra = R, lb = lam, Rb = R, f = 1.02;
+    /* bracket: a secant step toward the root once two points are known (R is smooth and nearly
+     * linear here), else growing geometric steps; within the limits either way */
+    double la = lam, Ra = R, lb = lam, Rb = R, f = 1.02, lp = 0, Rp = 0;
+    double hi = 8 * fmax(fabs(lam0), b->la), lo = fabs(lam0) / 1024;
     for (k = 0; R != 0 && (Ra > 0) == (Rb > 0); k++) {
         double ln = (R < 0) == (ev->dir > 0) ? lam * f : lam / f;
-        if (k == 80 || fabs(ln) > 8 * fmax(fabs(lam0), b->la) || fabs(ln) < fabs(lam0) / 1024) return DTH_ENOCONV;
+        if (k > 0 && R != Rp) {
+            double sec = lam - R * (lam - lp) / (R - Rp), over = lam + 1.2 * (sec - lam); /* aim just past the root */
+            if ((over - lam) * (ln - lam) > 0 && over * ev->dir > 0 && fabs(over) >= lo && fabs(over) <= hi) ln = over;
+        }
+        if (k == 80 || fabs(ln) > hi || fabs(ln) < lo) return DTH_ENOCONV;
+        lp = lam, Rp = R;
         rc = eval_at(r, ev, b, lam, ln, mu, res, &total, &R);
         if (rc) return rc;
         lam = ln;
@@ -277,11 +285,13 @@ static int solve(smooth *r, const dth_reg_event *ev, const blend *b, double lam0
         else lb = lam, Rb = R;
         f = 1 + 1.5 * (f - 1);
     }
+    /* Illinois on [la, lb]; stop where the bracket or the step is at round-off of lambda */
     int side = 0;
     for (k = 0; R != 0 && fabs(lb - la) > 4 * DBL_EPSILON * fabs(lam); k++) {
         if (k == 100) return DTH_ENOCONV;
         double ln = (la * Rb - lb * Ra) / (Rb - Ra);
         if (!(ln > fmin(la, lb) && ln < fmax(la, lb))) ln = 0.5 * (la + lb);
+        if (fabs(ln - lam) <= 2 * DBL_EPSILON * fabs(lam)) break;
         rc = eval_at(r, ev, b, lam, ln, mu, res, &total, &R);
         if (rc) return rc;
         lam = ln;
