@@ -49,7 +49,7 @@ ci_cli_smoke() {
     for s in "$root"/scenes/*.ini; do
         # 3: the trajectory stopped early (e.g. the raw rotating pendulum): a clean, expected end
         expect '0|3' "$@" "$dth" run "$s" -o "$tmp/run.csv"
-        expect '0|3' "$@" "$dth" run "$s" -s output.diagnostics=yes -s output.dt=0.05
+        expect '0|3' "$@" "$dth" run "$s" -s output.diagnostics=yes -s output.every=1 -s output.dt=0.05
     done
     p="$root/scenes/pendulum.ini"
     expect 0 "$@" "$dth" run "$p" -s integrator.start=vertex -s integrator.steps=50
