@@ -1,9 +1,12 @@
 #!/usr/bin/env bash
 # Build the embedding example against an *installed* dth through pkg-config, as another project
-# would, and run it. Usage: check-pkgconfig.sh BUILDDIR SRCDIR
+# would, and run it. Usage: check-pkgconfig.sh BUILDDIR SRCDIR [SANITIZERS]
+# (SANITIZERS: the build's b_sanitize, e.g. address,undefined; the consumer is compiled with them)
 set -euo pipefail
 build=$(cd "$1" && pwd)
 src=$(cd "$2" && pwd)
+san=()
+[ -n "${3:-}" ] && [ "${3:-}" != none ] && san=(-fsanitize="$3")
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 meson install -C "$build" --destdir "$tmp/root" --no-rebuild --quiet >/dev/null
@@ -15,7 +18,7 @@ for f in share/dth/scripts/plot.sh share/dth/scripts/plot-map.sh share/dth/scrip
     [ -n "$(find "$tmp/root" -path "*/$f" | head -n 1)" ] || { echo "check-pkgconfig: $f not installed" >&2; exit 1; }
 done
 export PKG_CONFIG_PATH="$pcdir" PKG_CONFIG_SYSROOT_DIR="$tmp/root"
-cc -std=c11 -Wall -Wextra -Wpedantic -Werror "$src/docs/examples/embed.c" "$src/docs/examples/double_well.c" \
+cc -std=c11 -Wall -Wextra -Wpedantic -Werror "${san[@]}" "$src/docs/examples/embed.c" "$src/docs/examples/double_well.c" \
    -I"$src/docs/examples" $(pkg-config --cflags dth) $(pkg-config --libs dth) -lm -o "$tmp/embed"
 libdir=$(pkg-config --variable=libdir dth)
 # pkgconf already prefixes the sysroot to libdir (the run used to sit in this comment: it never ran)
