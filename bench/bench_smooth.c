@@ -297,7 +297,7 @@ static void table_models(double scale)
     }
     {
         /* the 2-D three-particle chain of scenes/coupled-chain3-prescribed.ini, started compressed */
-        problem pb = {.name = "chain, 3 particles, 2-D, compressed", .type = &dth_model_coupled, .n = 6, .h = 0.02,
+        problem pb = {.name = "chain, 3 particles, 2-D, compressed", .type = &dth_model_coupled, .n = 6, .h = 0.01,
                       .t_end = fmax(20, 2000 * scale), .quad = {"Px", "Py", "Lz"}};
         pb.mkv[0] = (dth_kv){"preset", "chain"}, pb.mkv[1] = (dth_kv){"size", "3"}, pb.mkv[2] = (dth_kv){"dim", "2"};
         pb.nmkv = 3;

@@ -88,6 +88,13 @@ int cli_same_file(const char *a, const char *b);
 /* Seconds on a monotonic clock. */
 double cli_now(void);
 
+/**
+ * What to do when a DTH run stops with `status` (exit 3): a clause such as "; to carry the run
+ * across psi = 0: -s regularize.method=smooth" naming the scene key to change (empty if none
+ * applies). `regularizer` is the run's [regularize] method, h its first step.
+ */
+const char *cli_stop_hint(const char *regularizer, int status, double h, char *buf, size_t len);
+
 /* Stop requests from SIGINT/SIGTERM: install the handlers; the signal number or 0. */
 void cli_catch_signals(void);
 int cli_signal_received(void);

@@ -46,6 +46,7 @@ typedef struct run {
     size_t ncol, encol;
     h5file *h5;            /* HDF5 output instead of CSV */
     h5table *h5traj, *h5ev;
+    int check_wp;          /* an explicit wp: compare the first step it encodes with h */
 } run;
 
 static void put(run *r, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
@@ -174,6 +175,15 @@ static double vertex_K(run *r, const double *z, double lambda_out)
 static int on_sample(void *user, const dth_sample *s)
 {
     run *r = user;
+    if (r->check_wp && s->k == 0) {
+        double lam = s->kind == DTH_SAMPLE_VERTEX ? s->lambda_out : s->za ? s->step->lambda : 0;
+        if (lam != 0) {
+            r->check_wp = 0;
+            if (fabs(lam / r->rs->opt.h - 1) > 0.1)
+                cli_error("warning: the explicit [initial] wp encodes a first step of %.6g, not h = %.6g (without wp a "
+                          "vertex start solves for the wp whose first step is h)", lam, r->rs->opt.h);
+        }
+    }
     long k = s->kind == DTH_SAMPLE_TIME || (s->kind == DTH_SAMPLE_END && r->rs->dt > 0) ? s->index : s->k;
     double lambda_root = 0, K = r->rs->opt.K;
     if (s->kind == DTH_SAMPLE_VERTEX) lambda_root = s->lambda_out;
@@ -728,6 +738,18 @@ int cli_cmd_run(int argc, char **argv)
         cli_error("warning: |h| = %.3g is below the conditioning limit %.3g at the start: the step size is "
                   "known only to about 1e-6 relative or worse (docs/performance.md)", fabs(rs.opt.h), hmin);
 
+    /* ---- a vertex start: the energy the run conserves (every midpoint's) against the initial
+     * state's; an explicit wp: the first step it encodes against h (checked at the first sample) */
+    if (is_dth && !ck && rs.opt.start == DTH_START_VERTEX) {
+        double H0, E = dth_integrator_energy(it);
+        if (!dth_model_eval(rs.model, zstart, DTH_EVAL_H, &H0, NULL, NULL) && fabs(E - H0) > 0.01 * fabs(H0))
+            cli_error("warning: a vertex start conserves the energy %.10g at every midpoint; the initial state has "
+                      "%.10g (%.3g %% apart: the vertex lies off the energy surface by the offset that encodes the "
+                      "step; a midpoint start conserves the initial energy)",
+                      E, H0, 100 * fabs(E - H0) / fabs(H0));
+        r.check_wp = rs.opt.has_wp;
+    }
+
     /* ---- the run (run.h) */
     dth_run_config cfg;
     dth_run_config_default(&cfg);
@@ -820,7 +842,9 @@ int cli_cmd_run(int argc, char **argv)
         cli_error("interrupted at k=%ld, t=%.17g (the rows so far are kept)%s", S.k, S.t, crossing);
         status = 128 + sig;
     } else if (rc > 0) {
-        cli_error("stopped at k=%ld, t=%.17g: %s (%s)%s", S.k, S.t, dth_strerror(rc), emsg, crossing);
+        char hint[128];
+        cli_error("stopped at k=%ld, t=%.17g: %s (%s)%s%s", S.k, S.t, dth_strerror(rc), emsg, crossing,
+                  is_dth ? cli_stop_hint(rs.regularize, rc, rs.opt.h, hint, sizeof hint) : "");
         status = CLI_STOPPED;
     } else if (rc < 0) {
         cli_error("error at k=%ld, t=%.17g: %s (%s)", S.k, S.t, dth_strerror(rc), emsg);

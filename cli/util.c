@@ -327,3 +327,15 @@ void cli_out_abort(cli_out *o)
     memset(o, 0, sizeof *o);
     o->fd = -1;
 }
+
+const char *cli_stop_hint(const char *regularizer, int status, double h, char *buf, size_t len)
+{
+    buf[0] = '\0';
+    int branch = status == DTH_EFOLD || status == DTH_EGHOST || status == DTH_ENEGOFFSET || status == DTH_ENOROOT ||
+                 status == DTH_ENOCONV || status == DTH_ESINGULAR;
+    if (!strcmp(regularizer, "none") && branch)
+        snprintf(buf, len, "; to carry the run across psi = 0 and folds: -s regularize.method=smooth");
+    else if (strcmp(regularizer, "none") && (branch || status == DTH_EREFUSED))
+        snprintf(buf, len, "; a smaller step may pass: -s integrator.h=%.6g", h / 4);
+    return buf;
+}

@@ -154,6 +154,8 @@ void dth_integrator_free(dth_integrator *it)
 const double *dth_integrator_vertex(const dth_integrator *it) { return it->z; }
 const double *dth_integrator_midpoint(const dth_integrator *it) { return it->have_mid ? it->zbar : NULL; }
 double dth_integrator_lambda(const dth_integrator *it) { return it->lam; }
+double dth_integrator_energy(const dth_integrator *it) { return it ? -(it->z[it->N - 1] + it->zlo[it->N - 1]) : NAN; }
+
 long dth_integrator_steps(const dth_integrator *it) { return it->steps; }
 size_t dth_integrator_dim(const dth_integrator *it) { return it->N; }
 const dth_model *dth_integrator_model(const dth_integrator *it) { return it->model; }
@@ -236,6 +238,77 @@ static void reset_history(dth_integrator *it)
     it->psi_known = 0;
 }
 
+static double cubic_predict(double Hk, double psi, double dpsi, double target);
+
+/*
+ * Vertex start: the vertex offset rho = H(z_0) whose first DTH step is exactly h. The offset
+ * encodes the step (Lemma g_taylor: rho = psi h^2/8 + psi' h^3/24 + O(h^4)), and the Taylor term
+ * alone misses it at large steps (harmonic omega h = 1.9: a first step of 3.2 h). A secant on rho
+ * from the cubic model's value, each iterate an ordinary step solve from (y, wp = rho - H_phys(y)),
+ * not committed, until lambda = h to a few ulps. Hp = H_phys(y). On failure the message names h.
+ */
+static int vertex_offset(dth_integrator *it, const double *y, double Hp, double h, double *rho_out)
+{
+    size_t N = it->N;
+    double psi, dpsi;
+    int rc = dth_model_psi(it->model, y, &psi, &dpsi, it->work);
+    if (rc) {
+        seterr(it, "model evaluation failed at the initial state");
+        return rc;
+    }
+    double rho = psi * h * h / 8 + dpsi * h * h * h / 24, rp = 0, fp = 0;
+    if (!(rho != 0) || !isfinite(rho)) rho = psi * h * h / 8;
+    int ok = 0, max_iter = it->opt.max_iter;
+    double best = INFINITY, rbest = rho;
+    if (it->opt.max_iter < 30) it->opt.max_iter = 30; /* the step limit is for steps, not this solve */
+    for (int k = 0; k < 16; k++) {
+        for (size_t j = 0; j < N - 1; j++) it->z[j] = y[j];
+        it->z[N - 1] = rho - Hp;
+        memset(it->zlo, 0, N * sizeof *it->zlo);
+        reset_history(it);
+        it->dir = h > 0 ? 1.0 : -1.0;
+        double Hv, lam0;
+        if ((it->opt.compensate && (rc = rho_direct(it))) ||
+            (rc = dth_model_eval(it->model, it->z, DTH_EVAL_H | DTH_EVAL_GRAD, &Hv, it->grad, NULL))) {
+            it->opt.max_iter = max_iter;
+            seterr(it, "model evaluation failed at the initial vertex");
+            return rc;
+        }
+        lam0 = cubic_predict(it->z[N - 1] + Hv, psi, dpsi, h);
+        flow_z(it->n, it->grad, it->u);
+        for (size_t j = 0; j < N; j++) it->znewlo[j] = 0.5 * lam0 * it->u[j];
+        dth__solution sol = {NAN, NAN, 0};
+        rc = dth__newton(it, lam0, it->znewlo, &sol);
+        if (rc < 0) break;
+        if (rc || !(sol.lambda * h > 0)) {
+            rc = DTH_OK;
+            break;
+        }
+        /* lambda is known to its conditioning only: keep the best iterate, stop at 8 ulps or where
+         * the secant no longer moves rho (the noise floor) */
+        double f = sol.lambda - h;
+        if (fabs(f) < best) best = fabs(f), rbest = rho;
+        if (fabs(f) <= 8 * DBL_EPSILON * fabs(h)) break;
+        double rn;
+        if (k == 0 || f == fp) rn = rho * (h / sol.lambda) * (h / sol.lambda); /* rho ~ lambda^2 */
+        else rn = rho - f * (rho - rp) / (f - fp);
+        if (!isfinite(rn) || fabs(rn - rho) <= 2 * DBL_EPSILON * fabs(rho)) break;
+        rp = rho, fp = f, rho = rn;
+    }
+    it->opt.max_iter = max_iter;
+    if (rc < 0) return rc;
+    rho = rbest;
+    ok = best <= 1e-10 * fabs(h);
+    if (!ok) {
+        seterr(it, "no vertex offset gives a first step of h = %.17g from this state (the step equations have no "
+                   "root of that size here): a smaller [integrator] h, a midpoint start, or an explicit wp",
+               h);
+        return DTH_ENOROOT;
+    }
+    *rho_out = rho;
+    return DTH_OK;
+}
+
 int dth_integrator_start(dth_integrator *it, const double *q0, const double *p0, double t0)
 {
     if (!it || !q0 || !p0 || !isfinite(t0)) return DTH_EINVAL;
@@ -292,14 +365,15 @@ int dth_integrator_start(dth_integrator *it, const double *q0, const double *p0,
     if (it->opt.has_wp) {
         wp = it->opt.wp;
     } else {
-        double psi;
         int rc = dth_model_eval(it->model, y, DTH_EVAL_H, &H, NULL, NULL);
-        if (!rc) rc = dth_model_psi(it->model, y, &psi, NULL, it->work);
         if (rc) {
             seterr(it, "model evaluation failed at the initial state");
             return rc;
         }
-        wp = -H + psi * h * h / 8;
+        double rho;
+        rc = vertex_offset(it, y, H, h, &rho);
+        if (rc) return rc;
+        wp = rho - H;
     }
     for (size_t j = 0; j < N - 1; j++) it->z[j] = y[j];
     it->z[N - 1] = wp;

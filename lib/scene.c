@@ -844,10 +844,17 @@ static int setup_regularizer(const dth_scene *s, const dth_registry *reg, dth_ru
         rc = dth_regularizer_new(t, kv, n, rs->model, s->alloc, &rs->regularizer, rerr, sizeof rerr);
         if (rc == DTH_ENOMEM) dth__set_err(err, errlen, "out of memory");
         else if (rc) {
-            const entry *at = em;
+            /* the line of the parameter the message names, else method=, else the first parameter
+             * (the default regularizer has no method= line) */
+            const entry *at = em ? em : n ? ke[0] : NULL;
             for (size_t i = 0; i < n; i++)
                 if (names_key(rerr, kv[i].key)) at = ke[i];
-            rc = bad(err, errlen, at, "%s", rerr);
+            if (at) {
+                rc = bad(err, errlen, at, "%s", rerr);
+            } else {
+                dth__set_err(err, errlen, "%s: [regularize] %s: %s", s->source ? s->source : "scene", t->name, rerr);
+                rc = DTH_EINVAL;
+            }
         } else {
             rs->opt.regularizer = rs->regularizer;
         }

@@ -9,8 +9,8 @@
  * map is exactly time-reversible with no switching decision; the step varies smoothly through
  * psi = 0 and the step never ends there (dH/dmu = |n|^2/2 != 0 away from equilibria). Energy is
  * exact (wp untouched, midpoints on H = 0), quadratic invariants are kept; the kick gives up
- * symplecticity at every step. band > 0 makes it a hybrid: ordinary DTH steps are kept where
- * |psi| > band at both ends (symplectic there, but the switch is not reversible).
+ * symplecticity at every step. (Its former hybrid `band`, ordinary steps away from psi = 0 behind
+ * a hard switch, was not reversible; the default regularizer `smooth` is that hybrid done right.)
  */
 #include <float.h>
 #include <math.h>
@@ -22,7 +22,7 @@
 typedef struct prescribed {
     const dth_model *model;
     size_t n;
-    double alpha, arc, band;
+    double alpha, arc;
     int arc_fixed;             /* arc set (parameter, or at the first step): a constant after that */
     int fallback;              /* keep the ordinary step where no kicked segment is found */
     double lam_last, mu_last;  /* the last segment's step and kick (0: none yet); a seed only */
@@ -32,7 +32,6 @@ typedef struct prescribed {
 static const dth_param_spec params[] = {
     {"alpha", "0", "step law lambda = arc / |u(zbar)|^alpha (0: constant step, 1: constant phase-space arc) (>= 0)"},
     {"arc", "", "the constant arc (> 0); default: |first step| * |u(its midpoint)|^alpha"},
-    {"band", "0", "hybrid: keep ordinary DTH steps where |psi| > band at both ends (0: kicked segments only)"},
     {"fallback", "yes", "yes: keep the ordinary DTH step where the kicked segment has no solution (no: refuse)"},
 };
 
@@ -63,8 +62,6 @@ static int create(const dth_reg_args *a, void **self)
             else if (!strcmp(v, "no")) r->fallback = 0;
             else return param_err(a, k, "yes or no");
         }
-        if (!strcmp(k, "band") && (dth_parse_double(v, &r->band) || !(r->band >= 0) || !isfinite(r->band)))
-            return param_err(a, k, "a number >= 0");
     }
     r->ks = dth_calloc(a->alloc, nks + nw + 4 * N, sizeof(double));
     if (!r->ks) return DTH_ENOMEM;
@@ -234,24 +231,19 @@ static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
     return DTH_OK;
 }
 
-/* Every ordinary step is turned down, unless band > 0 and |psi| > band at both ends. */
+/* Every step is a kicked segment: the ordinary step need not be computed first, once the arc is
+ * fixed (before that, a vertex start with no incoming step takes the arc from the ordinary step's
+ * lambda, and the ordinary step offered to the hook is turned down). */
 static int admit(void *self, const double *za, const double *zb, double lambda)
 {
-    prescribed *r = self;
-    (void)lambda;
-    if (!(r->band > 0)) return 0;
-    double psa, psb;
-    if (dth_model_psi(r->model, za, &psa, NULL, r->work) || dth_model_psi(r->model, zb, &psb, NULL, r->work)) return -1;
-    return fabs(psa) > r->band && fabs(psb) > r->band;
+    (void)self, (void)za, (void)zb, (void)lambda;
+    return 0;
 }
 
-/* Without a band every step is a kicked segment: the ordinary step need not be computed first,
- * once the arc is fixed (before that, a vertex start with no incoming step takes the arc from the
- * ordinary step's lambda). */
 static int replaces_all(const void *self)
 {
     const prescribed *r = self;
-    return !(r->band > 0) && r->arc_fixed;
+    return r->arc_fixed;
 }
 
 /* The state a checkpoint keeps: arc once fixed, and the last segment (the next solve's seed). */

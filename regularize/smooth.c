@@ -182,13 +182,22 @@ static int fix_offset(smooth *r, const double *y, double lam)
     return DTH_OK;
 }
 
+/* The changeover weight at the step's start vertex: a floor for the weight at the midpoint. */
+typedef struct blend {
+    double wa, la; /* the weight and the law's step at the start vertex */
+} blend;
+
 /*
  * The changeover residual of the kicked segment (r->d, mu) of step lam from z + zlo, as
- *     R = sign(psi) dir (1 - w) mu + w (lambda - L)
- * (the changeover equation times -sigma): increasing in lambda, and continuous where psi(zbar)
- * changes sign (w = 1 there).
+ *     R = sign(psi) dir (1 - w) mu + w s (lambda - L)
+ * (the changeover equation times -sigma, the law's term scaled by s = l |psi|_e / (2 c) so that the
+ * offset excess contracts by 1 - 2 w per step), with w = max(w(zbar), w(z_a)), sign(psi), s and L
+ * at the segment's own midpoint. The floor w(z_a) keeps a step that starts in the band from
+ * landing on an ordinary root (w(zbar) = 0) far beyond it; ordinary steps (w = 0 at both vertices)
+ * and law steps (w = 1 at both) stay their own reverse. R is increasing in lambda and continuous
+ * where psi(zbar) changes sign (w = 1 there).
  */
-static int residual(smooth *r, const dth_reg_event *ev, double lam, double mu, double *R, double *wout)
+static int residual(smooth *r, const dth_reg_event *ev, const blend *b, double lam, double mu, double *R)
 {
     size_t N = ev->N;
     for (size_t j = 0; j < N; j++) r->zb[j] = ev->z[j] + (ev->zlo[j] + r->d[j]);
@@ -196,15 +205,15 @@ static int residual(smooth *r, const dth_reg_event *ev, double lam, double mu, d
     int sg;
     int rc = weight(r, r->zb, &w, &sg, &l, &sc);
     if (rc) return rc;
+    w = fmax(w, b->wa);
     *R = (sg ? sg : 1) * ev->dir * (1 - w) * mu + w * sc * (lam - ev->dir * l);
-    *wout = w;
     return DTH_OK;
 }
 
 /* One evaluation: the kicked segment of step lam (its seed r->d, mu rescaled from step `from`),
  * then its changeover residual. */
-static int eval_at(smooth *r, const dth_reg_event *ev, double from, double lam, double *mu, double *res, int *total,
-                   double *R, double *w)
+static int eval_at(smooth *r, const dth_reg_event *ev, const blend *b, double from, double lam, double *mu,
+                   double *res, int *total, double *R)
 {
     size_t N = ev->N;
     if (from != 0 && from != lam) {
@@ -216,19 +225,20 @@ static int eval_at(smooth *r, const dth_reg_event *ev, double from, double lam, 
     int rc = dth_kicked_segment(r->model, ev->z, ev->zlo, lam, r->d, mu, res, &ki, r->ks);
     *total += ki;
     if (rc) return rc;
-    return residual(r, ev, lam, *mu, R, w);
+    return residual(r, ev, b, lam, *mu, R);
 }
 
 /*
  * Solve the changeover segment from the step lam0 (offset d0, or an Euler half step): bracket the
- * root of R (increasing in lambda) within a factor 8 of lam0, then the Illinois variant of regula
- * falsi, each evaluation a kicked segment seeded from the last one.
+ * root of R (increasing in lambda) between lam0 / 1024 and 8 max(lam0, the law's step at the start
+ * vertex), then the Illinois variant of regula falsi, each evaluation a kicked segment seeded from
+ * the last one.
  */
-static int solve(smooth *r, const dth_reg_event *ev, double lam0, const double *d0, double *lam_out, double *mu,
-                 double *res, int *iters)
+static int solve(smooth *r, const dth_reg_event *ev, const blend *b, double lam0, const double *d0, double *lam_out,
+                 double *mu, double *res, int *iters)
 {
     size_t N = ev->N;
-    double lam = lam0, R = 0, w = 0;
+    double lam = lam0, R = 0;
     int total = 0, rc, k;
     if (d0) memcpy(r->d, d0, N * sizeof *r->d);
     else {
@@ -248,7 +258,7 @@ static int solve(smooth *r, const dth_reg_event *ev, double lam0, const double *
     double *dsave = r->y;
     memcpy(dsave, r->d, N * sizeof *r->d);
     for (int half = 0;; half++) {
-        rc = eval_at(r, ev, 0, lam, mu, res, &total, &R, &w);
+        rc = eval_at(r, ev, b, 0, lam, mu, res, &total, &R);
         if (rc <= 0 || half == 3) break;
         lam *= 0.5;
         for (size_t j = 0; j < N; j++) r->d[j] = 0.5 * dsave[j];
@@ -256,23 +266,33 @@ static int solve(smooth *r, const dth_reg_event *ev, double lam0, const double *
         *mu = 0;
     }
     if (rc) return rc;
-    double la = lam, Ra = R, lb = lam, Rb = R, f = 1.02;
+    /* bracket: a secant step toward the root once two points are known (R is smooth and nearly
+     * linear here), else growing geometric steps; within the limits either way */
+    double la = lam, Ra = R, lb = lam, Rb = R, f = 1.02, lp = 0, Rp = 0;
+    double hi = 8 * fmax(fabs(lam0), b->la), lo = fabs(lam0) / 1024;
     for (k = 0; R != 0 && (Ra > 0) == (Rb > 0); k++) {
         double ln = (R < 0) == (ev->dir > 0) ? lam * f : lam / f;
-        if (k == 60 || fabs(ln) > 8 * fabs(lam0) || fabs(ln) < fabs(lam0) / 8) return DTH_ENOCONV;
-        rc = eval_at(r, ev, lam, ln, mu, res, &total, &R, &w);
+        if (k > 0 && R != Rp) {
+            double sec = lam - R * (lam - lp) / (R - Rp), over = lam + 1.2 * (sec - lam); /* aim just past the root */
+            if ((over - lam) * (ln - lam) > 0 && fabs(over) >= lo && fabs(over) <= hi) ln = over;
+        }
+        if (k == 80 || fabs(ln) > hi || fabs(ln) < lo) return DTH_ENOCONV;
+        lp = lam, Rp = R;
+        rc = eval_at(r, ev, b, lam, ln, mu, res, &total, &R);
         if (rc) return rc;
         lam = ln;
         if ((R > 0) == (Ra > 0)) la = lam, Ra = R;
         else lb = lam, Rb = R;
         f = 1 + 1.5 * (f - 1);
     }
+    /* Illinois on [la, lb]; stop where the bracket or the step is at round-off of lambda */
     int side = 0;
     for (k = 0; R != 0 && fabs(lb - la) > 4 * DBL_EPSILON * fabs(lam); k++) {
         if (k == 100) return DTH_ENOCONV;
         double ln = (la * Rb - lb * Ra) / (Rb - Ra);
         if (!(ln > fmin(la, lb) && ln < fmax(la, lb))) ln = 0.5 * (la + lb);
-        rc = eval_at(r, ev, lam, ln, mu, res, &total, &R, &w);
+        if (fabs(ln - lam) <= 2 * DBL_EPSILON * fabs(lam)) break;
+        rc = eval_at(r, ev, b, lam, ln, mu, res, &total, &R);
         if (rc) return rc;
         lam = ln;
         if ((R > 0) == (Ra > 0)) {
@@ -312,11 +332,24 @@ static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
         int rc = fix_offset(r, r->y, lam0);
         if (rc) return rc;
     }
-    double lam = 0, mu = 0, res = 0;
+    double lam = 0, mu = 0, res = 0, l;
     int iters = 0;
-    int rc = solve(r, ev, lam0, d0, &lam, &mu, &res, &iters);
+    blend b;
+    int sg;
+    for (size_t j = 0; j < N; j++) r->y[j] = ev->z[j] + ev->zlo[j];
+    int rc = weight(r, r->y, &b.wa, &sg, &l, NULL);
+    if (rc) return rc;
+    b.la = l;
+    rc = solve(r, ev, &b, lam0, d0, &lam, &mu, &res, &iters);
+    if (rc > 0 && b.wa < 1) {
+        /* no changeover segment (a vertex far off the law's offset): a law step */
+        int more = 0;
+        b.wa = 1;
+        rc = solve(r, ev, &b, lam0, d0, &lam, &mu, &res, &more);
+        iters += more;
+    }
     act->iters = iters;
-    if (rc > 0) act->why = "no changeover segment within a factor 8 of the incoming step";
+    if (rc > 0) act->why = "no changeover or law segment between 1/1024 of the incoming step and 8 times the law's";
     if (rc) return rc < 0 ? rc : DTH_EREFUSED;
     memcpy(act->d, r->d, N * sizeof *act->d);
     act->lambda = lam;

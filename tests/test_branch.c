@@ -136,6 +136,9 @@ static dth_integrator *crossing(const dth_model *m, int k, int branch_check)
     o.h = 0.05;
     o.start = DTH_START_VERTEX;
     o.branch_check = branch_check;
+    /* the notes' offset: the Taylor term wp = -H_phys + psi h^2/8 (psi = p^2 at q = 0) */
+    o.has_wp = 1;
+    o.wp = -(0.5 * 2.2 * 2.2 - 1) + 2.2 * 2.2 * 0.05 * 0.05 / 8;
     dth_integrator *it = NULL;
     CU_ASSERT_FATAL(dth_integrator_new(m, &o, &it) == DTH_OK);
     double q = 0, p = 2.2;

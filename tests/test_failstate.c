@@ -215,8 +215,27 @@ static const dth_model_type flat_type = {.name = "flat", .doc = "H_phys = 0", .c
 static void test_esingular(void)
 {
     dth_model *m = new_model(&flat_type, NULL, 0, 1);
+    {
+        /* no vertex offset gives a first step of h here: the vertex start is refused, naming h */
+        dth_integrator *it = new_integrator(m, 0.1, DTH_START_VERTEX, 30);
+        double q = 0.3, p = -0.2;
+        CU_ASSERT_EQUAL(dth_integrator_start(it, &q, &p, 1.0), DTH_ENOROOT);
+        CU_ASSERT_PTR_NOT_NULL(strstr(dth_integrator_errmsg(it), "h = 0.1"));
+        dth_integrator_free(it);
+    }
     for (int start = 0; start < 2; start++) {
-        dth_integrator *it = new_integrator(m, 0.1, start ? DTH_START_VERTEX : DTH_START_MIDPOINT, 30);
+        dth_integrator *it = new_integrator(m, 0.1, DTH_START_MIDPOINT, 30);
+        if (start) {
+            /* a vertex start with an explicit wp */
+            dth_integrator_free(it);
+            dth_options o;
+            dth_options_default(&o);
+            o.h = 0.1;
+            o.start = DTH_START_VERTEX;
+            o.has_wp = 1;
+            o.wp = 0.25;
+            CU_ASSERT_FATAL(dth_integrator_new(m, &o, &it) == DTH_OK);
+        }
         double q = 0.3, p = -0.2;
         CU_ASSERT_FATAL(dth_integrator_start(it, &q, &p, 1.0) == DTH_OK);
         long at;

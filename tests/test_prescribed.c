@@ -371,13 +371,13 @@ static void test_params(void)
     dth_regularizer *r = NULL;
     char err[256];
     CU_ASSERT_FATAL(dth_model_new(&dth_model_pendulum, NULL, 0, 1, NULL, &m, err, sizeof err) == DTH_OK);
-    dth_kv bad[] = {{"alpha", "-1"}, {"arc", "0"}, {"band", "x"}, {"step", "1"}, {"fallback", "maybe"}};
+    dth_kv bad[] = {{"alpha", "-1"}, {"arc", "0"}, {"band", "0.5"}, {"step", "1"}, {"fallback", "maybe"}};
     for (size_t i = 0; i < 5; i++) {
         CU_ASSERT_EQUAL(dth_regularizer_new(&dth_reg_prescribed, &bad[i], 1, m, NULL, &r, err, sizeof err), DTH_EINVAL);
         CU_ASSERT(r == NULL);
         CU_ASSERT(strstr(err, bad[i].key) != NULL);
     }
-    dth_kv ok[] = {{"alpha", "1.5"}, {"arc", "0.01"}, {"band", "0.5"}};
+    dth_kv ok[] = {{"alpha", "1.5"}, {"arc", "0.01"}, {"fallback", "no"}};
     CU_ASSERT_EQUAL(dth_regularizer_new(&dth_reg_prescribed, ok, 3, m, NULL, &r, err, sizeof err), DTH_OK);
     dth_regularizer_free(r);
     dth_registry *reg = NULL;

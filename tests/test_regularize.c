@@ -29,13 +29,15 @@ static dth_regularizer *regul(const dth_regularizer_type *t, const dth_kv *kv, s
     return r;
 }
 
-/* The rotating pendulum of the notes: q0 = 0, p0 = 2.2, h = 0.05, vertex start. */
+/* The rotating pendulum of the notes: q0 = 0, p0 = 2.2, h = 0.05, vertex start with the notes' offset. */
 static dth_integrator *pendulum_run(const dth_model *m, dth_regularizer *r)
 {
     dth_options o;
     dth_options_default(&o);
     o.h = 0.05;
     o.start = DTH_START_VERTEX;
+    o.has_wp = 1; /* the notes' Taylor offset wp = -H_phys + psi h^2/8 */
+    o.wp = -(0.5 * 2.2 * 2.2 - 1) + 2.2 * 2.2 * 0.05 * 0.05 / 8;
     o.regularizer = r;
     dth_integrator *it = NULL;
     double q0 = 0, p0 = 2.2;

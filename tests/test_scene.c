@@ -406,6 +406,50 @@ static void test_default_regularizer(void)
     dth_registry_free(reg);
 }
 
+/* The default regularizer (no method= line) refusing a parameter whose name its message does not
+ * quote: an error naming the override, not a NULL entry (found by fuzz_override). Also the new
+ * [output] points and [events] keys: resolved, and bad values named. */
+static void test_default_regularizer_bad_key_and_events(void)
+{
+    dth_registry *reg = registry();
+    char path[64], err[512];
+    write_scene(BASE_PEND "steps = 10\n", path, sizeof path);
+    struct {
+        const char *override, *want; /* want NULL: accepted */
+    } c[] = {
+        {"regularize.ste'p=1", "regularize.ste'p"},
+        {"output.points=midpoints", NULL},
+        {"events.section=p1", NULL},
+        {"events.section=p2", "the model has 1 degrees of freedom"},
+        {"events.distance_dofs=", "needs [events] distance="},
+        {"events.time=1,nan", "not a comma-separated list"},
+        {"events.frobnicate=1", "unknown key (known in [events]"},
+    };
+    for (size_t i = 0; i < sizeof c / sizeof c[0]; i++) {
+        dth_scene *s;
+        CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+        CU_ASSERT_FATAL(dth_scene_load(s, path, err, sizeof err) == DTH_OK);
+        CU_ASSERT_FATAL(dth_scene_set(s, c[i].override, err, sizeof err) == DTH_OK);
+        dth_run_setup rs;
+        memset(&rs, 0, sizeof rs);
+        err[0] = '\0';
+        int rc = dth_scene_setup(s, reg, &rs, err, sizeof err);
+        if (c[i].want) {
+            CU_ASSERT_EQUAL(rc, DTH_EINVAL);
+            CU_ASSERT(strstr(err, c[i].want) != NULL);
+            if (!strstr(err, c[i].want)) printf("  %s: %s\n", c[i].override, err);
+        } else {
+            CU_ASSERT_EQUAL(rc, DTH_OK);
+            if (!rc && strstr(c[i].override, "points")) CU_ASSERT(rs.points == DTH_POINTS_MIDPOINTS);
+            if (!rc && strstr(c[i].override, "section")) CU_ASSERT(rs.nevents == 1 && rs.event_specs[0].index == 2);
+            dth_run_setup_clear(&rs);
+        }
+        dth_scene_free(s);
+    }
+    unlink(path);
+    dth_registry_free(reg);
+}
+
 static CU_TestInfo scene_tests[] = {
     {"scene text from memory", test_load_mem},
     {"indented lines continue a list", test_continuation},
@@ -416,6 +460,7 @@ static CU_TestInfo scene_tests[] = {
     {"bad inputs: status, FILE:LINE, key; output untouched", test_bad_inputs},
     {"bad override values name the override", test_bad_override_values},
     {"default regularizer: smooth for DTH, none for baselines", test_default_regularizer},
+    {"the default regularizer refusing a key; [output] points and [events]", test_default_regularizer_bad_key_and_events},
     CU_TEST_INFO_NULL,
 };
 

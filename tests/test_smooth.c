@@ -23,11 +23,14 @@ static dth_model *model(const dth_model_type *t, size_t n)
     return m;
 }
 
+static int no_branch_check; /* test_branch_check_off sets it */
+
 static dth_integrator *start(const dth_model *m, dth_regularizer *r, double h, const double *q0, const double *p0)
 {
     dth_options o;
     dth_options_default(&o);
     o.h = h;
+    o.branch_check = !no_branch_check;
     o.regularizer = r;
     dth_integrator *it = NULL;
     CU_ASSERT_FATAL(dth_integrator_new(m, &o, &it) == DTH_OK);
@@ -197,6 +200,21 @@ static void test_share_linear(void)
     CU_ASSERT(share[2] <= 0.55 * share[1]);
 }
 
+/* Without the branch policy (branch_check = 0) no ghost root slips through: smooth admits an ordinary
+ * step only within a factor 2 of its law's step (a ghost root is many times larger), so the run is
+ * the same kind of run: no refusal, smooth band edges, the mean step pinned. */
+static void test_branch_check_off(void)
+{
+    no_branch_check = 1;
+    pend_stats s = rotating(0.05, 100, 0);
+    no_branch_check = 0;
+    CU_ASSERT_EQUAL(s.rc, DTH_OK);
+    CU_ASSERT(s.crossings >= 200);
+    CU_ASSERT(s.edge_ratio <= 1.25);
+    CU_ASSERT(fabs(s.mean_last / s.mean_first - 1) <= 0.01);
+    printf("\n    branch_check = 0: %ld crossings, mean step %.5f -> %.5f", s.crossings, s.mean_first, s.mean_last);
+}
+
 /* Kepler e = 0.9 from apocentre (psi changes sign four times per orbit): 5 orbits, L exact at the
  * vertices (kicks are projected off grad L), midpoints on H = 0. */
 static void test_kepler(void)
@@ -265,6 +283,7 @@ static CU_TestInfo tests[] = {
     {"ordinary steps are raw DTH's, bit for bit", test_ordinary_bit_identical},
     {"rotating pendulum: 400 crossings, energy, tangent, pinned step", test_rotating_pendulum},
     {"changeover share falls linearly with h", test_share_linear},
+    {"branch_check = 0: no ghost root taken", test_branch_check_off},
     {"Kepler e = 0.9: crossings, L exact", test_kepler},
     {"parameters", test_params},
     CU_TEST_INFO_NULL,

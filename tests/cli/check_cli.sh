@@ -111,6 +111,8 @@ rc=$?
 [ $rc -eq 3 ] || fail "rotation exit $rc, want 3"
 [ "$(wc -l <"$T/rot.err")" -eq 1 ] || fail "rotation stderr is not one line: $(cat "$T/rot.err")"
 grep -q '^dth: stopped at k=15, t=0\.94[0-9]*: .*fold' "$T/rot.err" || fail "rotation message: $(cat "$T/rot.err")"
+grep -q 'to carry the run across psi = 0 and folds: -s regularize.method=smooth$' "$T/rot.err" ||
+    fail "rotation message does not say what to do: $(cat "$T/rot.err")"
 [ "$(tail -1 "$T/rot.csv" | cut -d, -f1)" = "15" ] || fail "rotation last row: $(tail -1 "$T/rot.csv")"
 [ "$(wc -l <"$T/rot.csv")" -eq 17 ] || fail "rotation rows: $(wc -l <"$T/rot.csv")"
 "$DTH" run "$SC/pendulum-rotation.ini" -s regularize.method=none -s integrator.branch_check=no -o "$T/rot.csv" \
@@ -122,6 +124,17 @@ grep -q '^dth: stopped at k=312, t=3\.17[0-9]*: ' "$T/rot.err" || fail "raw rota
 [ "$(wc -l <"$T/rot.csv")" -eq 314 ] || fail "raw rotation rows: $(wc -l <"$T/rot.csv")"
 [ -z "$(ls "$T" | grep '\.tmp\.')" ] || fail "temporary file left after exit 3"
 ok "terminating run (exit 3)"
+
+# ---- a vertex start takes a first step of exactly h and says which energy it conserves
+printf '[model]\nname = harmonic\nomega = 100\n[initial]\nq = 1\np = 0\n[integrator]\nstart = vertex\nh = 0.019\nsteps = 3\n' >"$T/hv.ini"
+"$DTH" run "$T/hv.ini" -o "$T/hv.csv" 2>"$T/hv.err" || fail "stiff vertex start: $(cat "$T/hv.err")"
+grep -q 'conserves the energy 2628.12089[0-9]* at every midpoint; the initial state has 5000' "$T/hv.err" ||
+    fail "vertex start energy warning: $(cat "$T/hv.err")"
+awk -F, 'NR == 3 { exit !($3 == 0.019) }' "$T/hv.csv" || fail "first step is not h: $(sed -n 3p "$T/hv.csv")"
+"$DTH" run "$T/hv.ini" -s initial.wp=-4000 -o "$T/hv.csv" 2>"$T/hv.err" || fail "explicit wp: $(cat "$T/hv.err")"
+grep -q 'explicit \[initial\] wp encodes a first step of 0.01, not h = 0.019' "$T/hv.err" ||
+    fail "explicit wp warning: $(cat "$T/hv.err")"
+ok "vertex start: first step h, energy reported"
 
 # ---- bad scene files: exit 2, one line "dth: FILE:LINE: ...", nothing on stdout, no output file
 for f in "$BAD"/bad_*.ini; do

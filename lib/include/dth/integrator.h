@@ -27,7 +27,8 @@ extern "C" {
 typedef enum dth_start {
     /** (q0, t0, p0) is the first midpoint, wp = -H_phys: the first step is exactly h. */
     DTH_START_MIDPOINT = 0,
-    /** (q0, t0, p0) is the vertex z_0; wp = -H_phys + psi h^2/8 unless given explicitly. */
+    /** (q0, t0, p0) is the vertex z_0; wp is solved for so that the first step is exactly h
+     *  (refused with DTH_ENOROOT where no wp gives that step), unless given explicitly. */
     DTH_START_VERTEX = 1
 } dth_start;
 
@@ -139,6 +140,13 @@ DTH_API const double *dth_integrator_vertex(const dth_integrator *it);
 DTH_API const double *dth_integrator_midpoint(const dth_integrator *it);
 /** The incoming (last) step lambda, 0 before the first step of a vertex start. */
 DTH_API double dth_integrator_lambda(const dth_integrator *it);
+/**
+ * The energy the trajectory conserves: -wp at the current vertex, which every midpoint carries
+ * (H(zbar) = wp + H_phys = 0) for an autonomous model. With a midpoint start it is H_phys of the
+ * initial state; with a vertex start it differs from H_phys(z_0) by about psi h^2/8 (the vertex lies
+ * off the energy surface by the offset that encodes the step).
+ */
+DTH_API double dth_integrator_energy(const dth_integrator *it);
 /** Steps taken since start / set_vertex. */
 DTH_API long dth_integrator_steps(const dth_integrator *it);
 /** Dimension of the extended state, 2n+2. */
