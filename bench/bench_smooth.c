@@ -306,17 +306,26 @@ static void table_models(double scale)
         row(&pb);
     }
     for (int st = 0; st < 2; st++) {
-        /* a 3-D ring of 5 springs (L = 1: natural radius 0.8507), compressed or stretched, with
-         * out-of-plane and tangential velocities */
+        /* a 3-D ring of 5 springs (L = 1: natural radius 0.8507), compressed (R = 0.5, tangential and
+         * out-of-plane velocities) or stretched (R = 2, scenes/coupled-ring5-3d-stretched.ini: raw
+         * DTH stops at a region II fold with psi = 1.03 > 0 at k = 85) */
         problem pb = {.type = &dth_model_coupled, .n = 15, .h = 0.02, .t_end = fmax(20, 2000 * scale), .quad = {"Px", "Py", "Pz", "Lx", "Ly", "Lz"}};
-        pb.name = st ? "ring of 5, 3-D, stretched (R = 1.3)" : "ring of 5, 3-D, compressed (R = 0.5)";
+        pb.name = st ? "ring of 5, 3-D, stretched (R = 2)" : "ring of 5, 3-D, compressed (R = 0.5)";
         pb.mkv[0] = (dth_kv){"preset", "ring"}, pb.mkv[1] = (dth_kv){"size", "5"}, pb.mkv[2] = (dth_kv){"dim", "3"};
         pb.nmkv = 3;
-        double R = st ? 1.3 : 0.5;
+        double R = st ? 2 : 0.5;
         for (int j = 0; j < 5; j++) {
             double a = 2 * PI * j / 5;
-            pb.q0[3 * j] = R * cos(a), pb.q0[3 * j + 1] = R * sin(a), pb.q0[3 * j + 2] = 0;
-            pb.p0[3 * j] = -0.3 * sin(a), pb.p0[3 * j + 1] = 0.3 * cos(a), pb.p0[3 * j + 2] = 0.2 * cos(2 * a);
+            pb.q0[3 * j] = R * cos(a), pb.q0[3 * j + 1] = R * sin(a);
+            if (st) {
+                /* the scene's six-digit values */
+                pb.q0[3 * j] = round(1e6 * pb.q0[3 * j]) / 1e6, pb.q0[3 * j + 1] = round(1e6 * pb.q0[3 * j + 1]) / 1e6;
+                pb.q0[3 * j + 2] = round(1e6 * 0.1 * sin(3 * a)) / 1e6;
+                pb.p0[3 * j] = 0.05 * j, pb.p0[3 * j + 1] = 0, pb.p0[3 * j + 2] = round(1e6 * 0.2 * cos(2 * a)) / 1e6;
+            } else {
+                pb.q0[3 * j + 2] = 0;
+                pb.p0[3 * j] = -0.3 * sin(a), pb.p0[3 * j + 1] = 0.3 * cos(a), pb.p0[3 * j + 2] = 0.2 * cos(2 * a);
+            }
         }
         row(&pb);
     }

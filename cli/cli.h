@@ -91,9 +91,11 @@ double cli_now(void);
 /**
  * What to do when a DTH run stops with `status` (exit 3): a clause such as "; to carry the run
  * across psi = 0: -s regularize.method=smooth" naming the scene key to change (empty if none
- * applies). `regularizer` is the run's [regularize] method, h its first step.
+ * applies). `regularizer` is the run's [regularize] method, h its first step, m / z / lambda the
+ * model, the last vertex and the last step (for the step ceiling of a region II fold; may be NULL/0).
  */
-const char *cli_stop_hint(const char *regularizer, int status, double h, char *buf, size_t len);
+const char *cli_stop_hint(const char *regularizer, int status, double h, const dth_model *m, const double *z,
+                          double lambda, char *buf, size_t len);
 
 /* Stop requests from SIGINT/SIGTERM: install the handlers; the signal number or 0. */
 void cli_catch_signals(void);

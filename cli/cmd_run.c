@@ -68,6 +68,7 @@ static void column_names(run *r, int ev)
     for (size_t i = 0; i < r->n; i++) put(r, ",q%zu", i + 1);
     for (size_t i = 0; i < r->n; i++) put(r, ",p%zu", i + 1);
     put(r, ",wp,H,E");
+    if (!ev && r->rs->regularizer) put(r, ",ordinary"); /* 1: an ordinary (symplectic) DTH step, 0: a regularizer's */
     if (!ev && r->rs->diagnostics) {
         for (size_t i = 0; i < r->ninv; i++) put(r, ",%s", dth_model_invariant_name(r->model, i));
         put(r, ",psi,dpsi,region,iters,branch");
@@ -87,6 +88,7 @@ static void column_kinds(run *r, int ev, unsigned char *kind, size_t *ncol)
     kind[c++] = COL_DBL; /* t */
     if (!ev) kind[c++] = COL_DBL; /* lambda */
     for (size_t i = 0; i < 2 * n + 3; i++) kind[c++] = COL_DBL; /* q, p, wp, H, E */
+    if (!ev && r->rs->regularizer) kind[c++] = COL_INT;   /* ordinary */
     if (!ev && r->rs->diagnostics) {
         for (size_t i = 0; i < r->ninv + 2; i++) kind[c++] = COL_DBL;
         kind[c++] = COL_REGION, kind[c++] = COL_INT, kind[c++] = COL_BRANCH;
@@ -144,6 +146,7 @@ static int row(run *r, long k, const double *z, const dth_step_info *in, double 
     v[c++] = z[N - 1];
     v[c++] = z[N - 1] + Hp;
     v[c++] = Hp;
+    if (r->rs->regularizer) v[c++] = (in->flags & DTH_STEP_REGULARIZED) ? 0 : 1;
     if (r->rs->diagnostics) {
         if (r->ninv && dth_model_invariants(r->model, z, r->inv) != DTH_OK)
             for (size_t i = 0; i < r->ninv; i++) r->inv[i] = NAN;
@@ -842,9 +845,11 @@ int cli_cmd_run(int argc, char **argv)
         cli_error("interrupted at k=%ld, t=%.17g (the rows so far are kept)%s", S.k, S.t, crossing);
         status = 128 + sig;
     } else if (rc > 0) {
-        char hint[128];
+        char hint[256];
         cli_error("stopped at k=%ld, t=%.17g: %s (%s)%s%s", S.k, S.t, dth_strerror(rc), emsg, crossing,
-                  is_dth ? cli_stop_hint(rs.regularize, rc, rs.opt.h, hint, sizeof hint) : "");
+                  is_dth ? cli_stop_hint(rs.regularize, rc, rs.opt.h, rs.model, dth_integrator_vertex(it),
+                                         dth_integrator_lambda(it), hint, sizeof hint)
+                         : "");
         status = CLI_STOPPED;
     } else if (rc < 0) {
         cli_error("error at k=%ld, t=%.17g: %s (%s)", S.k, S.t, dth_strerror(rc), emsg);

@@ -3,6 +3,7 @@
 #define _XOPEN_SOURCE 700 /* realpath */
 #include <errno.h>
 #include <fcntl.h>
+#include <math.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -328,14 +329,29 @@ void cli_out_abort(cli_out *o)
     o->fd = -1;
 }
 
-const char *cli_stop_hint(const char *regularizer, int status, double h, char *buf, size_t len)
+const char *cli_stop_hint(const char *regularizer, int status, double h, const dth_model *m, const double *z,
+                          double lambda, char *buf, size_t len)
 {
     buf[0] = '\0';
     int branch = status == DTH_EFOLD || status == DTH_EGHOST || status == DTH_ENEGOFFSET || status == DTH_ENOROOT ||
                  status == DTH_ENOCONV || status == DTH_ESINGULAR;
-    if (!strcmp(regularizer, "none") && branch)
+    if (!branch && status != DTH_EREFUSED) return buf;
+    if (!strcmp(regularizer, "none")) {
         snprintf(buf, len, "; to carry the run across psi = 0 and folds: -s regularize.method=smooth");
-    else if (strcmp(regularizer, "none") && (branch || status == DTH_EREFUSED))
-        snprintf(buf, len, "; a smaller step may pass: -s integrator.h=%.6g", h / 4);
+        return buf;
+    }
+    /* a fold the regularizer could not carry, with the step at the ceiling 6/5 |psi/psi'| */
+    double hmax = INFINITY, psi = 0;
+    double *work = m ? calloc(dth_model_work_size(m), sizeof *work) : NULL;
+    if (work && z && lambda != 0 && !dth_step_ceiling(m, z, &hmax, work) && !dth_model_psi(m, z, &psi, NULL, work) &&
+        fabs(lambda) > 0.8 * hmax) {
+        snprintf(buf, len, "; the step %.3g is at the ceiling 6/5 |psi/psi'| = %.3g of the physical root here (Theorem "
+                           "EU_2): a smaller step passes, e.g. -s integrator.h=%.3g",
+                 fabs(lambda), hmax, 0.7 * fabs(h) * hmax / fabs(lambda));
+        free(work);
+        return buf;
+    }
+    free(work);
+    snprintf(buf, len, "; a smaller step may pass: -s integrator.h=%.6g", h / 4);
     return buf;
 }

@@ -558,3 +558,17 @@ int dth_step_floor(const dth_model *model, const double *z, double rel_tol, doub
     *h_min = sqrt(4 * DBL_EPSILON * S / (fabs(psi) * rel_tol));
     return DTH_OK;
 }
+
+int dth_step_ceiling(const dth_model *model, const double *z, double *h_max, double *work)
+{
+    if (!model || !z || !h_max || !work) return DTH_EINVAL;
+    double psi, dpsi;
+    int rc = dth_model_psi(model, z, &psi, &dpsi, work);
+    if (rc) return rc;
+    if (psi == 0) {
+        *h_max = 0;
+        return DTH_ESINGULAR;
+    }
+    *h_max = dpsi != 0 ? 1.2 * fabs(psi / dpsi) : INFINITY;
+    return DTH_OK;
+}

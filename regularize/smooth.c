@@ -274,7 +274,7 @@ static int solve(smooth *r, const dth_reg_event *ev, const blend *b, double lam0
         double ln = (R < 0) == (ev->dir > 0) ? lam * f : lam / f;
         if (k > 0 && R != Rp) {
             double sec = lam - R * (lam - lp) / (R - Rp), over = lam + 1.2 * (sec - lam); /* aim just past the root */
-            if ((over - lam) * (ln - lam) > 0 && fabs(over) >= lo && fabs(over) <= hi) ln = over;
+            if ((over - lam) * (ln - lam) > 0 && over * ev->dir > 0 && fabs(over) >= lo && fabs(over) <= hi) ln = over;
         }
         if (k == 80 || fabs(ln) > hi || fabs(ln) < lo) return DTH_ENOCONV;
         lp = lam, Rp = R;

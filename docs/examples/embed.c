@@ -36,7 +36,10 @@ static int on_sample(void *user, const dth_sample *s)
     printf("%ld,%.17g,%.17g", k, z[n], s->step->lambda);
     for (size_t i = 0; i < n; i++) printf(",%.17g", z[i]);
     for (size_t i = 0; i < n; i++) printf(",%.17g", z[n + 1 + i]);
-    printf(",%.17g,%.17g,%.17g\n", z[N - 1], z[N - 1] + E, E);
+    printf(",%.17g,%.17g,%.17g", z[N - 1], z[N - 1] + E, E);
+    /* with a regularizer (the default `smooth`): was the step an ordinary (symplectic) DTH step? */
+    if (rs->regularizer) printf(",%d", (s->step->flags & DTH_STEP_REGULARIZED) ? 0 : 1);
+    printf("\n");
     if (s->kind == DTH_SAMPLE_MIDPOINT) o->worst = fmax(o->worst, fabs(E - o->E0) / fmax(fabs(o->E0), 1e-300));
     return ferror(stdout) ? DTH_EIO : 0;
 }
@@ -113,7 +116,7 @@ int main(int argc, char **argv)
     printf("k,t,lambda");
     for (size_t i = 0; i < n; i++) printf(",q%zu", i + 1);
     for (size_t i = 0; i < n; i++) printf(",p%zu", i + 1);
-    printf(",wp,H,E\n");
+    printf(",wp,H,E%s\n", rs.regularizer ? ",ordinary" : "");
     dth_run_state st;
     dth_run_state_init(&st);
     rc = dth_run(it, &c, &st);

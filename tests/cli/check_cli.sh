@@ -19,10 +19,10 @@ ok() { echo "ok: $*"; }
 rc=$?
 [ $rc -eq 0 ] || fail "smoke run exit $rc"
 [ -s "$T/smoke.err" ] && fail "smoke run wrote to stderr: $(cat "$T/smoke.err")"
-[ "$(head -1 "$T/smoke.csv")" = "k,t,lambda,q1,p1,wp,H,E" ] || fail "header: $(head -1 "$T/smoke.csv")"
+[ "$(head -1 "$T/smoke.csv")" = "k,t,lambda,q1,p1,wp,H,E,ordinary" ] || fail "header: $(head -1 "$T/smoke.csv")"
 [ "$(wc -l <"$T/smoke.csv")" -eq 102 ] || fail "smoke rows: $(wc -l <"$T/smoke.csv") lines, want 102"
 awk -F, 'NR == 1 { next }
-    NF != 8 { print "row " NR ": " NF " fields"; bad = 1 }
+    NF != 9 || $9 != 1 { print "row " NR ": " NF " fields, ordinary " $9; bad = 1 }
     $1 != NR - 2 { print "row " NR ": k = " $1; bad = 1 }
     NR == 2 { wp = $6; if ($3 != 0) { print "lambda at k=0 is " $3; bad = 1 } }
     NR > 2 && $6 != wp { print "row " NR ": wp " $6 " != " wp; bad = 1 }
@@ -87,13 +87,17 @@ ok "every= and dt="
 
 # ---- diagnostics columns (with the model's invariants) on the harmonic scene
 "$DTH" run "$SC/harmonic.ini" -s integrator.steps=5 -s output.points=vertices >"$T/harm.csv" || fail "harmonic run"
-[ "$(head -1 "$T/harm.csv")" = "k,t,lambda,q1,q2,p1,p2,wp,H,E,E1,E2,psi,dpsi,region,iters,branch" ] ||
+[ "$(head -1 "$T/harm.csv")" = "k,t,lambda,q1,q2,p1,p2,wp,H,E,ordinary,E1,E2,psi,dpsi,region,iters,branch" ] ||
     fail "harmonic header: $(head -1 "$T/harm.csv")"
-awk -F, 'NR > 1 && ($15 != "I" || NF != 17) { print "row " NR ": region " $15; bad = 1 } END { exit bad }' \
-    "$T/harm.csv" || fail "harmonic region column"
+awk -F, 'NR > 1 && ($16 != "I" || NF != 18 || $11 != 1) { print "row " NR ": region " $16 ", ordinary " $11; bad = 1 } END { exit bad }' \
+    "$T/harm.csv" || fail "harmonic region and ordinary columns"
 # branch: "-" before the first step, then the exact first step of a midpoint start, then "plus"
-[ "$(cut -d, -f17 "$T/harm.csv" | sed -n '2,4p' | tr '\n' ' ')" = "- exact plus " ] ||
-    fail "harmonic branch column: $(cut -d, -f17 "$T/harm.csv" | sed -n '2,4p' | tr '\n' ' ')"
+[ "$(cut -d, -f18 "$T/harm.csv" | sed -n '2,4p' | tr '\n' ' ')" = "- exact plus " ] ||
+    fail "harmonic branch column: $(cut -d, -f18 "$T/harm.csv" | sed -n '2,4p' | tr '\n' ' ')"
+# the rotating pendulum: steps in the changeover bands read ordinary = 0, exactly where branch = reg
+"$DTH" run "$SC/pendulum-rotation.ini" -s integrator.steps=60 >"$T/rotd.csv" 2>/dev/null || fail "rotation run"
+awk -F, 'NR > 2 { if (($9 == 0) != ($14 == "reg")) bad = 1; n0 += $9 == 0 } END { exit bad || n0 < 5 }' "$T/rotd.csv" ||
+    fail "ordinary column against the branch column"
 ok "diagnostics columns"
 
 # ---- the default regularizer carries the rotating pendulum through psi = 0 (exit 0)
@@ -135,6 +139,17 @@ awk -F, 'NR == 3 { exit !($3 == 0.019) }' "$T/hv.csv" || fail "first step is not
 grep -q 'explicit \[initial\] wp encodes a first step of 0.01, not h = 0.019' "$T/hv.err" ||
     fail "explicit wp warning: $(cat "$T/hv.err")"
 ok "vertex start: first step h, energy reported"
+
+# ---- a stiff step (omega h = 1.8): raw DTH ends at a region II fold and the default regularizer
+# cannot carry it either; the message names the step ceiling 6/5 |psi/psi'| (Theorem EU_2) and an h
+# that passes
+printf '[model]\nname = pendulum\nomega2 = 10000\n[initial]\nq = 1\np = 0\n[integrator]\nh = 0.018\nt_end = 5\n' >"$T/stiff.ini"
+"$DTH" run "$T/stiff.ini" -o "$T/stiff.csv" 2>"$T/stiff.err"
+[ $? -eq 3 ] || fail "stiff run exit: $(cat "$T/stiff.err")"
+hint=$(sed -n "s/.*ceiling 6\/5 |psi\/psi'| = [0-9.e-]* of the physical root here (Theorem EU_2): a smaller step passes, e.g. -s integrator.h=\([0-9.e-]*\)$/\1/p" "$T/stiff.err")
+[ -n "$hint" ] || fail "stiff run message: $(cat "$T/stiff.err")"
+"$DTH" run "$T/stiff.ini" -s integrator.h="$hint" -o "$T/stiff.csv" 2>"$T/stiff.err" || fail "the advised h = $hint fails: $(cat "$T/stiff.err")"
+ok "stiff step: the ceiling named, the advised h passes"
 
 # ---- bad scene files: exit 2, one line "dth: FILE:LINE: ...", nothing on stdout, no output file
 for f in "$BAD"/bad_*.ini; do
@@ -238,7 +253,7 @@ for f in "$T/term.csv" "$T/$tmp"; do
         [ "$f" = "$T/term.csv" ] && fail "$f (SIGTERM: finished by dth) does not end with a newline"
         [ $((size % 4096)) -eq 0 ] || fail "$f does not end with a newline, and is not cut at a page boundary ($size bytes)"
     fi
-    awk -F, -v cut=$cut 'NR == 1 && $0 != "k,t,lambda,q1,p1,wp,H,E" { bad = 1 } { last = NR } NF != 8 { if (bad_nr) bad = 1; bad_nr = NR }
+    awk -F, -v cut=$cut 'NR == 1 && $0 != "k,t,lambda,q1,p1,wp,H,E,ordinary" { bad = 1 } { last = NR } NF != 9 { if (bad_nr) bad = 1; bad_nr = NR }
         END { if (bad_nr && !(cut && bad_nr == last)) bad = 1; exit bad || NR < 2 }' "$f" ||
         fail "$f is not a clean CSV"
 done

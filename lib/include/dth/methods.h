@@ -108,6 +108,19 @@ DTH_API const char *dth_fixed_errmsg(const dth_fixed *f);
 DTH_API int dth_step_floor(const dth_model *model, const double *z, double rel_tol,
                            double *h_min, double *work);
 
+/**
+ * The step floor's twin: the largest step the physical root is known to allow at the vertex z
+ * (length 2n+2). In region II (psi'^2 > 24 K |psi|) the physical roots lambda+- have
+ * s = -(psi'/psi) lambda below 6/5 (paper, Theorem EU_2): beyond |lambda| = 6/5 |psi / psi'| the
+ * physical root has met the ghost (a fold), which is where a stiff step (omega h near 2) ends. This
+ * returns *h_max = 6/5 |psi / psi'| (INFINITY where psi' = 0: region I, the cubic bound of Theorem
+ * EU_1 then needs K). A run that ended at such a fold passes with a step law about h_max/|lambda|
+ * smaller, or with the default regularizer where it can carry the fold.
+ * `work` must hold dth_model_work_size(model) doubles.
+ * @return DTH_OK; DTH_EINVAL; DTH_ESINGULAR where psi = 0 (*h_max = 0); the model's status.
+ */
+DTH_API int dth_step_ceiling(const dth_model *model, const double *z, double *h_max, double *work);
+
 #ifdef __cplusplus
 }
 #endif
