@@ -507,7 +507,8 @@ class Result:
     """What a run gives, as numpy arrays over its samples (rows as dth run writes them):
     k, t, lam (the step), q (m, n), p (m, n), wp, H (= wp + H_phys), E (= H_phys, the energy),
     z (m, 2n+2), kind (vertex, midpoint, time, end), invariants (m, ninv) with invariant_names
-    (and inv: a dict name -> column); with diagnostics: psi, dpsi, region (names), iters, branch.
+    (and inv: a dict name -> column); iters, branch, ordinary (1: an ordinary DTH step, 0: a
+    regularizer's); with diagnostics: psi, dpsi, region (names).
     events: an Events. status (0 or a positive status: the trajectory could not go on),
     status_name, message, stop ("end", "event", "failed"), steps (vertex index at the end),
     t_stop, crossings, regularized, max_ratio; megno, lyapunov, megno_span, megno_t_stop where
@@ -547,7 +548,7 @@ class _Collect:
         z = s.z
         k = s.index if s.kind == 2 or (s.kind == 3 and self.rs.dt > 0) else s.k
         lam = getattr(s.step, "lambda")
-        row = [k, s.kind, lam, ffi.unpack(z, N), self.energy(z), s.step.iters, int(s.step.branch)]
+        row = [k, s.kind, lam, ffi.unpack(z, N), self.energy(z), s.step.iters, int(s.step.branch), s.step.flags]
         if self.ninv:
             if L.dth_model_invariants(self.model, z, self.inv) == 0:
                 row.append(ffi.unpack(self.inv, self.ninv))
@@ -590,8 +591,10 @@ class _Collect:
         r.branch = [ffi.string(lib().dth_branch_name(b)).decode() for b in r.branch_code]
         r.t, r.q, r.p, r.wp = r.z[:, n], r.z[:, :n], r.z[:, n + 1:2 * n + 1], r.z[:, N - 1]
         r.H = r.wp + r.E
+        # 1: the step is an ordinary (symplectic) DTH step, 0: a regularizer's (dth run's column ordinary)
+        r.ordinary = np.array([0 if x[7] & 1 else 1 for x in rows], dtype=np.int64)
         r.invariant_names = list(self.inv_names)
-        c = 7
+        c = 8
         if self.ninv:
             r.invariants = np.array([x[c] for x in rows], dtype=np.float64).reshape(m, self.ninv)
             c += 1

@@ -102,6 +102,17 @@ class TestRunMatchesCli(unittest.TestCase):
         self.assertEqual(r.kind[-1], "time")  # the end falls on an output time: no separate end row
 
     @unittest.skipUnless(CLI, "the dth CLI is not built")
+    def test_regularized_rotation(self):
+        r = dth.run(scene("pendulum-rotation.ini"))
+        c = cli_rows(scene("pendulum-rotation.ini"))
+        np.testing.assert_array_equal(r.z[:, [0, 1, 2, 3]], np.column_stack(
+            [floats(c[x]) for x in ("q1", "t", "p1", "wp")]))
+        np.testing.assert_array_equal(r.ordinary, [int(x) for x in c["ordinary"]])
+        np.testing.assert_array_equal(r.psi, floats(c["psi"]))
+        self.assertGreater(r.regularized, 0)
+        self.assertIn(0, r.ordinary)
+
+    @unittest.skipUnless(CLI, "the dth CLI is not built")
     def test_events_match_the_events_file(self):
         with tempfile.TemporaryDirectory() as d:
             out = os.path.join(d, "k.csv")
