@@ -67,6 +67,13 @@ ci_cli_smoke() {
         -o "$tmp/evt.csv"
     expect 0 "$@" "$dth" run "$root/scenes/kepler-e06.ini" -s output.dt=0.1 -s events.section=q2 -o "$tmp/k.h5"
     expect 0 "$@" "$dth" run "$p" --progress=0.01 -s integrator.steps=2000 -o "$tmp/pr.csv"
+    # dth sweep (OpenMP threads; MPI is covered by meson test cli-sweep-mpi): a grid with MEGNO and
+    # trajectories, a list with a baseline method, a refused key
+    expect 0 "$@" "$dth" sweep "$p" --vary initial.q=0.5:1:3 --vary initial.p=0:0.5:2 -s integrator.t_end=2 \
+        --trajectories "$tmp/sw/r" -o "$tmp/sw.csv"
+    printf 'initial.q,integrator.h\n0.5,0.05\n"1",0.1\n' >"$tmp/list.csv"
+    expect 0 "$@" "$dth" sweep "$p" --list "$tmp/list.csv" -s integrator.method=rk4 -s integrator.t_end=2 -o "$tmp/sl.csv"
+    expect 2 "$@" "$dth" sweep "$p" --vary model.nope=0:1:2
     expect 2 "$@" "$dth" run
     expect 2 "$@" "$dth" frobnicate
     printf '[model]\nname = pendulum\n[initial]\nq = 1,\n' >"$tmp/bad.ini"
