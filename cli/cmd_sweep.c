@@ -11,6 +11,8 @@
 #include <ctype.h>
 #include <dlfcn.h>
 #include <errno.h>
+#include <stddef.h>
+#include <stdint.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -38,9 +40,39 @@ typedef struct vkey {
 
 /* The numbers of one summary row (doubles, so that MPI moves them as one array). */
 enum {
-    R_STATUS, R_SETUP, R_STEPS, R_T, R_EERR, R_CROSS, R_REG, R_EVENTS, R_MEGNO, R_LYAP, R_MEGT, R_NINV, R_INV,
+    R_STATUS, R_SETUP, R_STEPS, R_T, R_EERR, R_CROSS, R_REG, R_EVENTS, R_MEGNO, R_LYAP, R_MEGT, R_MEM, R_NINV, R_INV,
     R_LEN = R_INV + SWEEP_MAX_INV
 };
+
+/* The library's heap of one run, counted (--stats: memory per run): every allocation of the scene,
+ * the model, the regularizer, the integrator, the driver and MEGNO goes through it. */
+typedef struct counter {
+    size_t cur, peak;
+} counter;
+
+typedef union hdr {
+    size_t size;
+    max_align_t align;
+} hdr;
+
+static void *count_alloc(void *ctx, size_t size)
+{
+    counter *c = ctx;
+    hdr *h = size <= SIZE_MAX - sizeof *h ? malloc(sizeof *h + size) : NULL;
+    if (!h) return NULL;
+    h->size = size;
+    c->cur += size;
+    if (c->cur > c->peak) c->peak = c->cur;
+    return h + 1;
+}
+
+static void count_free(void *ctx, void *p)
+{
+    if (!p) return;
+    hdr *h = (hdr *)p - 1;
+    ((counter *)ctx)->cur -= h->size;
+    free(h);
+}
 
 typedef struct sweep {
     const char *scene_path;
@@ -80,6 +112,7 @@ static void usage_sweep(FILE *f)
             "  --model-lib F:SYM load a model type from a shared object: SYM names its const dth_model_type\n"
             "  --schedule static|dynamic  how MPI ranks share the runs (default dynamic: chunks from a counter)\n"
             "  --chunk N         runs per chunk of the dynamic schedule (default 16)\n"
+            "  --stats           print the wall time, runs per second and the library's heap per run to stderr\n"
             "summary columns: run, the varied keys, status (ok or the status name), steps, t (where the run ended),\n"
             "  energy_error (largest |E - E0|/|E0| over the step midpoints; vertices for baseline methods),\n"
             "  NAME_drift per invariant (largest |I - I0|/|I0| over the vertices), psi_crossings, regularized_share,\n"
@@ -329,11 +362,12 @@ static int set_key(dth_scene *s, const vkey *k, const char *v, char *err, size_t
     return rc;
 }
 
-/* The scene of run i, set up. */
-static int run_setup(const sweep *sw, long i, dth_scene **scene, dth_run_setup *rs, char *err, size_t errlen)
+/* The scene of run i, set up (alloc: the library's allocator for everything the run owns, or NULL). */
+static int run_setup(const sweep *sw, long i, const dth_allocator *alloc, dth_scene **scene, dth_run_setup *rs,
+                     char *err, size_t errlen)
 {
     char v[1024];
-    int rc = dth_scene_new(NULL, scene);
+    int rc = dth_scene_new(alloc, scene);
     if (!rc) rc = dth_scene_load_mem(*scene, sw->scene_path, sw->text, sw->textlen, err, errlen);
     for (int j = 0; !rc && j < sw->nsets; j++) rc = dth_scene_set(*scene, sw->sets[j], err, errlen);
     for (int j = 0; !rc && j < sw->nkeys; j++) {
@@ -440,7 +474,9 @@ static void run_one(const sweep *sw, long i, double *rec)
     memset(&rs, 0, sizeof rs);
     for (int j = 0; j < R_LEN; j++) rec[j] = NAN;
     rec[R_SETUP] = 0;
-    int rc = run_setup(sw, i, &scene, &rs, err, sizeof err);
+    counter cnt = {0, 0};
+    dth_allocator al = {count_alloc, count_free, &cnt};
+    int rc = run_setup(sw, i, &al, &scene, &rs, err, sizeof err);
     runctx c;
     memset(&c, 0, sizeof c);
     c.out.fd = -1;
@@ -462,7 +498,7 @@ static void run_one(const sweep *sw, long i, double *rec)
         if (!rc) rc = dth_integrator_start(c.it, rs.q0, rs.p0, rs.t0);
     } else {
         rc = dth_fixed_check(rs.model, rs.method, NULL, 0);
-        if (!rc) rc = dth_fixed_new(rs.model, rs.method, rs.opt.h, NULL, &c.fx);
+        if (!rc) rc = dth_fixed_new(rs.model, rs.method, rs.opt.h, &al, &c.fx);
         if (!rc) rc = dth_fixed_start(c.fx, rs.q0, rs.p0, rs.t0);
     }
     if (rc) {
@@ -484,7 +520,7 @@ static void run_one(const sweep *sw, long i, double *rec)
     if (c.ninv > SWEEP_MAX_INV) c.ninv = SWEEP_MAX_INV;
     c.inv_ok = c.ninv > 0 && dth_model_invariants(rs.model, y, c.inv0) == DTH_OK;
     free(y);
-    if (sw->megno && c.it && (rc = dth_megno_new(c.it, NULL, NULL, &c.meg)) != DTH_OK) {
+    if (sw->megno && c.it && (rc = dth_megno_new(c.it, NULL, &al, &c.meg)) != DTH_OK) {
         rec[R_STATUS] = rc;
         goto done;
     }
@@ -497,6 +533,7 @@ static void run_one(const sweep *sw, long i, double *rec)
     cfg.events = rs.events;
     cfg.nevents = rs.nevents;
     cfg.user = &c;
+    cfg.alloc = &al;
     cfg.progress = on_progress;
     cfg.progress_every = 1;
     if (sw->traj) {
@@ -548,6 +585,7 @@ done:
     dth_fixed_free(c.fx);
     dth_run_setup_clear(&rs);
     dth_scene_free(scene);
+    rec[R_MEM] = (double)cnt.peak;
 }
 
 /* ---------------------------------------------------------------- output */
@@ -654,10 +692,10 @@ static int mpi_runs(sweep *sw, int rank, int size, int dynamic, long chunk)
         run_range(sw, 0, mine, idx);
     } else {
         MPI_Win win;
-        long *counter = NULL;
+        long *next = NULL;
         MPI_Win_allocate(rank == 0 ? (MPI_Aint)sizeof(long) : 0, sizeof(long), MPI_INFO_NULL, MPI_COMM_WORLD,
-                         &counter, &win);
-        if (rank == 0) *counter = 0;
+                         &next, &win);
+        if (rank == 0) *next = 0;
         MPI_Barrier(MPI_COMM_WORLD);
         for (;;) {
             long start, inc = chunk;
@@ -762,7 +800,7 @@ int cli_cmd_sweep(int argc, char **argv)
     memset(&sw, 0, sizeof sw);
     sw.megno = 1;
     const char *out_path = NULL, *list_path = NULL;
-    int dynamic = 1, status = CLI_USAGE, rank = 0, size = 1, mpi = 0;
+    int dynamic = 1, status = CLI_USAGE, rank = 0, size = 1, mpi = 0, stats = 0;
     long chunk = 16;
     void *libs[16];
     int nlibs = 0;
@@ -784,6 +822,8 @@ int cli_cmd_sweep(int argc, char **argv)
             return CLI_OK;
         } else if (!strcmp(a, "--no-megno")) {
             sw.megno = 0;
+        } else if (!strcmp(a, "--stats")) {
+            stats = 1;
         } else if (!strcmp(a, "-s") || !strcmp(a, "-o") || !strcmp(a, "--vary") || !strcmp(a, "--list") ||
                    !strcmp(a, "--trajectories") || !strcmp(a, "--model-lib") || !strcmp(a, "--schedule") ||
                    !strcmp(a, "--chunk")) {
@@ -917,7 +957,7 @@ int cli_cmd_sweep(int argc, char **argv)
         dth_scene *scene = NULL;
         dth_run_setup rs;
         memset(&rs, 0, sizeof rs);
-        int rc = run_setup(&sw, 0, &scene, &rs, err, sizeof err);
+        int rc = run_setup(&sw, 0, NULL, &scene, &rs, err, sizeof err);
         if (rc) {
             cli_error("%s", err);
             status = rc == DTH_ENOMEM ? CLI_FAIL : CLI_USAGE;
@@ -968,6 +1008,10 @@ int cli_cmd_sweep(int argc, char **argv)
     if (!open_ok) goto fin;
     if (sw.traj) cli_make_parents(sw.traj);
     cli_catch_signals();
+#ifdef DTH_HAVE_MPI
+    if (mpi) MPI_Barrier(MPI_COMM_WORLD);
+#endif
+    double t_start = cli_now();
     if (!mpi) {
         run_range(&sw, 0, sw.nruns, NULL);
     }
@@ -981,6 +1025,7 @@ int cli_cmd_sweep(int argc, char **argv)
     (void)dynamic;
     (void)chunk;
 #endif
+    double t_work = cli_now() - t_start;
     int sig = cli_signal_received();
     if (sig) {
         cli_error("interrupted (no summary written)");
@@ -1011,7 +1056,7 @@ int cli_cmd_sweep(int argc, char **argv)
             dth_scene *scene = NULL;
             dth_run_setup rs;
             memset(&rs, 0, sizeof rs);
-            if (run_setup(&sw, bad, &scene, &rs, err, sizeof err) == DTH_OK)
+            if (run_setup(&sw, bad, NULL, &scene, &rs, err, sizeof err) == DTH_OK)
                 snprintf(err, sizeof err, "%s", dth_strerror((int)sw.rec[bad * R_LEN + R_STATUS]));
             cli_error("run %ld could not start: %s", bad, err);
             dth_run_setup_clear(&rs);
@@ -1019,6 +1064,23 @@ int cli_cmd_sweep(int argc, char **argv)
             status = CLI_USAGE;
         }
         if (stopped) cli_error("note: %ld of %ld trajectories stopped early (their status column)", stopped, sw.nruns);
+        if (stats) {
+            double mx = 0, sum = 0;
+            for (long i = 0; i < sw.nruns; i++) {
+                double m = sw.rec[i * R_LEN + R_MEM];
+                mx = fmax(mx, m);
+                sum += m;
+            }
+            int threads = 1;
+#ifdef _OPENMP
+            threads = omp_get_max_threads();
+#endif
+            fprintf(stderr, "dth sweep: %ld runs in %.3f s: %.1f runs/s (%d thread%s x %d rank%s, %s); library heap of "
+                    "one run: peak %.0f bytes (largest), %.0f (mean); summary record %zu bytes per run\n",
+                    sw.nruns, t_work, (double)sw.nruns / fmax(t_work, 1e-9), threads, threads == 1 ? "" : "s", size,
+                    size == 1 ? "" : "s", sw.megno ? "MEGNO on" : "MEGNO off", mx, sum / (double)sw.nruns,
+                    (size_t)R_LEN * sizeof(double));
+        }
         if (hard) {
             cli_error("%ld of %ld runs failed with a hard error (their status column)", hard, sw.nruns);
             status = CLI_FAIL;
