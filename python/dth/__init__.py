@@ -11,9 +11,9 @@ found). The one call most users need:
 See docs/python.md for scenes from dicts, user models in Python or C, roots, checkpoints and
 MEGNO.
 """
-from ._core import (DthError, OutsideDomain, Scene, Simulation, Result, Events, Roots, Model, CModel,
-                    load_model, run, roots, models, strerror, status_name)
+from ._core import (DthError, OutsideDomain, Scene, Simulation, Result, Events, Roots, Map, Model, CModel,
+                    load_model, run, roots, map, models, strerror, status_name)
 
 __version__ = "0.1.0"
-__all__ = ["DthError", "OutsideDomain", "Scene", "Simulation", "Result", "Events", "Roots", "Model", "CModel",
-           "load_model", "run", "roots", "models", "strerror", "status_name"]
+__all__ = ["DthError", "OutsideDomain", "Scene", "Simulation", "Result", "Events", "Roots", "Map", "Model", "CModel",
+           "load_model", "run", "roots", "map", "models", "strerror", "status_name"]

@@ -9,8 +9,8 @@ import numpy as np
 
 from ._ffi import ffi, lib
 
-__all__ = ["DthError", "OutsideDomain", "Scene", "Simulation", "Result", "Events", "Roots", "Model",
-           "CModel", "load_model", "run", "roots", "models", "strerror", "status_name"]
+__all__ = ["DthError", "OutsideDomain", "Scene", "Simulation", "Result", "Events", "Roots", "Map", "Model",
+           "CModel", "load_model", "run", "roots", "map", "models", "strerror", "status_name"]
 
 _ERRLEN = 1024
 _STOP = {0: "running", 1: "end", 2: "event", 3: "callback", 4: "failed"}
@@ -999,3 +999,86 @@ def roots(scene, set=None, models=(), L=None, z=None):
         r.lo, r.hi, r.truncated = out.lo, out.hi, bool(out.truncated)
         r.z = np.array(ffi.unpack(zz, 2 * rs.n + 2))
         return r
+
+
+# ---------------------------------------------------------------- map
+
+class Map:
+    """A phase-plane well-posedness map (as dth map writes it): arrays over the grid (nq, np) of
+    psi, dpsi, region (names; "" where the root search failed), nroots, lambda_minus, lambda_plus,
+    lambda_ghost (NaN: no such root), status; and the axes q, p."""
+
+    def __repr__(self):
+        return "<dth.Map %d x %d>" % self.psi.shape
+
+
+def map(scene, q, p, set=None, models=(), dof=1, L=None):  # noqa: A001  (the CLI's name)
+    """psi, [psi, H], the region and the classified roots at every point (q_i, p_i) of a grid taken as
+    a vertex, the other degrees of freedom at the scene's initial values (dth map, cli/cmd_map.c):
+    q = (a, b, n) and p = (c, d, m) are the axes, dof the degree of freedom mapped (1-based). Each
+    point's offset is a vertex start's, wp = -H_phys + psi h^2/8. Roots in [-L, L], default 16 |h|."""
+    lb = lib()
+    with Simulation(scene, set=set, models=models, check_model=False) as sim:
+        rs = sim._rs
+        n = rs.n
+        if not 1 <= dof <= n:
+            raise ValueError("dth: dof %d: the model has %d degrees of freedom" % (dof, n))
+        axis = lambda a, b, k: np.array([a] if k == 1 else  # noqa: E731  (symmetric in a and b, as dth map)
+                                        [((k - 1 - i) * a + i * b) / (k - 1) for i in range(k)], dtype=np.float64)
+        qs, ps = axis(float(q[0]), float(q[1]), int(q[2])), axis(float(p[0]), float(p[1]), int(p[2]))
+        h = rs.opt.h
+        LL = float(L) if L else 16 * abs(h)
+        ro = ffi.new("dth_root_options *")
+        lb.dth_root_options_default(ro)
+        ro.K = rs.opt.K
+        rfp = ffi.new("dth_rootfinder **")
+        rc = lb.dth_rootfinder_new(rs.model, ro, ffi.NULL, rfp)
+        if rc:
+            raise DthError(rc)
+        z = ffi.new("double[]", 2 * n + 2)
+        work = ffi.new("double[]", lb.dth_model_work_size(rs.model) + 1)
+        H, psi, dpsi = ffi.new("double *"), ffi.new("double *"), ffi.new("double *")
+        out = ffi.new("dth_root_set *")
+        shape = (len(qs), len(ps))
+        m = Map()
+        m.q, m.p = qs, ps
+        m.psi, m.dpsi = np.full(shape, np.nan), np.full(shape, np.nan)
+        m.lambda_minus, m.lambda_plus, m.lambda_ghost = (np.full(shape, np.nan) for _ in range(3))
+        m.nroots = np.zeros(shape, dtype=np.int64)
+        m.status = np.zeros(shape, dtype=np.int64)
+        m.region = [["" for _ in ps] for _ in qs]
+        try:
+            for i, qv in enumerate(qs):
+                for j, pv in enumerate(ps):
+                    ffi.memmove(z, rs.q0, 8 * n)
+                    z[n] = rs.t0
+                    ffi.memmove(z + n + 1, rs.p0, 8 * n)
+                    z[dof - 1], z[n + dof] = qv, pv
+                    psi[0] = dpsi[0] = math.nan
+                    rc = lb.dth_model_eval(rs.model, z, 1, H, ffi.NULL, ffi.NULL)
+                    if not rc:
+                        rc = lb.dth_model_psi(rs.model, z, psi, dpsi, work)
+                    m.psi[i, j], m.dpsi[i, j] = psi[0], dpsi[0]
+                    if not rc:
+                        z[2 * n + 1] = -H[0] + psi[0] * h * h / 8
+                        rc = lb.dth_find_roots(rfp[0], z, LL, out)
+                    _raise_pending()
+                    m.status[i, j] = rc
+                    if rc:
+                        continue
+                    v = out.vertex
+                    m.psi[i, j], m.dpsi[i, j] = v.psi, v.dpsi
+                    m.region[i][j] = ffi.string(lb.dth_region_name(v.region)).decode()
+                    m.nroots[i, j] = out.count
+                    for k in range(out.count):
+                        r = out.root[k]
+                        lam = getattr(r, "lambda")
+                        if r.cls == 1:
+                            m.lambda_minus[i, j] = lam
+                        elif r.cls == 2:
+                            m.lambda_plus[i, j] = lam
+                        elif r.cls == 3 and not abs(lam) >= abs(m.lambda_ghost[i, j]):
+                            m.lambda_ghost[i, j] = lam
+        finally:
+            lb.dth_rootfinder_free(rfp[0])
+        return m

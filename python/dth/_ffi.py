@@ -78,6 +78,7 @@ size_t dth_model_n_invariants(const dth_model *m);
 const char *dth_model_invariant_name(const dth_model *m, size_t i);
 int dth_model_invariants(const dth_model *m, const double *y, double *out);
 size_t dth_model_work_size(const dth_model *m);
+int dth_model_psi(const dth_model *m, const double *y, double *psi, double *dpsi, double *work);
 typedef struct dth_model_check_report {
     double grad_err;
     size_t grad_idx;

@@ -251,6 +251,25 @@ class TestRootsCheckpointsMegno(unittest.TestCase):
             self.assertEqual(r.cls, [x[1] for x in rows])
             self.assertTrue(all(r.region == x[3] for x in rows))
 
+    @unittest.skipUnless(CLI, "the dth CLI is not built")
+    def test_map_matches_cli(self):
+        m = dth.map(scene("pendulum-rotation.ini"), q=(-3.5, 3.5, 9), p=(-3, 3, 7))
+        with tempfile.TemporaryDirectory() as d:
+            subprocess.run([CLI, "map", scene("pendulum-rotation.ini"), "--q", "-3.5:3.5:9", "--p", "-3:3:7", "--out",
+                            os.path.join(d, "m")], check=True, capture_output=True)
+            rows = list(csv.DictReader(open(os.path.join(d, "m.csv"))))
+        self.assertEqual(len(rows), 63)
+        for k, r in enumerate(rows):
+            i, j = divmod(k, 7)
+            self.assertEqual(float(r["q"]), m.q[i])
+            self.assertEqual(float(r["p"]), m.p[j])
+            for col, arr in (("psi", m.psi), ("dpsi", m.dpsi), ("lambda_minus", m.lambda_minus),
+                             ("lambda_plus", m.lambda_plus), ("lambda_ghost", m.lambda_ghost)):
+                want = float(r[col]) if r[col] else math.nan
+                self.assertTrue(want == arr[i, j] or (math.isnan(want) and math.isnan(arr[i, j])), (col, k))
+            self.assertEqual(r["region"], m.region[i][j])
+            self.assertEqual(r["nroots"], str(m.nroots[i, j]) if r["nroots"] else "")
+
     def test_roots_pendulum_symmetric_pair(self):
         r = dth.roots(scene("pendulum.ini"))
         self.assertEqual(r.cls, ["minus", "plus"])
