@@ -48,11 +48,12 @@ void cli_usage_run(FILE *f);
 dth_registry *cli_registry(void);
 
 /*
- * Output of whole lines, written crash-safely. A file is written to FILE.tmp.PID in the same
- * directory and renamed onto FILE by cli_out_finish; lines are buffered and written whole
- * (at most every 0.5 s, or when the buffer fills), so the temporary file always ends at a
- * line boundary. NULL path: standard output. An existing non-regular FILE (a device such as
- * /dev/null, a FIFO) is written in place.
+ * Output of whole lines, written crash-safely (cli/outfile.c). A file is written to a temporary
+ * of the run's own, FILE.tmp.PID.XXXXXX in the same directory, and renamed onto FILE by
+ * cli_out_finish; lines are buffered and written whole (at most every 0.5 s, or when the buffer
+ * fills), so the temporary file always ends at a line boundary. NULL path: standard output. An
+ * existing non-regular FILE (a device such as /dev/null, a FIFO) is written in place. The bytes
+ * written are counted and hashed (FNV-1a 64), for checkpoints.
  */
 typedef struct cli_out {
     int fd;
@@ -63,8 +64,14 @@ typedef struct cli_out {
     int direct;           /* path is a device or pipe: written in place, no rename */
     int failed;           /* a write failed (errno in err) */
     int err;
+    int keep;             /* a checkpoint refers to the temporary: an abort leaves it */
     unsigned long long written; /* bytes handed to the file so far (buffered ones excluded) */
+    unsigned long long hash;    /* FNV-1a 64 of those bytes */
 } cli_out;
+
+/* FNV-1a 64: the hash of no bytes, and h continued over n more bytes. */
+#define CLI_FNV_OFFSET 14695981039346656037ULL
+unsigned long long cli_fnv1a(unsigned long long h, const void *p, size_t n);
 
 /* Open; on failure prints "dth: cannot write 'FILE': reason" and returns -1. */
 int cli_out_open(cli_out *o, const char *path);
@@ -72,18 +79,29 @@ int cli_out_open(cli_out *o, const char *path);
 int cli_out_line(cli_out *o, const char *line, size_t len);
 /* Write out every buffered line and fsync a file: `written` is then on disk. -1 on failure. */
 int cli_out_sync(cli_out *o);
-/* Copy the first `bytes` bytes of the file `src` into the output (resuming a run); -1 if src is
- * missing or shorter, or on a write failure. */
-int cli_out_copy_prefix(cli_out *o, const char *src, unsigned long long bytes);
+/* cli_out_copy_prefix's failures */
+enum { CLI_PREFIX_SHORT = -1, CLI_PREFIX_CHANGED = -2, CLI_PREFIX_WRITE = -3 };
+/* Copy the first `bytes` bytes of the file `src` into the output (resuming a run) after checking
+ * that they hash to `hash`: 0, CLI_PREFIX_SHORT (src missing or shorter), CLI_PREFIX_CHANGED
+ * (other bytes: the file was changed or replaced), CLI_PREFIX_WRITE (writing failed; o->err). */
+int cli_out_copy_prefix(cli_out *o, const char *src, unsigned long long bytes, unsigned long long hash);
 /* Write out buffered lines if the last flush is older than 0.5 s. */
 void cli_out_maybe_flush(cli_out *o);
 /* Flush, close and rename into place. Prints an error and returns -1 on failure. */
 int cli_out_finish(cli_out *o);
-/* Close and remove the temporary file (nothing is left behind). */
+/* A checkpoint refers to the temporary file from now on: cli_out_abort leaves it in place. */
+void cli_out_keep(cli_out *o);
+/* Close and remove the temporary file (unless kept), releasing everything. */
 void cli_out_abort(cli_out *o);
+/* Remove the temporaries of `path` (PATH.tmp.PID and PATH.tmp.PID.XXXXXX) whose writer is no
+ * longer running, except `except` (may be NULL). Returns how many were removed. */
+int cli_clean_stale(const char *path, const char *except);
 
 /* Create the missing folders of a file's path (mkdir -p of its folder). -1 if one could not be made. */
 int cli_make_parents(const char *path);
+/* An absolute form of path without symbolic links in its folder (realpath of the folder + the
+ * name; malloc'd), NULL if the folder does not exist. */
+char *cli_abspath(const char *path);
 /* 1 if the two paths name the same file (existing: same inode; else the same absolute path). */
 int cli_same_file(const char *a, const char *b);
 
@@ -99,7 +117,7 @@ double cli_now(void);
 const char *cli_stop_hint(const char *regularizer, int status, double h, const dth_model *m, const double *z,
                           double lambda, char *buf, size_t len);
 
-/* Stop requests from SIGINT/SIGTERM: install the handlers; the signal number or 0. */
+/* Stop requests from SIGINT, SIGTERM and SIGHUP: install the handlers; the signal number or 0. */
 void cli_catch_signals(void);
 int cli_signal_received(void);
 

@@ -16,8 +16,12 @@
 #include "cli.h"
 #include "fmt.h"
 #include "h5out.h"
+#include "ckpt.h"
 
 /* ---------------------------------------------------------------- rows */
+
+/* At most this many rows within one step (output.dt far below the step: a full disk, not a trajectory). */
+enum { MAX_SAMPLES_PER_STEP = 1000000 };
 
 /* How a column is printed in CSV (HDF5 stores every column as a double: codes for the names). */
 enum { COL_DBL = 0, COL_INT, COL_REGION, COL_BRANCH, COL_EVENT };
@@ -39,6 +43,10 @@ typedef struct run {
     double t_start, last_progress, t_begin, progress_s;
     long k_begin;
     int sig;
+    int ckpt_written, ckpt_failed; /* a checkpoint was written (at step ckpt_k); one failed */
+    long ckpt_k;
+    long step_k, step_samples; /* samples within the current step (bounded) */
+    int too_many;
     cli_out ev;            /* event rows ([events]) */
     int has_ev;
     double *vals;          /* one row's values */
@@ -178,6 +186,13 @@ static double vertex_K(run *r, const double *z, double lambda_out)
 static int on_sample(void *user, const dth_sample *s)
 {
     run *r = user;
+    /* a stop request, also between the samples of one step (dense output can hold many) */
+    if ((r->sig = cli_signal_received()) != 0) return DTH_ESTOPPED;
+    if (s->k != r->step_k) r->step_k = s->k, r->step_samples = 0;
+    if (++r->step_samples > MAX_SAMPLES_PER_STEP) {
+        r->too_many = 1;
+        return DTH_ESTOPPED;
+    }
     if (r->check_wp && s->k == 0) {
         double lam = s->kind == DTH_SAMPLE_VERTEX ? s->lambda_out : s->za ? s->step->lambda : 0;
         if (lam != 0) {
@@ -228,110 +243,24 @@ static int ev_header(run *r)
 
 /* ---------------------------------------------------------------- checkpoints */
 
-/* The "cli" blob: the driver's loop state, the output file's progress. */
-typedef struct ckpt_cli {
-    uint32_t version;     /* of this blob's layout */
-    uint32_t dense;       /* dt > 0 */
-    dth_run_state S;      /* the run driver's state (run.h) */
-    uint64_t csv_bytes;   /* bytes of CSV that belong to rows already final */
-    char out_path[1024];  /* where the checkpointed run writes: final name ... */
-    char out_tmp[1100];   /* ... and its temporary name while running ("" if none) */
-    uint64_t ev_bytes;    /* the same for the events file */
-    char ev_path[1024];
-    char ev_tmp[1100];
-} ckpt_cli;
-
-enum { CKPT_CLI_VERSION = 2 /* 2: the run driver's state */ };
-
-/* Keep an entry in the saved scene? Of steps= and t_end=, only the one in force (one may come
- * from the file and the other from an override that won). */
-static int saved(const char *sec, const char *key, int has_t_end)
-{
-    if (strcmp(sec, "integrator")) return 1;
-    return has_t_end ? strcmp(key, "steps") != 0 : strcmp(key, "t_end") != 0;
-}
-
-/* The scene as INI text (long values split at commas over continuation lines). */
-static char *scene_text(const dth_scene *s, int has_t_end, size_t *len)
-{
-    size_t cap = 256, n = 0;
-    for (size_t i = 0; i < dth_scene_count(s); i++) {
-        const char *sec, *key, *val, *org;
-        dth_scene_entry(s, i, &sec, &key, &val, &org);
-        cap += strlen(sec) + strlen(key) + 2 * strlen(val) + 64;
-    }
-    char *t = malloc(cap);
-    if (!t) return NULL;
-    const char *cur = "";
-    for (size_t pass = 0; pass < dth_scene_count(s); pass++) {
-        const char *sec, *key, *val, *org;
-        dth_scene_entry(s, pass, &sec, &key, &val, &org);
-        /* entries of one section are written together under one header */
-        int seen = 0;
-        for (size_t i = 0; i < pass; i++) {
-            const char *s2, *k2, *v2, *o2;
-            dth_scene_entry(s, i, &s2, &k2, &v2, &o2);
-            if (!strcmp(s2, sec)) seen = 1;
-        }
-        if (seen) continue;
-        cur = sec;
-        n += (size_t)snprintf(t + n, cap - n, "[%s]\n", cur);
-        for (size_t i = pass; i < dth_scene_count(s); i++) {
-            dth_scene_entry(s, i, &sec, &key, &val, &org);
-            if (strcmp(sec, cur) || !saved(sec, key, has_t_end)) continue;
-            n += (size_t)snprintf(t + n, cap - n, "%s = ", key);
-            size_t col = strlen(key) + 3;
-            for (const char *v = val; *v;) {
-                const char *c = strchr(v, ',');
-                size_t l = c ? (size_t)(c - v) + 1 : strlen(v);
-                if (col + l > 150 && col > 8) {
-                    n += (size_t)snprintf(t + n, cap - n, "\n    ");
-                    col = 4;
-                    while (*v == ' ') v++, l--;
-                }
-                memcpy(t + n, v, l);
-                n += l;
-                col += l;
-                v += l;
-            }
-            t[n++] = '\n';
-        }
-    }
-    t[n] = '\0';
-    *len = n;
-    return t;
-}
-
+/* A checkpoint (cli/ckpt.c) every checkpoint_every steps and at the end, after the rows so far are
+ * on disk. From the first one on, the temporaries it names are kept if the run fails. */
 static int on_checkpoint(void *user, const dth_run_state *st)
 {
     run *r = user;
-    cli_out *o = &r->out;
-    if (cli_out_sync(o) || (r->has_ev && cli_out_sync(&r->ev))) return DTH_EIO;
-    ckpt_cli c;
-    memset(&c, 0, sizeof c);
-    c.version = CKPT_CLI_VERSION;
-    c.dense = r->rs->dt > 0;
-    c.S = *st;
-    c.csv_bytes = o->written;
-    if (o->path) snprintf(c.out_path, sizeof c.out_path, "%s", o->path);
-    if (o->tmp) snprintf(c.out_tmp, sizeof c.out_tmp, "%s", o->tmp);
-    if (r->has_ev) {
-        c.ev_bytes = r->ev.written;
-        if (r->ev.path) snprintf(c.ev_path, sizeof c.ev_path, "%s", r->ev.path);
-        if (r->ev.tmp) snprintf(c.ev_tmp, sizeof c.ev_tmp, "%s", r->ev.tmp);
-    }
-    size_t tlen;
-    char *text = scene_text(r->scene, r->rs->has_t_end, &tlen);
-    if (!text) return DTH_ENOMEM;
-    dth_blob blobs[] = {{"scene", text, tlen}, {"cli", &c, sizeof c}};
-    char err[256];
-    int rc = dth_checkpoint_write_file(r->it, blobs, 2, r->ckpt_path, err, sizeof err);
-    free(text);
+    if (cli_out_sync(&r->out) || (r->has_ev && cli_out_sync(&r->ev))) return DTH_EIO;
+    char err[1200];
+    int rc = cli_ckpt_write(r->ckpt_path, r->it, r->scene, r->rs->has_t_end, st, &r->out, r->has_ev ? &r->ev : NULL,
+                            err, sizeof err);
     if (rc) {
         cli_error("%s", err);
-        o->err = 0;
+        r->ckpt_failed = 1;
         return DTH_EIO;
     }
+    cli_out_keep(&r->out);
+    if (r->has_ev) cli_out_keep(&r->ev);
+    r->ckpt_k = st->k;
+    r->ckpt_written = 1;
     return 0;
 }
 
@@ -358,6 +287,48 @@ static int on_progress(void *user, const dth_run_state *st)
     double eta = done > 0 ? el * (1 - done) / done : NAN;
     fprintf(stderr, "dth run: t = %.9g (%.1f%%), k = %ld, %.3g steps/s, elapsed %.1f s, ETA %.1f s\n", st->t,
             100 * frac, st->k, rate, el, eta);
+    return 0;
+}
+
+/* ---------------------------------------------------------------- resume */
+
+/* Remove the temporaries that killed runs left next to the outputs and the checkpoint, and next to
+ * the outputs a resumed checkpoint names (c may be NULL). */
+static void clean_stale(const char *path, const char *ev_path, const char *ckpt_path, const cli_ckpt *c)
+{
+    const char *p[5] = {path, ev_path, ckpt_path, c && c->out.path[0] ? c->out.path : NULL,
+                        c && c->ev.path[0] ? c->ev.path : NULL};
+    for (int i = 0; i < 5; i++) {
+        if (i >= 3 && p[i] && ((path && cli_same_file(p[i], path)) || (ev_path && cli_same_file(p[i], ev_path)))) continue;
+        int k = p[i] ? cli_clean_stale(p[i], NULL) : 0;
+        if (k) cli_error("removed %d temporar%s of '%s' left by runs that no longer run", k, k > 1 ? "ies" : "y", p[i]);
+    }
+}
+
+/* The rows the checkpointed run had made final, into the new outputs: from its temporary file if it
+ * was killed (or failed), else from the file it finished; the bytes must hash as recorded. */
+static int resume_prefix(run *r, const cli_ckpt *c, const char *ckpt, const char *ev_path)
+{
+    const cli_ckpt_out *src[2] = {&c->out, &c->ev};
+    cli_out *dst[2] = {&r->out, &r->ev};
+    for (int i = 0; i < (r->has_ev ? 2 : 1); i++) {
+        const cli_ckpt_out *s = src[i];
+        const char *from = s->tmp[0] && access(s->tmp, R_OK) == 0 ? s->tmp : s->path;
+        if (i == 1 && !s->path[0]) {
+            cli_error("%s: the checkpointed run wrote no events file ('%s' cannot continue one)", ckpt, ev_path);
+            return -1;
+        }
+        int rc = cli_out_copy_prefix(dst[i], from, s->bytes, s->hash);
+        if (rc == CLI_PREFIX_SHORT)
+            cli_error("%s: the checkpointed run's output '%s' is missing or shorter than its %llu bytes", ckpt, from,
+                      s->bytes);
+        else if (rc == CLI_PREFIX_CHANGED)
+            cli_error("%s: the checkpointed run's output '%s' was changed since the checkpoint (its first %llu bytes "
+                      "differ from what the run wrote)", ckpt, from, s->bytes);
+        else if (rc == CLI_PREFIX_WRITE)
+            cli_error("cannot write '%s': %s", dst[i]->path ? dst[i]->path : "standard output", strerror(dst[i]->err));
+        if (rc) return -1;
+    }
     return 0;
 }
 
@@ -469,26 +440,23 @@ int cli_cmd_run(int argc, char **argv)
     char *ev_path = NULL;
     void *ck = NULL;
     size_t cklen = 0;
-    const ckpt_cli *ckc = NULL;
-    ckpt_cli ckc_copy; /* blobs sit unaligned in the checkpoint buffer */
+    const cli_ckpt *ckc = NULL;
+    cli_ckpt ckc_data; /* the checkpoint's run state (cli/ckpt.c) */
+    memset(&ckc_data, 0, sizeof ckc_data);
+    dth_scene *saved = NULL; /* the scene as the checkpointed run had it */
     if (!reg) return CLI_FAIL;
     int rc = dth_scene_new(NULL, &scene);
     if (!rc && resume_path) {
-        const void *text, *cb;
-        size_t tlen, cblen;
-        rc = dth_checkpoint_read_file(resume_path, NULL, &ck, &cklen, err, sizeof err);
-        if (!rc && (dth_checkpoint_blob(ck, cklen, "scene", &text, &tlen) ||
-                    dth_checkpoint_blob(ck, cklen, "cli", &cb, &cblen) || cblen != sizeof ckc_copy ||
-                    (memcpy(&ckc_copy, cb, sizeof ckc_copy), ckc_copy.version != CKPT_CLI_VERSION))) {
-            snprintf(err, sizeof err, "%s: not a checkpoint of this version of dth run (no scene or loop state)",
-                     resume_path);
-            rc = DTH_EPARSE;
-        }
+        const char *text;
+        size_t tlen;
+        rc = cli_ckpt_read(resume_path, &ck, &cklen, &text, &tlen, &ckc_data, err, sizeof err);
         if (!rc) {
-            ckc = &ckc_copy;
+            ckc = &ckc_data;
             char name[1100];
             snprintf(name, sizeof name, "%s(scene)", resume_path);
             rc = dth_scene_load_mem(scene, name, text, tlen, err, sizeof err);
+            if (!rc) rc = dth_scene_new(NULL, &saved);
+            if (!rc) rc = dth_scene_load_mem(saved, name, text, tlen, err, sizeof err);
         }
     } else if (!rc) {
         rc = dth_scene_load(scene, scene_path, err, sizeof err);
@@ -500,7 +468,10 @@ int cli_cmd_run(int argc, char **argv)
         else if (!strcmp(argv[i], "-s"))
             rc = dth_scene_set(scene, argv[++i], err, sizeof err);
     }
+    /* a resume continues the checkpointed run: only its length and the output names may change */
+    if (!rc && saved && cli_ckpt_check_scene(saved, scene, err, sizeof err)) rc = DTH_EINVAL;
     if (!rc) rc = dth_scene_setup(scene, reg, &rs, err, sizeof err);
+    if (!rc && ckc && cli_ckpt_check_length(ckc, &rs, err, sizeof err)) rc = DTH_EINVAL;
     if (rc) {
         cli_error("%s", rc == DTH_ENOMEM ? "out of memory" : err);
         status = rc == DTH_ENOMEM ? CLI_FAIL : CLI_USAGE;
@@ -518,11 +489,6 @@ int cli_cmd_run(int argc, char **argv)
     }
     if (!is_dth && strcmp(rs.regularize, "none")) {
         cli_error("[regularize] applies to method = dth only (this scene uses '%s')", rs.method);
-        goto done;
-    }
-    if (ckc && ckc->dense != (rs.dt > 0)) {
-        cli_error("%s: the checkpointed run %s resample ([output] dt); keep it as it was", resume_path,
-                  ckc->dense ? "did" : "did not");
         goto done;
     }
 
@@ -572,8 +538,11 @@ int cli_cmd_run(int argc, char **argv)
         if (!rc) rc = dth_fixed_start(fx, rs.q0, rs.p0, rs.t0);
     }
     if (rc) {
-        cli_error("%s: cannot start at the initial state: %s (%s)", scene_path, dth_strerror(rc),
-                  it ? dth_integrator_errmsg(it) : fx ? dth_fixed_errmsg(fx) : "creating the integrator");
+        /* a start the step size spoils (a first vertex that overflows, no offset that gives h): name h */
+        char hh[96] = "";
+        if (rc > 0 && !ck) snprintf(hh, sizeof hh, "; integrator.h = %.6g may be too large for this model", rs.opt.h);
+        cli_error("%s: cannot start at the initial state: %s (%s)%s", scene_path, dth_strerror(rc),
+                  it ? dth_integrator_errmsg(it) : fx ? dth_fixed_errmsg(fx) : "creating the integrator", hh);
         status = rc < 0 && rc != DTH_EINVAL ? CLI_FAIL : CLI_USAGE;
         goto done;
     }
@@ -597,7 +566,7 @@ int cli_cmd_run(int argc, char **argv)
         goto done;
     }
     const char *path = out_opt ? (strcmp(out_opt, "-") ? out_opt : NULL) : rs.out_file;
-    if (!out_opt && !rs.out_file && ckc && ckc->out_path[0]) path = ckc->out_path;
+    if (!out_opt && !rs.out_file && ckc && ckc->out.path[0]) path = ckc->out.path;
     if (ckpt_path && !path) {
         cli_error("--checkpoint needs an output file (-o FILE or [output] file=): standard output cannot be resumed");
         goto done;
@@ -639,11 +608,12 @@ int cli_cmd_run(int argc, char **argv)
             goto done;
         }
     }
-    /* an output that would overwrite an input */
-    const char *outs[2] = {path, ev_path};
+    /* an output that would overwrite an input (a resume may write its checkpoint over the one it
+     * read: that is whole in memory, and a checkpoint is replaced atomically) */
+    const char *outs[2] = {path, ev_path}, *scene_file = resume_path ? NULL : scene_path;
     for (int i = 0; i < 2; i++) {
         if (!outs[i]) continue;
-        const char *clash = cli_same_file(outs[i], scene_path) ? "the scene file"
+        const char *clash = cli_same_file(outs[i], scene_file) ? "the scene file"
                             : cli_same_file(outs[i], ckpt_path) ? "the checkpoint file"
                             : resume_path && cli_same_file(outs[i], resume_path) ? "the checkpoint file" : NULL;
         if (i == 1 && !clash && cli_same_file(ev_path, path)) clash = "the trajectory's output";
@@ -652,7 +622,7 @@ int cli_cmd_run(int argc, char **argv)
             goto done;
         }
     }
-    if (ckpt_path && cli_same_file(ckpt_path, scene_path)) {
+    if (ckpt_path && cli_same_file(ckpt_path, scene_file)) {
         cli_error("refusing to write the checkpoint to '%s': it is the scene file", ckpt_path);
         goto done;
     }
@@ -661,7 +631,8 @@ int cli_cmd_run(int argc, char **argv)
     if (is_h5) {
         char herr[1200];
         size_t tl;
-        char *text = scene_text(scene, rs.has_t_end, &tl);
+        char *text = NULL;
+        if (dth_scene_text(scene, NULL, NULL, &text, &tl)) text = NULL;
         r.h5 = text ? h5_open(path, herr, sizeof herr) : NULL;
         if (!r.h5) {
             cli_error("%s", text ? herr : "out of memory");
@@ -712,21 +683,11 @@ int cli_cmd_run(int argc, char **argv)
         cli_out_abort(&r.out);
         goto done;
     }
-    if (ckc) {
-        /* the rows the checkpointed run had made final: from its temporary file if it was
-         * killed, else from the file it finished */
-        const char *src = ckc->out_tmp[0] && access(ckc->out_tmp, R_OK) == 0 ? ckc->out_tmp : ckc->out_path;
-        const char *esrc = ckc->ev_tmp[0] && access(ckc->ev_tmp, R_OK) == 0 ? ckc->ev_tmp : ckc->ev_path;
-        int bad_out = !src[0] || cli_out_copy_prefix(&r.out, src, ckc->csv_bytes);
-        int bad_ev = !bad_out && r.has_ev && (!esrc[0] || cli_out_copy_prefix(&r.ev, esrc, ckc->ev_bytes));
-        if (bad_out || bad_ev) {
-            cli_error("%s: the checkpointed run's output '%s' is missing or shorter than its %llu bytes",
-                      resume_path, bad_out ? (src[0] ? src : "(standard output)") : esrc,
-                      (unsigned long long)(bad_out ? ckc->csv_bytes : ckc->ev_bytes));
-            cli_out_abort(&r.out);
-            if (r.has_ev) cli_out_abort(&r.ev);
-            goto done;
-        }
+    if (ckc && resume_prefix(&r, ckc, resume_path, ev_path)) {
+        status = r.out.failed || r.ev.failed ? CLI_FAIL : CLI_USAGE;
+        cli_out_abort(&r.out);
+        if (r.has_ev) cli_out_abort(&r.ev);
+        goto done;
     }
     cli_catch_signals();
 
@@ -782,6 +743,20 @@ int cli_cmd_run(int argc, char **argv)
     r.t_begin = ck ? dth_integrator_vertex(it)[n] : zstart[n];
     int werr = 0;
     if (!ckc && (header(&r) || (r.has_ev && ev_header(&r)))) werr = 1;
+    /* the checkpoint path is tried before the first step: a checkpoint of the start (or of the
+     * resumed state), so a run never learns only at its first checkpoint that it cannot write one */
+    if (!werr && ckpt_path && on_checkpoint(&r, &S)) {
+        if (!r.out.failed && !r.ev.failed) {
+            r.out.keep = r.ev.keep = 0;
+            cli_out_abort(&r.out);
+            if (r.has_ev) cli_out_abort(&r.ev);
+            goto done; /* CLI_USAGE: like an output that cannot be written */
+        }
+        werr = 1;
+    }
+    /* temporaries of runs that were killed: once this run's own checkpoint stands (a resume's rows
+     * are in this run's temporary), or at once without checkpoints */
+    if (!werr && (ckpt_path || !ckc)) clean_stale(path, ev_path, ckpt_path, ckc);
     rc = werr ? DTH_OK : it ? dth_run(it, &cfg, &S) : dth_run_fixed(fx, &cfg, &S);
     if (rc == DTH_EIO && S.stop == DTH_RUN_CALLBACK) werr = 1;
     /* --roundtrip: reverse in place and take as many steps back (paper, time reversibility) */
@@ -807,7 +782,7 @@ int cli_cmd_run(int argc, char **argv)
                     sc > 0 ? e / sc : e);
         }
     }
-    int sig = r.sig && rc == DTH_ESTOPPED ? r.sig : 0;
+    int sig = r.sig && rc == DTH_ESTOPPED && !r.too_many ? r.sig : 0;
     if (r.progress == 1) fprintf(stderr, "\r%20s\r", "");
     if (werr) {
         if (r.h5) {
@@ -816,6 +791,10 @@ int cli_cmd_run(int argc, char **argv)
             r.h5 = NULL;
         } else if (r.out.failed) cli_error("cannot write '%s': %s", path ? path : "standard output", strerror(r.out.err));
         else if (r.ev.failed) cli_error("cannot write '%s': %s", ev_path, strerror(r.ev.err));
+        /* what the last good checkpoint needs stays (its temporaries are kept): fix the cause, then resume */
+        if (r.ckpt_written)
+            cli_error("the checkpoint '%s' of step %ld and the rows it needs are kept: dth run --resume %s continues "
+                      "the run once the cause is fixed", ckpt_path, r.ckpt_k, ckpt_path);
         if (r.out.buf) cli_out_abort(&r.out);
         if (r.has_ev) cli_out_abort(&r.ev);
         status = CLI_FAIL;
@@ -835,21 +814,32 @@ int cli_cmd_run(int argc, char **argv)
         status = CLI_FAIL;
         goto done;
     }
+    if (ckc && !ckpt_path) clean_stale(path, ev_path, NULL, ckc); /* the resumed run's files are complete */
     /* how the run ended: always when it could not go on, else for regularized runs and on a tty */
     char crossing[160] = "";
     if (S.crossings || S.regularized)
         snprintf(crossing, sizeof crossing, "; %ld psi = 0 crossings, %ld regularized steps, largest step ratio "
                  "at a crossing %.3g", S.crossings, S.regularized, S.max_ratio);
     const char *emsg = it ? dth_integrator_errmsg(it) : dth_fixed_errmsg(fx);
-    if (sig) {
+    if (r.too_many) {
+        cli_error("stopped at k=%ld, t=%.17g: output.dt = %.3g asks for more than %d rows within one step (a larger "
+                  "output.dt, or output.points = vertices; the rows so far are kept)", S.k, S.t, rs.dt,
+                  MAX_SAMPLES_PER_STEP);
+        status = CLI_USAGE;
+    } else if (sig) {
         cli_error("interrupted at k=%ld, t=%.17g (the rows so far are kept)%s", S.k, S.t, crossing);
         status = 128 + sig;
     } else if (rc > 0) {
         char hint[256];
-        cli_error("stopped at k=%ld, t=%.17g: %s (%s)%s%s", S.k, S.t, dth_strerror(rc), emsg, crossing,
-                  is_dth ? cli_stop_hint(rs.regularize, rc, rs.opt.h, rs.model, dth_integrator_vertex(it),
-                                         dth_integrator_lambda(it), hint, sizeof hint)
-                         : "");
+        if (S.k - r.k_begin <= 1 && !ck) /* the first solved step failed: the step size is the key to change */
+            snprintf(hint, sizeof hint, "; the first step failed: a smaller step may pass: -s integrator.h=%.6g",
+                     rs.opt.h / 4);
+        else if (is_dth)
+            cli_stop_hint(rs.regularize, rc, rs.opt.h, rs.model, dth_integrator_vertex(it), dth_integrator_lambda(it),
+                          hint, sizeof hint);
+        else
+            hint[0] = '\0';
+        cli_error("stopped at k=%ld, t=%.17g: %s (%s)%s%s", S.k, S.t, dth_strerror(rc), emsg, crossing, hint);
         status = CLI_STOPPED;
     } else if (rc < 0) {
         cli_error("error at k=%ld, t=%.17g: %s (%s)", S.k, S.t, dth_strerror(rc), emsg);
@@ -875,7 +865,9 @@ done:
     free(r.inv);
     free(r.work);
     free(zstart);
-    free(ck);
+    dth_free(NULL, ck);
+    cli_ckpt_clear(&ckc_data);
+    dth_scene_free(saved);
     dth_integrator_free(it);
     dth_fixed_free(fx);
     dth_run_setup_clear(&rs);

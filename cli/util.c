@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: MIT */
-/* Helpers shared by the dth subcommands: error lines, the model registry, crash-safe output. */
+/* Helpers shared by the dth subcommands: error lines, the model registry, paths, signals. */
 #define _XOPEN_SOURCE 700 /* realpath */
 #include <errno.h>
 #include <fcntl.h>
@@ -57,6 +57,7 @@ void cli_catch_signals(void)
     sigemptyset(&sa.sa_mask);
     sigaction(SIGINT, &sa, NULL);
     sigaction(SIGTERM, &sa, NULL);
+    sigaction(SIGHUP, &sa, NULL); /* a closed terminal: stop like SIGTERM (rows kept, checkpoint written) */
 }
 
 int cli_signal_received(void) { return (int)stop_signal; }
@@ -88,8 +89,7 @@ int cli_make_parents(const char *path)
     return rc;
 }
 
-/* An absolute form of path without symbolic links in its folder: realpath of the folder + name. */
-static char *canon(const char *path)
+char *cli_abspath(const char *path)
 {
     char *r = realpath(path, NULL);
     if (r) return r;
@@ -120,214 +120,13 @@ int cli_same_file(const char *a, const char *b)
     if (!a || !b) return 0;
     struct stat sa, sb;
     if (stat(a, &sa) == 0 && stat(b, &sb) == 0) return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
-    char *ca = canon(a), *cb = canon(b);
+    char *ca = cli_abspath(a), *cb = cli_abspath(b);
     int same = ca && cb && !strcmp(ca, cb);
     free(ca);
     free(cb);
     return same;
 }
 
-/* ---------------------------------------------------------------- crash-safe output */
-
-enum { OUT_CAP = 1 << 16 };
-
-static int write_all(int fd, const char *p, size_t n)
-{
-    while (n) {
-        ssize_t w = write(fd, p, n);
-        if (w < 0) {
-            if (errno == EINTR) continue;
-            return -1;
-        }
-        p += w;
-        n -= (size_t)w;
-    }
-    return 0;
-}
-
-static int flush(cli_out *o)
-{
-    if (o->failed) return -1;
-    if (o->len && write_all(o->fd, o->buf, o->len)) {
-        o->failed = 1;
-        o->err = errno;
-        return -1;
-    }
-    o->written += o->len;
-    o->len = 0;
-    o->last_flush = cli_now();
-    return 0;
-}
-
-int cli_out_open(cli_out *o, const char *path)
-{
-    memset(o, 0, sizeof *o);
-    o->fd = STDOUT_FILENO;
-    o->cap = OUT_CAP;
-    o->buf = malloc(o->cap);
-    if (!o->buf) {
-        cli_error("out of memory");
-        return -1;
-    }
-    o->last_flush = cli_now();
-    if (!path) return 0;
-    struct stat st;
-    int exists = stat(path, &st) == 0;
-    if (exists && S_ISDIR(st.st_mode)) {
-        cli_error("cannot write '%s': %s", path, strerror(EISDIR));
-        cli_out_abort(o);
-        return -1;
-    }
-    o->path = malloc(strlen(path) + 1);
-    if (!o->path) {
-        cli_error("out of memory");
-        cli_out_abort(o);
-        return -1;
-    }
-    strcpy(o->path, path);
-    if (exists && !S_ISREG(st.st_mode)) {
-        /* a device or pipe: write to it directly; renaming onto it would replace the node */
-        o->fd = open(path, O_WRONLY | O_CLOEXEC);
-        if (o->fd < 0) {
-            cli_error("cannot write '%s': %s", path, strerror(errno));
-            cli_out_abort(o);
-            return -1;
-        }
-        o->direct = 1;
-        return 0;
-    }
-    size_t len = strlen(path) + 32;
-    o->tmp = malloc(len);
-    if (!o->tmp) {
-        cli_error("out of memory");
-        cli_out_abort(o);
-        return -1;
-    }
-    snprintf(o->tmp, len, "%s.tmp.%ld", path, (long)getpid());
-    o->fd = open(o->tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-    if (o->fd < 0) {
-        cli_error("cannot write '%s': %s", path, strerror(errno));
-        free(o->tmp);
-        o->tmp = NULL; /* nothing was created: nothing to remove */
-        cli_out_abort(o);
-        return -1;
-    }
-    return 0;
-}
-
-int cli_out_line(cli_out *o, const char *line, size_t len)
-{
-    if (o->failed) return -1;
-    if (o->len + len + 1 > o->cap && flush(o)) return -1;
-    if (len + 1 > o->cap) { /* a line longer than the buffer: write it whole, directly */
-        if (write_all(o->fd, line, len) || write_all(o->fd, "\n", 1)) {
-            o->failed = 1;
-            o->err = errno;
-            return -1;
-        }
-        o->written += len + 1;
-        return 0;
-    }
-    memcpy(o->buf + o->len, line, len);
-    o->buf[o->len + len] = '\n';
-    o->len += len + 1;
-    return 0;
-}
-
-int cli_out_sync(cli_out *o)
-{
-    if (flush(o)) return -1;
-    if (o->path && !o->direct && fsync(o->fd) && errno != EINVAL) {
-        o->failed = 1;
-        o->err = errno;
-        return -1;
-    }
-    return 0;
-}
-
-int cli_out_copy_prefix(cli_out *o, const char *src, unsigned long long bytes)
-{
-    int fd = open(src, O_RDONLY | O_CLOEXEC);
-    if (fd < 0) return -1;
-    char chunk[1 << 16];
-    unsigned long long left = bytes;
-    int rc = 0;
-    while (left && !rc) {
-        ssize_t r = read(fd, chunk, left < sizeof chunk ? (size_t)left : sizeof chunk);
-        if (r < 0 && errno == EINTR) continue;
-        if (r <= 0) {
-            rc = -1; /* shorter than the checkpoint says: truncated or replaced */
-            break;
-        }
-        if (flush(o) || write_all(o->fd, chunk, (size_t)r)) {
-            o->failed = 1;
-            o->err = errno;
-            rc = -1;
-        } else {
-            o->written += (size_t)r;
-            left -= (unsigned long long)r;
-        }
-    }
-    close(fd);
-    return rc;
-}
-
-void cli_out_maybe_flush(cli_out *o)
-{
-    if (o->len && cli_now() - o->last_flush >= 0.5) flush(o);
-}
-
-int cli_out_finish(cli_out *o)
-{
-    int rc = flush(o);
-    const char *what = o->path ? o->path : "standard output";
-    if (o->direct) {
-        if (close(o->fd) && !rc) {
-            rc = -1;
-            o->err = errno;
-        }
-        o->fd = -1;
-    } else if (!rc && o->path) {
-        /* the data reach the disk before the name does, so FILE is never a torn file */
-        if (fsync(o->fd) && errno != EINVAL) {
-            rc = -1;
-            o->err = errno;
-        }
-        if (close(o->fd) && !rc) {
-            rc = -1;
-            o->err = errno;
-        }
-        o->fd = -1;
-        if (!rc && rename(o->tmp, o->path)) {
-            rc = -1;
-            o->err = errno;
-        }
-    }
-    if (rc) {
-        cli_error("cannot write '%s': %s", what, strerror(o->err));
-        cli_out_abort(o);
-        return -1;
-    }
-    free(o->path);
-    free(o->tmp);
-    free(o->buf);
-    memset(o, 0, sizeof *o);
-    o->fd = -1;
-    return 0;
-}
-
-void cli_out_abort(cli_out *o)
-{
-    if (o->tmp || o->direct) {
-        if (o->fd >= 0) close(o->fd);
-        if (o->tmp) unlink(o->tmp);
-    }
-    free(o->path);
-    free(o->tmp);
-    free(o->buf);
-    memset(o, 0, sizeof *o);
-    o->fd = -1;
-}
 
 const char *cli_stop_hint(const char *regularizer, int status, double h, const dth_model *m, const double *z,
                           double lambda, char *buf, size_t len)

@@ -2,7 +2,8 @@
 /*
  * libFuzzer target: "-s section.key=value" overrides. The input is split at newlines into
  * overrides applied with dth_scene_set on top of a valid pendulum scene, then validated with
- * dth_scene_setup. Must never crash; a refused override leaves the scene unchanged.
+ * dth_scene_setup. Must never crash; a refused override leaves the scene unchanged; what is accepted
+ * can be written as scene text that loads back to the same entries.
  */
 #include <math.h>
 #include <string.h>
@@ -41,6 +42,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         }
     }
     free(buf);
+    fuzz_check_round_trip(s);
     dth_run_setup rs;
     memset(&rs, 0, sizeof rs);
     err[0] = '\0';

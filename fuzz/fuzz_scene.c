@@ -2,7 +2,8 @@
 /*
  * libFuzzer target: scene files. Arbitrary bytes go through dth_scene_load_mem and, when they parse,
  * dth_scene_setup (validation into a run setup). Must never crash; a failure must leave the
- * scene unchanged and give a message; a success must give a consistent setup.
+ * scene unchanged and give a message; a success must give a consistent setup, and the scene written
+ * as text must load back to the same entries.
  */
 #include <math.h>
 #include <string.h>
@@ -26,6 +27,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         FUZZ_CHECK(err[0] != '\0');
         FUZZ_CHECK(dth_scene_count(s) == 0); /* a failed load leaves the scene unchanged */
     } else {
+        fuzz_check_round_trip(s);
         dth_run_setup rs;
         memset(&rs, 0, sizeof rs);
         err[0] = '\0';

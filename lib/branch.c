@@ -34,9 +34,6 @@ struct dth_rootfinder {
     size_t cap;           /* grid capacity (both sides and 0) */
     double *gl, *gg, *gd, *gz, *tmp; /* grid: lambda, g, g', zbar (cap x N); sort keys */
     long evals;
-    /* the integrator's policy: psi at the vertex of the last successful step */
-    double psi_prev;
-    long psi_step;
     double *block;
     int *iblock;
 };
@@ -77,7 +74,6 @@ static int rf_create(const dth_model *model, const dth_root_options *opt, const 
     rf->auton = dth_model_get_info(model)->autonomous;
     rf->M = (int)(rf->auton ? 2 * rf->n : 2 * rf->n + 1);
     rf->host = host;
-    rf->psi_step = -2;
     size_t N = rf->N, d = rf->d, M = (size_t)rf->M;
     rf->cap = 2 * ((size_t)o.n_uniform + (size_t)o.n_geom + 8) + 1;
     size_t sizes[] = {N, d, d * d, N, M * M, M, N, dth_model_work_size(model), N, N, N, N, N, N,
@@ -737,7 +733,7 @@ int dth__branch_select(dth_integrator *it, int rc, dth__solution *sol, dth_branc
     if (!rf) {
         /* no branch check: Newton's root as it is, if it goes the right way */
         if (rc) return rc;
-        if (!(sol->lambda * it->dir > 0)) {
+        if (!(sol->lambda * it->st.dir > 0)) {
             snprintf(it->errmsg, sizeof it->errmsg, "Newton found lambda = %.17g, against the direction of travel", sol->lambda);
             return DTH_ENOROOT;
         }
@@ -746,27 +742,27 @@ int dth__branch_select(dth_integrator *it, int rc, dth__solution *sol, dth_branc
     }
     if (rc < 0) return rc;
     size_t N = it->N;
-    for (size_t j = 0; j < N; j++) rf->z[j] = it->z[j] + it->zlo[j];
+    for (size_t j = 0; j < N; j++) rf->z[j] = it->st.z[j] + it->st.zlo[j];
     double H, psi, dpsi, pabs;
     int vr = vertex_quantities(rf, rf->z, &H, &psi, &dpsi, &pabs);
     if (vr) return rc ? rc : vr;
     int pz = fabs(psi) <= 32 * DBL_EPSILON * pabs;
-    long prev_ok = rf->psi_step == it->steps - 1 && it->have_prev;
+    long prev_ok = it->st.psi_step == it->st.steps - 1 && it->st.have_prev;
     /* cheap test: a root ahead, safely physical (Theorem EU_2: s well below 6/5, H/psi > 0), no
      * sign change of psi since the last vertex, and a step that continues the last one */
-    if (!rc && sol->lambda * it->dir > 0 && !pz && H * psi > 0) {
+    if (!rc && sol->lambda * it->st.dir > 0 && !pz && H * psi > 0) {
         double s = -(dpsi / psi) * sol->lambda;
-        double ratio = it->have_prev && it->lam != 0 ? sol->lambda / it->lam : 1.0;
-        int same_sign = !prev_ok || (rf->psi_prev > 0) == (psi > 0);
+        double ratio = it->st.have_prev && it->st.lam != 0 ? sol->lambda / it->st.lam : 1.0;
+        int same_sign = !prev_ok || (it->st.psi_prev > 0) == (psi > 0);
         if (s <= S_CHEAP && same_sign && ratio >= 0.5 && ratio <= 2.0) {
             *branch = sol->lambda > 0 ? DTH_BRANCH_PLUS : DTH_BRANCH_MINUS;
-            rf->psi_prev = psi;
-            rf->psi_step = it->steps;
+            it->st.psi_prev = psi;
+            it->st.psi_step = it->st.steps;
             return DTH_OK;
         }
     }
     /* the full search on [-L, L] around the expected step */
-    double lref = fmax(fabs(it->lam), fabs(it->lam_hint));
+    double lref = fmax(fabs(it->st.lam), fabs(it->st.lam_hint));
     if (!rc && isfinite(sol->lambda)) lref = fmax(lref, 0.5 * fabs(sol->lambda));
     dth_root_set set;
     double L = 8 * lref;
@@ -775,7 +771,7 @@ int dth__branch_select(dth_integrator *it, int rc, dth__solution *sol, dth_branc
     const dth_root *phys = NULL, *dbl = NULL, *ghost = NULL;
     for (size_t i = 0; i < set.count; i++) {
         const dth_root *r = &set.root[i];
-        if (!(r->lambda * it->dir > 0)) continue;
+        if (!(r->lambda * it->st.dir > 0)) continue;
         if (r->flags & DTH_ROOT_DOUBLE) {
             if (!dbl || fabs(r->lambda) < fabs(dbl->lambda)) dbl = r;
         } else if (r->cls == DTH_BRANCH_GHOST) {
@@ -787,7 +783,7 @@ int dth__branch_select(dth_integrator *it, int rc, dth__solution *sol, dth_branc
     if (phys && (!dbl || fabs(phys->lambda) < fabs(dbl->lambda))) {
         /* take it: the step's own Newton from the root's midpoint (refactors for the tangent map) */
         size_t k = (size_t)(phys - set.root);
-        for (size_t j = 0; j < N; j++) rf->ze[j] = rf->rz[k * N + j] - it->z[j];
+        for (size_t j = 0; j < N; j++) rf->ze[j] = rf->rz[k * N + j] - it->st.z[j];
         int nr = dth__newton(it, phys->lambda, rf->ze, sol);
         if (nr) return nr;
         if (fabs(sol->lambda - phys->lambda) > 1e-6 * fabs(phys->lambda)) {
@@ -796,13 +792,13 @@ int dth__branch_select(dth_integrator *it, int rc, dth__solution *sol, dth_branc
             return DTH_ENOCONV;
         }
         *branch = phys->cls;
-        rf->psi_prev = psi;
-        rf->psi_step = it->steps;
+        it->st.psi_prev = psi;
+        it->st.psi_step = it->st.steps;
         return DTH_OK;
     }
     int st;
     double rho = pz ? 0 : H / psi;
-    int toward_fold = !pz && -(dpsi / psi) * it->dir > 0; /* travelling toward positive s */
+    int toward_fold = !pz && -(dpsi / psi) * it->st.dir > 0; /* travelling toward positive s */
     if (dbl) st = DTH_EFOLD;
     else if (!pz && rho < 0) st = ghost ? DTH_EGHOST : DTH_ENEGOFFSET;
     else if (!pz && rho > 0 && toward_fold) st = DTH_EFOLD;
@@ -810,7 +806,7 @@ int dth__branch_select(dth_integrator *it, int rc, dth__solution *sol, dth_branc
     else st = DTH_ENOROOT;
     /* After a failed Newton, claim "no physical root" only from a complete scan ahead; else (or
      * for a bare DTH_ENOROOT) Newton's own status says more. */
-    int complete = it->dir > 0 ? set.hi >= L * (1 - 1e-12) : set.lo <= -L * (1 - 1e-12);
+    int complete = it->st.dir > 0 ? set.hi >= L * (1 - 1e-12) : set.lo <= -L * (1 - 1e-12);
     if (rc > 0 && (st == DTH_ENOROOT || !complete)) return rc;
     snprintf(it->errmsg, sizeof it->errmsg,
              "no physical root ahead of the vertex (H = %.3g, psi = %.3g, psi' = %.3g, %zu roots in [%.3g, %.3g])",

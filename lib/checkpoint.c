@@ -9,9 +9,13 @@
 #include <limits.h>
 #include <math.h>
 #include <stdarg.h>
+#include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 #include "dth/checkpoint.h"
 #include "dth_internal.h"
@@ -131,37 +135,196 @@ static const char *get_str(rd *r, size_t *n)
     return (const char *)get_bytes(r, l);
 }
 
+/* ---- fields: the step state (integrator_impl.h) and the options that change the steps ---- */
+
+enum { K_VEC = 1, K_F64, K_INT, K_LONG };                 /* how a field is held in memory */
+enum { T_F64 = 1, T_I64 = 2 };                            /* how its values are written */
+enum { C_FINITE, C_NONZERO, C_UNIT, C_BOOL, C_SIGN, C_NHIST, C_COUNT, C_PSISTEP, C_ANY };
+
+typedef struct field {
+    const char *name;
+    size_t off;
+    int kind, check;
+} field;
+
+#define STATE_ENTRY(name, kind, check, doc) {#name, offsetof(dth__state, name), K_##kind, C_##check},
+static const field state_fields[] = {DTH__STATE_FIELDS(STATE_ENTRY)};
+#undef STATE_ENTRY
+enum { NSTATE = sizeof state_fields / sizeof state_fields[0] };
+
+/* The options a restored run must share with the saved one: they change the steps. (The start
+ * mode, explicit wp and h of dth_options act at the start only; h as it stands is state.) */
+typedef struct optv {
+    long branch_check; /* a root finder is attached (banded models have none) */
+    long compensate, max_iter;
+    long linsolve;     /* the solver in use (AUTO resolved) */
+    double K;
+} optv;
+static const field opt_fields[] = {
+    {"branch_check", offsetof(optv, branch_check), K_LONG, C_ANY},
+    {"compensate", offsetof(optv, compensate), K_LONG, C_ANY},
+    {"max_iter", offsetof(optv, max_iter), K_LONG, C_ANY},
+    {"linsolve", offsetof(optv, linsolve), K_LONG, C_ANY},
+    {"K", offsetof(optv, K), K_F64, C_ANY},
+};
+enum { NOPT = sizeof opt_fields / sizeof opt_fields[0] };
+
+static optv options_of(const dth_integrator *it)
+{
+    optv o = {it->rf != NULL, it->opt.compensate != 0, it->opt.max_iter, (long)it->kind, it->opt.K};
+    return o;
+}
+
+static int wire_type(int kind) { return kind == K_VEC || kind == K_F64 ? T_F64 : T_I64; }
+
+/* One field: name, wire type, count, values. */
+static void put_field(wr *w, const field *f, const void *base, size_t N)
+{
+    const char *p = (const char *)base + f->off;
+    put_str(w, f->name);
+    put_u32(w, (uint32_t)wire_type(f->kind));
+    switch (f->kind) {
+    case K_VEC: {
+        const double *v;
+        memcpy(&v, p, sizeof v);
+        put_u64(w, N);
+        put_f64s(w, v, N);
+        break;
+    }
+    case K_F64: {
+        double x;
+        memcpy(&x, p, sizeof x);
+        put_u64(w, 1);
+        put_f64(w, x);
+        break;
+    }
+    case K_INT: {
+        int x;
+        memcpy(&x, p, sizeof x);
+        put_u64(w, 1);
+        put_u64(w, (uint64_t)(int64_t)x);
+        break;
+    }
+    default: {
+        long x;
+        memcpy(&x, p, sizeof x);
+        put_u64(w, 1);
+        put_u64(w, (uint64_t)(int64_t)x);
+        break;
+    }
+    }
+}
+
+static int check_f64(int check, double x)
+{
+    switch (check) {
+    case C_ANY: return 1;
+    case C_NONZERO: return isfinite(x) && x != 0;
+    case C_UNIT: return x == 1.0 || x == -1.0;
+    default: return isfinite(x);
+    }
+}
+
+static int check_i64(int kind, int check, int64_t x)
+{
+    if (kind == K_INT && (x < INT_MIN || x > INT_MAX)) return 0;
+    if (kind == K_LONG && (x < LONG_MIN || x > LONG_MAX)) return 0;
+    switch (check) {
+    case C_BOOL: return x == 0 || x == 1;
+    case C_SIGN: return x >= -1 && x <= 1;
+    case C_NHIST: return x >= 0 && x <= 3;
+    case C_COUNT: return x >= 0;
+    case C_PSISTEP: return x >= -2;
+    default: return 1;
+    }
+}
+
+/* Read and validate the field the library expects next; *pos: reader position of its values. */
+static int get_field(rd *r, const field *f, size_t N, size_t *pos, char *err, size_t errlen)
+{
+    size_t nl;
+    const char *nm = get_str(r, &nl);
+    uint32_t type = get_u32(r);
+    uint64_t count = get_u64(r);
+    if (r->bad) {
+        dth__set_err(err, errlen, "checkpoint truncated in field '%s'", f->name);
+        return DTH_EPARSE;
+    }
+    if (nl != strlen(f->name) || memcmp(nm, f->name, nl) != 0) {
+        dth__set_err(err, errlen, "checkpoint field '%.*s' where this library expects '%s'", (int)nl, nm, f->name);
+        return DTH_EPARSE;
+    }
+    uint64_t want = f->kind == K_VEC ? N : 1;
+    if (type != (uint32_t)wire_type(f->kind) || count != want) {
+        dth__set_err(err, errlen, "checkpoint field '%s' has type %u and %llu values (expected %d and %llu)", f->name,
+                     (unsigned)type, (unsigned long long)count, wire_type(f->kind), (unsigned long long)want);
+        return DTH_EPARSE;
+    }
+    *pos = r->pos;
+    for (uint64_t i = 0; i < count && !r->bad; i++) {
+        uint64_t v = get_u64(r);
+        int ok;
+        if (type == T_F64) {
+            double x;
+            memcpy(&x, &v, sizeof x);
+            ok = check_f64(f->check, x);
+        } else {
+            ok = check_i64(f->kind, f->check, (int64_t)v);
+        }
+        if (!r->bad && !ok) {
+            dth__set_err(err, errlen, "checkpoint field '%s' holds an invalid value%s", f->name,
+                         count > 1 ? " (in one of its components)" : "");
+            return DTH_EPARSE;
+        }
+    }
+    if (r->bad) {
+        dth__set_err(err, errlen, "checkpoint truncated in field '%s'", f->name);
+        return DTH_EPARSE;
+    }
+    return DTH_OK;
+}
+
+/* Store a validated field's values (at reader position pos) into base. */
+static void load_field(const rd *r, size_t pos, const field *f, void *base, size_t N)
+{
+    rd v = {r->p, r->len, pos, 0};
+    char *p = (char *)base + f->off;
+    if (f->kind == K_VEC) {
+        double *dst;
+        memcpy(&dst, p, sizeof dst);
+        for (size_t j = 0; j < N; j++) dst[j] = get_f64(&v);
+    } else if (f->kind == K_F64) {
+        double x = get_f64(&v);
+        memcpy(p, &x, sizeof x);
+    } else if (f->kind == K_INT) {
+        int x = (int)(int64_t)get_u64(&v);
+        memcpy(p, &x, sizeof x);
+    } else {
+        long x = (long)(int64_t)get_u64(&v);
+        memcpy(p, &x, sizeof x);
+    }
+}
+
 /* ---- the state section ---- */
+
+static const char *reg_name(const dth_integrator *it)
+{
+    return it->reg ? dth_regularizer_get_type(it->reg)->name : "";
+}
 
 static void put_state(wr *w, const dth_integrator *it)
 {
-    size_t N = it->N, m = (size_t)it->m;
     put_str(w, dth_model_get_type(it->model)->name);
     put_u64(w, it->n);
-    put_u32(w, (uint32_t)m);
+    put_u32(w, (uint32_t)it->m);
     put_u32(w, (uint32_t)it->auton);
-    put_f64s(w, it->z, N);
-    put_f64s(w, it->zlo, N);
-    put_f64s(w, it->zbar, N);
-    put_f64s(w, it->dprev, N);
-    put_f64s(w, it->dprev2, N);
-    put_f64s(w, it->dprev3, N);
-    put_f64(w, it->lam);
-    put_f64(w, it->lam2);
-    put_f64(w, it->lam3);
-    put_u32(w, (uint32_t)it->nhist);
-    put_f64(w, it->rho);
-    put_f64(w, it->lam_hint);
-    put_f64(w, it->dir);
-    put_f64(w, it->opt.h);
-    put_u32(w, (uint32_t)it->have_prev);
-    put_u32(w, (uint32_t)it->have_mid);
-    put_u32(w, (uint32_t)it->pending_exact);
-    put_u32(w, (uint32_t)it->fact_valid);
-    put_u64(w, (uint64_t)it->steps);
-    put_u32(w, (uint32_t)it->psi_known);
-    put_u32(w, (uint32_t)(it->psi_sign + 1)); /* -1, 0, 1 stored as 0, 1, 2 */
+    optv o = options_of(it);
+    put_u32(w, NOPT);
+    for (size_t i = 0; i < NOPT; i++) put_field(w, &opt_fields[i], &o, it->N);
+    put_u32(w, NSTATE);
+    for (size_t i = 0; i < NSTATE; i++) put_field(w, &state_fields[i], &it->st, it->N);
     /* the regularizer's own state (a constant fixed at its first step, seeds), as its bytes */
+    put_str(w, reg_name(it));
     size_t rl = dth__reg_state_size(it->reg);
     put_u64(w, rl);
     if (rl && w->buf && w->len + rl <= w->cap) dth__reg_save_state(it->reg, w->buf + w->len);
@@ -224,8 +387,9 @@ static int open_checked(rd *r, const void *buf, size_t len, char *err, size_t er
     get_u32(r);
     uint64_t total = get_u64(r);
     if (ver != DTH_CHECKPOINT_VERSION) {
-        dth__set_err(err, errlen, "checkpoint format version %u, this library reads version %d", (unsigned)ver,
-                DTH_CHECKPOINT_VERSION);
+        dth__set_err(err, errlen, "checkpoint format version %u, this library reads version %d only%s", (unsigned)ver,
+                     DTH_CHECKPOINT_VERSION,
+                     ver < DTH_CHECKPOINT_VERSION ? " (written by an older dth: resume it with that version)" : "");
         return DTH_EPARSE;
     }
     if (total != len) {
@@ -242,15 +406,16 @@ static int open_checked(rd *r, const void *buf, size_t len, char *err, size_t er
     return DTH_OK;
 }
 
-/* The state, validated, as read (pointers into the buffer are kept as a reader position). */
+/* The state, validated, as read (values stay in the buffer: reader positions). */
 typedef struct st {
     const char *name;
     size_t name_len;
     uint64_t n;
-    uint32_t m, auton, have_prev, have_mid, pending_exact, fact_valid, psi_known, psi_sign, nhist;
-    double lam, lam2, lam3, rho, lam_hint, dir, h;
-    uint64_t steps;
-    size_t pos_z;         /* reader position of the vectors */
+    uint32_t m, auton;
+    optv opt;
+    size_t pos[NSTATE];   /* reader position of each state field's values */
+    const char *reg;      /* regularizer type name */
+    size_t reg_name_len;
     uint64_t reg_len;     /* bytes of regularizer state */
     size_t pos_reg;
 } st;
@@ -261,38 +426,31 @@ static int read_state(rd *r, st *s, char *err, size_t errlen)
     s->n = get_u64(r);
     s->m = get_u32(r);
     s->auton = get_u32(r);
-    if (r->bad || s->n == 0 || s->n > (1u << 20) || s->m > 2 * s->n + 3 || s->auton > 1) {
+    if (r->bad || s->n == 0 || s->n > DTH__MAX_DOF || s->m > 2 * s->n + 3 || s->auton > 1) {
         dth__set_err(err, errlen, "checkpoint state header is invalid");
         return DTH_EPARSE;
     }
-    size_t N = 2 * (size_t)s->n + 2;
-    s->pos_z = r->pos;
-    for (size_t i = 0; i < 6 * N; i++) {
-        double x = get_f64(r);
-        if (!isfinite(x)) r->bad = 1;
-    }
-    s->lam = get_f64(r);
-    s->lam2 = get_f64(r);
-    s->lam3 = get_f64(r);
-    s->nhist = get_u32(r);
-    s->rho = get_f64(r);
-    s->lam_hint = get_f64(r);
-    s->dir = get_f64(r);
-    s->h = get_f64(r);
-    s->have_prev = get_u32(r);
-    s->have_mid = get_u32(r);
-    s->pending_exact = get_u32(r);
-    s->fact_valid = get_u32(r);
-    s->steps = get_u64(r);
-    s->psi_known = get_u32(r);
-    s->psi_sign = get_u32(r);
-    if (r->bad || s->psi_known > 1 || s->psi_sign > 2 || s->nhist > 3 || !isfinite(s->lam) || !isfinite(s->lam2) ||
-        !isfinite(s->lam3) || !isfinite(s->rho) || !isfinite(s->lam_hint) ||
-        !(s->dir == 1.0 || s->dir == -1.0) || !isfinite(s->h) || s->h == 0 || s->have_prev > 1 ||
-        s->have_mid > 1 || s->pending_exact > 1 || s->fact_valid > 1 || s->steps > (uint64_t)LONG_MAX) {
-        dth__set_err(err, errlen, "checkpoint state is invalid (non-finite value or bad flag)");
+    size_t N = 2 * (size_t)s->n + 2, pos;
+    uint32_t nf = get_u32(r);
+    if (r->bad || nf != NOPT) {
+        dth__set_err(err, errlen, "checkpoint has %u options, this library %d", (unsigned)nf, (int)NOPT);
         return DTH_EPARSE;
     }
+    for (size_t i = 0; i < NOPT; i++) {
+        int rc = get_field(r, &opt_fields[i], N, &pos, err, errlen);
+        if (rc) return rc;
+        load_field(r, pos, &opt_fields[i], &s->opt, N);
+    }
+    nf = get_u32(r);
+    if (r->bad || nf != NSTATE) {
+        dth__set_err(err, errlen, "checkpoint has %u state fields, this library %d", (unsigned)nf, (int)NSTATE);
+        return DTH_EPARSE;
+    }
+    for (size_t i = 0; i < NSTATE; i++) {
+        int rc = get_field(r, &state_fields[i], N, &s->pos[i], err, errlen);
+        if (rc) return rc;
+    }
+    s->reg = get_str(r, &s->reg_name_len);
     s->reg_len = get_u64(r);
     s->pos_reg = r->pos;
     if (!r->bad && s->reg_len > r->len - r->pos) r->bad = 1;
@@ -361,9 +519,29 @@ int dth_checkpoint_restore(dth_integrator *it, const void *buf, size_t len, char
                 (int)s.name_len, s.name, (unsigned long long)s.n, mname, it->n);
         return DTH_EINVAL;
     }
+    optv o = options_of(it);
+    for (size_t i = 0; i < NOPT; i++) {
+        const field *f = &opt_fields[i];
+        const char *a = (const char *)&o + f->off, *b = (const char *)&s.opt + f->off;
+        if (memcmp(a, b, f->kind == K_F64 ? sizeof(double) : sizeof(long)) == 0) continue;
+        if (f->kind == K_F64)
+            dth__set_err(err, errlen, "checkpoint was written with option %s = %.17g, this integrator has %.17g", f->name,
+                         s.opt.K, o.K);
+        else
+            dth__set_err(err, errlen, "checkpoint was written with option %s = %ld, this integrator has %ld", f->name,
+                         *(const long *)(const void *)b, *(const long *)(const void *)a);
+        return DTH_EINVAL;
+    }
+    const char *rname = reg_name(it);
+    if (strlen(rname) != s.reg_name_len || memcmp(rname, s.reg, s.reg_name_len) != 0) {
+        dth__set_err(err, errlen, "checkpoint was written with %s%.*s%s, this integrator has %s%s%s",
+                     s.reg_name_len ? "regularizer '" : "no regularizer", (int)s.reg_name_len, s.reg,
+                     s.reg_name_len ? "'" : "", rname[0] ? "regularizer '" : "none", rname, rname[0] ? "'" : "");
+        return DTH_EINVAL;
+    }
     if (s.reg_len != dth__reg_state_size(it->reg)) {
-        dth__set_err(err, errlen, "checkpoint holds %llu bytes of regularizer state, this integrator's regularizer %zu",
-                     (unsigned long long)s.reg_len, dth__reg_state_size(it->reg));
+        dth__set_err(err, errlen, "checkpoint holds %llu bytes of state of regularizer '%s', this one %zu",
+                     (unsigned long long)s.reg_len, rname, dth__reg_state_size(it->reg));
         return DTH_EINVAL;
     }
     /* the regularizer checks its bytes first: nothing is changed if it rejects them */
@@ -372,26 +550,7 @@ int dth_checkpoint_restore(dth_integrator *it, const void *buf, size_t len, char
         return DTH_EPARSE;
     }
     /* everything is valid: commit */
-    size_t N = it->N;
-    rd v = {r.p, r.len, s.pos_z, 0};
-    double *vec[] = {it->z, it->zlo, it->zbar, it->dprev, it->dprev2, it->dprev3};
-    for (int k = 0; k < 6; k++)
-        for (size_t j = 0; j < N; j++) vec[k][j] = get_f64(&v);
-    it->lam = s.lam;
-    it->lam2 = s.lam2;
-    it->lam3 = s.lam3;
-    it->nhist = (int)s.nhist;
-    it->rho = s.rho;
-    it->lam_hint = s.lam_hint;
-    it->dir = s.dir;
-    it->opt.h = s.h;
-    it->have_prev = (int)s.have_prev;
-    it->have_mid = (int)s.have_mid;
-    it->pending_exact = (int)s.pending_exact;
-    it->fact_valid = (int)s.fact_valid;
-    it->steps = (long)s.steps;
-    it->psi_known = (int)s.psi_known;
-    it->psi_sign = (int)s.psi_sign - 1;
+    for (size_t i = 0; i < NSTATE; i++) load_field(&r, s.pos[i], &state_fields[i], &it->st, it->N);
     snprintf(it->errmsg, sizeof it->errmsg, "no error");
     return DTH_OK;
 }
@@ -419,6 +578,29 @@ int dth_checkpoint_model_name(const void *buf, size_t len, char *name, size_t na
     return DTH_OK;
 }
 
+/* A temporary of the writer's own, "path.tmp.PID.XXXXXX", created with O_EXCL (so it gets the mode
+ * any new file gets, where mkstemp's would be 0600); a name that exists is drawn again. */
+static int open_unique_temp(const char *path, char *tmp, size_t cap)
+{
+    static const char al[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789";
+    struct timespec ts;
+    clock_gettime(CLOCK_REALTIME, &ts);
+    uint64_t x = ((uint64_t)ts.tv_nsec << 20) ^ (uint64_t)ts.tv_sec ^ ((uint64_t)getpid() << 32) ^ (uint64_t)(uintptr_t)tmp;
+    for (int attempt = 0; attempt < 100; attempt++) {
+        char s[7];
+        for (int i = 0; i < 6; i++) {
+            x = x * 6364136223846793005ULL + 1442695040888963407ULL;
+            s[i] = al[(x >> 33) % 62];
+        }
+        s[6] = '\0';
+        snprintf(tmp, cap, "%s.tmp.%ld.%s", path, (long)getpid(), s);
+        int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+        if (fd >= 0 || errno != EEXIST) return fd;
+    }
+    errno = EEXIST;
+    return -1;
+}
+
 int dth_checkpoint_write_file(const dth_integrator *it, const dth_blob *blobs, size_t nblobs,
                               const char *path, char *err, size_t errlen)
 {
@@ -426,8 +608,10 @@ int dth_checkpoint_write_file(const dth_integrator *it, const dth_blob *blobs, s
     size_t len;
     int rc = dth_checkpoint_save(it, blobs, nblobs, NULL, 0, &len);
     if (rc) return rc;
-    size_t plen = strlen(path);
-    char *tmp = dth_calloc(it->alloc, plen + 5, 1);
+    /* a temporary of its own (path.tmp.PID.XXXXXX: two writers of one path cannot collide; a
+     * killed writer's is recognised by its PID), fsync, rename over path, fsync the folder */
+    size_t plen = strlen(path), tcap = plen + 48;
+    char *tmp = dth_calloc(it->alloc, tcap, 1);
     unsigned char *buf = dth_calloc(it->alloc, len, 1);
     if (!tmp || !buf) {
         dth_free(it->alloc, tmp);
@@ -435,28 +619,26 @@ int dth_checkpoint_write_file(const dth_integrator *it, const dth_blob *blobs, s
         dth__set_err(err, errlen, "out of memory writing checkpoint '%s'", path);
         return DTH_ENOMEM;
     }
-    memcpy(tmp, path, plen);
-    memcpy(tmp + plen, ".tmp", 5);
     rc = dth_checkpoint_save(it, blobs, nblobs, buf, len, &len);
-    FILE *f = rc ? NULL : fopen(tmp, "wb");
-    if (!rc && !f) {
-        dth__set_err(err, errlen, "cannot create '%s': %s", tmp, strerror(errno));
+    int fd = rc ? -1 : open_unique_temp(path, tmp, tcap);
+    if (!rc && fd < 0) {
+        dth__set_err(err, errlen, "cannot write checkpoint '%s': %s", path, strerror(errno));
         rc = DTH_EIO;
     }
-    if (f) {
-        int ok = fwrite(buf, 1, len, f) == len && fflush(f) == 0 && fsync(fileno(f)) == 0;
-        int e = errno;
-        if (fclose(f) != 0 && ok) {
-            ok = 0;
-            e = errno;
+    if (fd >= 0) {
+        int ok = 1, e = 0;
+        for (size_t done = 0; ok && done < len;) {
+            ssize_t w = write(fd, buf + done, len - done);
+            if (w < 0 && errno == EINTR) continue;
+            if (w <= 0) ok = 0, e = w < 0 ? errno : EIO;
+            else done += (size_t)w;
         }
-        if (ok && rename(tmp, path) != 0) {
-            ok = 0;
-            e = errno;
-        }
+        if (ok && fsync(fd) != 0) ok = 0, e = errno;
+        if (close(fd) != 0 && ok) ok = 0, e = errno;
+        if (ok && rename(tmp, path) != 0) ok = 0, e = errno;
         if (!ok) {
             dth__set_err(err, errlen, "cannot write checkpoint '%s': %s", path, strerror(e));
-            remove(tmp);
+            unlink(tmp);
             rc = DTH_EIO;
         }
     }
@@ -470,10 +652,10 @@ int dth_checkpoint_write_file(const dth_integrator *it, const dth_blob *blobs, s
         } else {
             memcpy(tmp, ".", 2);
         }
-        int fd = open(tmp, O_RDONLY);
-        if (fd >= 0) {
-            fsync(fd);
-            close(fd);
+        int dfd = open(tmp, O_RDONLY);
+        if (dfd >= 0) {
+            fsync(dfd);
+            close(dfd);
         }
     }
     dth_free(it->alloc, tmp);
@@ -490,6 +672,15 @@ int dth_checkpoint_read_file(const char *path, const dth_allocator *alloc, void 
     FILE *f = fopen(path, "rb");
     if (!f) {
         dth__set_err(err, errlen, "cannot open checkpoint '%s': %s", path, strerror(errno));
+        return DTH_EIO;
+    }
+    /* a regular file only (a folder opens, and its size says nothing); no larger than a
+     * checkpoint can sensibly be */
+    struct stat sb;
+    if (fstat(fileno(f), &sb) != 0 || !S_ISREG(sb.st_mode)) {
+        dth__set_err(err, errlen, "cannot read checkpoint '%s': %s", path,
+                     S_ISDIR(sb.st_mode) ? strerror(EISDIR) : "not a regular file");
+        fclose(f);
         return DTH_EIO;
     }
     long size = -1;

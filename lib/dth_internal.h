@@ -8,6 +8,11 @@
 #include "dth/integrator.h"
 #include "dth/model.h"
 
+/** Most degrees of freedom a model may have: every buffer is O(n) doubles (or O(n^2) on the dense
+ *  path, which has its own limit), so sizes up to this never overflow a size_t. */
+#define DTH__MAX_DOF ((size_t)1 << 40)
+/** Most invariants a model may report. */
+#define DTH__MAX_INVARIANTS ((size_t)1 << 16)
 /** The model's own state pointer (for calling optional callbacks directly). */
 const void *dth__model_self(const dth_model *m);
 /** Bit j set: invariant j is (at most) quadratic in (q, p), as probed once when the model was made. */

@@ -69,7 +69,7 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
         return DTH_EINVAL;
     size_t n = dth_model_dof(model);
     /* every buffer below is O(n) or O(n^2) doubles: refuse sizes whose products overflow */
-    if (n == 0 || n > ((size_t)1 << 40)) return DTH_EINVAL;
+    if (n == 0 || n > DTH__MAX_DOF) return DTH_EINVAL;
     int banded_model = dth__model_banded(model);
     dth_linsolve kind = opt->linsolve;
     if ((kind == DTH_LINSOLVE_BANDED || kind == DTH_LINSOLVE_BANDED_LU) && !banded_model) return DTH_EUNSUPPORTED;
@@ -104,7 +104,7 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
         return DTH_ENOMEM;
     }
     double *p = it->block;
-    double **slots[] = {&it->z, &it->zlo, &it->zbar, &it->dprev, &it->dprev2, &it->dprev3, &it->dnew, &it->znew, &it->znewlo,
+    double **slots[] = {&it->st.z, &it->st.zlo, &it->st.zbar, &it->st.dprev, &it->st.dprev2, &it->st.dprev3, &it->dnew, &it->znew, &it->znewlo,
                         &it->zb, &it->grad, &it->hess, &it->u, &it->ybar, &it->A, &it->F, &it->x, &it->dx,
                         &it->work, &it->B, &it->hwork, &it->zblo};
     for (size_t i = 0; i < sizeof slots / sizeof slots[0]; i++) {
@@ -126,11 +126,22 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
         if (it->auton && (j == it->n || j == N - 1)) continue; /* t and wp in closed form */
         it->act[a++] = (int)j;
     }
-    it->dir = opt->h > 0 ? 1.0 : -1.0;
-    it->lam_hint = opt->h;
+    it->st.dir = opt->h > 0 ? 1.0 : -1.0;
+    it->st.lam_hint = opt->h;
+    it->st.h = opt->h;
+    it->st.psi_step = -2;
     it->reg = opt->regularizer;
-    if (it->reg) it->rbuf = dth_calloc(al, 4 * N, sizeof(double)); /* the hook's workspace */
-    int brc = it->reg && !it->rbuf ? DTH_ENOMEM : dth__branch_create(it);
+    int brc = DTH_OK;
+    if (it->reg) {
+        /* the hook's workspace, the copy of the state vectors a failed regularizer step is undone
+         * from, and of the regularizer's own state */
+        it->rbuf = dth_calloc(al, (4 + DTH__STATE_NVEC) * N, sizeof(double));
+        it->snap = it->rbuf ? it->rbuf + 4 * N : NULL;
+        it->regsnap_len = dth__reg_state_size(it->reg);
+        if (it->regsnap_len) it->regsnap = dth_calloc(al, it->regsnap_len, 1);
+        if (!it->rbuf || (it->regsnap_len && !it->regsnap)) brc = DTH_ENOMEM;
+    }
+    if (!brc) brc = dth__branch_create(it);
     if (brc) {
         dth_integrator_free(it);
         return brc;
@@ -148,15 +159,16 @@ void dth_integrator_free(dth_integrator *it)
     dth__band_free(it->band, it->alloc);
     dth__branch_free(it);
     dth_free(it->alloc, it->rbuf);
+    dth_free(it->alloc, it->regsnap);
     dth_free(it->alloc, it);
 }
 
-const double *dth_integrator_vertex(const dth_integrator *it) { return it->z; }
-const double *dth_integrator_midpoint(const dth_integrator *it) { return it->have_mid ? it->zbar : NULL; }
-double dth_integrator_lambda(const dth_integrator *it) { return it->lam; }
-double dth_integrator_energy(const dth_integrator *it) { return it ? -(it->z[it->N - 1] + it->zlo[it->N - 1]) : NAN; }
+const double *dth_integrator_vertex(const dth_integrator *it) { return it->st.z; }
+const double *dth_integrator_midpoint(const dth_integrator *it) { return it->st.have_mid ? it->st.zbar : NULL; }
+double dth_integrator_lambda(const dth_integrator *it) { return it->st.lam; }
+double dth_integrator_energy(const dth_integrator *it) { return it ? -(it->st.z[it->N - 1] + it->st.zlo[it->N - 1]) : NAN; }
 
-long dth_integrator_steps(const dth_integrator *it) { return it->steps; }
+long dth_integrator_steps(const dth_integrator *it) { return it->st.steps; }
 size_t dth_integrator_dim(const dth_integrator *it) { return it->N; }
 const dth_model *dth_integrator_model(const dth_integrator *it) { return it->model; }
 const char *dth_integrator_errmsg(const dth_integrator *it) { return it->errmsg; }
@@ -181,10 +193,10 @@ static int rho_direct(dth_integrator *it)
 {
     size_t N = it->N;
     double Hp;
-    for (size_t j = 0; j + 1 < N; j++) it->ybar[j] = it->z[j] + it->zlo[j];
+    for (size_t j = 0; j + 1 < N; j++) it->ybar[j] = it->st.z[j] + it->st.zlo[j];
     int rc = dth_model_eval(it->model, it->ybar, DTH_EVAL_H, &Hp, NULL, NULL);
     if (rc) return rc;
-    it->rho = (it->z[N - 1] + it->zlo[N - 1]) + Hp;
+    it->st.rho = (it->st.z[N - 1] + it->st.zlo[N - 1]) + Hp;
     return DTH_OK;
 }
 
@@ -217,25 +229,27 @@ static void midpoint_lo(const dth_integrator *it, const double *x, double *zblo)
     int m = it->m;
     if (it->auton) {
         for (size_t i = 0; i < n; i++) {
-            two_sum(it->z[i], it->zlo[i] + x[i], &zblo[i]);
-            two_sum(it->z[n + 1 + i], it->zlo[n + 1 + i] + x[n + i], &zblo[n + 1 + i]);
+            two_sum(it->st.z[i], it->st.zlo[i] + x[i], &zblo[i]);
+            two_sum(it->st.z[n + 1 + i], it->st.zlo[n + 1 + i] + x[n + i], &zblo[n + 1 + i]);
         }
-        two_sum(it->z[n], it->zlo[n] + 0.5 * x[m - 1], &zblo[n]);
-        two_sum(it->z[N - 1], it->zlo[N - 1], &zblo[N - 1]);
+        two_sum(it->st.z[n], it->st.zlo[n] + 0.5 * x[m - 1], &zblo[n]);
+        two_sum(it->st.z[N - 1], it->st.zlo[N - 1], &zblo[N - 1]);
         return;
     }
-    for (int a = 0; a < m - 1; a++) two_sum(it->z[a], it->zlo[a] + x[a], &zblo[a]);
+    for (int a = 0; a < m - 1; a++) two_sum(it->st.z[a], it->st.zlo[a] + x[a], &zblo[a]);
 }
 
 static void reset_history(dth_integrator *it)
 {
-    it->nhist = 0;
-    it->have_prev = 0;
-    it->have_mid = 0;
-    it->fact_valid = 0;
-    it->pending_exact = 0;
-    it->steps = 0;
-    it->psi_known = 0;
+    it->st.nhist = 0;
+    it->st.have_prev = 0;
+    it->st.have_mid = 0;
+    it->st.fact_valid = 0;
+    it->st.pending_exact = 0;
+    it->st.steps = 0;
+    it->st.psi_known = 0;
+    it->st.psi_prev = 0;
+    it->st.psi_step = -2;
 }
 
 static double cubic_predict(double Hk, double psi, double dpsi, double target);
@@ -262,19 +276,19 @@ static int vertex_offset(dth_integrator *it, const double *y, double Hp, double 
     double best = INFINITY, rbest = rho;
     if (it->opt.max_iter < 30) it->opt.max_iter = 30; /* the step limit is for steps, not this solve */
     for (int k = 0; k < 16; k++) {
-        for (size_t j = 0; j < N - 1; j++) it->z[j] = y[j];
-        it->z[N - 1] = rho - Hp;
-        memset(it->zlo, 0, N * sizeof *it->zlo);
+        for (size_t j = 0; j < N - 1; j++) it->st.z[j] = y[j];
+        it->st.z[N - 1] = rho - Hp;
+        memset(it->st.zlo, 0, N * sizeof *it->st.zlo);
         reset_history(it);
-        it->dir = h > 0 ? 1.0 : -1.0;
+        it->st.dir = h > 0 ? 1.0 : -1.0;
         double Hv, lam0;
         if ((it->opt.compensate && (rc = rho_direct(it))) ||
-            (rc = dth_model_eval(it->model, it->z, DTH_EVAL_H | DTH_EVAL_GRAD, &Hv, it->grad, NULL))) {
+            (rc = dth_model_eval(it->model, it->st.z, DTH_EVAL_H | DTH_EVAL_GRAD, &Hv, it->grad, NULL))) {
             it->opt.max_iter = max_iter;
             seterr(it, "model evaluation failed at the initial vertex");
             return rc;
         }
-        lam0 = cubic_predict(it->z[N - 1] + Hv, psi, dpsi, h);
+        lam0 = cubic_predict(it->st.z[N - 1] + Hv, psi, dpsi, h);
         flow_z(it->n, it->grad, it->u);
         for (size_t j = 0; j < N; j++) it->znewlo[j] = 0.5 * lam0 * it->u[j];
         dth__solution sol = {NAN, NAN, 0};
@@ -319,10 +333,14 @@ int dth_integrator_start(dth_integrator *it, const double *q0, const double *p0,
             return DTH_EINVAL;
         }
     double *y = it->ybar, H;
+    double h = it->st.h;
+    if (!(fabs(h) > 2 * DBL_EPSILON * fabs(t0))) {
+        seterr(it, "the time t0 = %.17g does not advance by steps of h = %.3g (t + h == t)", t0, h);
+        return DTH_EINVAL;
+    }
     memcpy(y, q0, n * sizeof *y);
     y[n] = t0;
     memcpy(y + n + 1, p0, n * sizeof *y);
-    double h = it->opt.h;
     if (it->opt.start == DTH_START_MIDPOINT) {
         int rc = dth_model_eval(it->model, y, DTH_EVAL_H | DTH_EVAL_GRAD, &H, it->grad, NULL);
         if (rc) {
@@ -342,23 +360,23 @@ int dth_integrator_start(dth_integrator *it, const double *q0, const double *p0,
             }
         }
         reset_history(it);
-        memcpy(it->zbar, it->zb, N * sizeof *it->zb);
+        memcpy(it->st.zbar, it->zb, N * sizeof *it->zb);
         for (size_t j = 0; j < N; j++) {
-            it->dprev[j] = it->znewlo[j];
-            it->z[j] = two_sum(it->zbar[j], -it->dprev[j], &it->zlo[j]);
+            it->st.dprev[j] = it->znewlo[j];
+            it->st.z[j] = two_sum(it->st.zbar[j], -it->st.dprev[j], &it->st.zlo[j]);
         }
         if (it->opt.compensate) {
             /* H(zbar_0) = wp + H_phys = 0 exactly (wp = -H_phys) */
-            rc = rho_from_mid(it, it->zbar, NULL, it->grad, it->z, it->zlo, &it->rho);
+            rc = rho_from_mid(it, it->st.zbar, NULL, it->grad, it->st.z, it->st.zlo, &it->st.rho);
             if (rc) {
                 seterr(it, "model evaluation failed at the first vertex");
                 return rc;
             }
         }
-        it->lam = 0;
-        it->lam_hint = h;
-        it->dir = h > 0 ? 1.0 : -1.0;
-        it->pending_exact = 1;
+        it->st.lam = 0;
+        it->st.lam_hint = h;
+        it->st.dir = h > 0 ? 1.0 : -1.0;
+        it->st.pending_exact = 1;
         return DTH_OK;
     }
     double wp;
@@ -375,9 +393,9 @@ int dth_integrator_start(dth_integrator *it, const double *q0, const double *p0,
         if (rc) return rc;
         wp = rho - H;
     }
-    for (size_t j = 0; j < N - 1; j++) it->z[j] = y[j];
-    it->z[N - 1] = wp;
-    return dth_integrator_set_vertex(it, it->z, h);
+    for (size_t j = 0; j < N - 1; j++) it->st.z[j] = y[j];
+    it->st.z[N - 1] = wp;
+    return dth_integrator_set_vertex(it, it->st.z, h);
 }
 
 int dth_integrator_set_vertex(dth_integrator *it, const double *z, double lambda)
@@ -385,8 +403,8 @@ int dth_integrator_set_vertex(dth_integrator *it, const double *z, double lambda
     if (!it || !z || !isfinite(lambda) || lambda == 0) return DTH_EINVAL;
     for (size_t j = 0; j < it->N; j++)
         if (!isfinite(z[j])) return DTH_EINVAL;
-    if (z != it->z) memcpy(it->z, z, it->N * sizeof *z);
-    memset(it->zlo, 0, it->N * sizeof *it->zlo);
+    if (z != it->st.z) memcpy(it->st.z, z, it->N * sizeof *z);
+    memset(it->st.zlo, 0, it->N * sizeof *it->st.zlo);
     if (it->opt.compensate) {
         int rc = rho_direct(it);
         if (rc) {
@@ -395,26 +413,26 @@ int dth_integrator_set_vertex(dth_integrator *it, const double *z, double lambda
         }
     }
     reset_history(it);
-    it->lam = 0;
-    it->lam_hint = lambda;
-    it->dir = lambda > 0 ? 1.0 : -1.0;
+    it->st.lam = 0;
+    it->st.lam_hint = lambda;
+    it->st.dir = lambda > 0 ? 1.0 : -1.0;
     return DTH_OK;
 }
 
 void dth_integrator_reverse(dth_integrator *it)
 {
     /* The backward step from z_k has the midpoint of the last step: d -> -d, lambda -> -lambda. */
-    for (size_t j = 0; j < it->N; j++) it->dprev[j] = -it->dprev[j];
-    it->lam = -it->lam;
-    it->lam_hint = -it->lam_hint;
-    it->dir = -it->dir;
-    it->opt.h = -it->opt.h;
-    if (it->nhist > 1) it->nhist = 1; /* the offsets before the last one lie ahead now */
-    if (it->pending_exact) {
+    for (size_t j = 0; j < it->N; j++) it->st.dprev[j] = -it->st.dprev[j];
+    it->st.lam = -it->st.lam;
+    it->st.lam_hint = -it->st.lam_hint;
+    it->st.dir = -it->st.dir;
+    it->st.h = -it->st.h;
+    if (it->st.nhist > 1) it->st.nhist = 1; /* the offsets before the last one lie ahead now */
+    if (it->st.pending_exact) {
         /* not stepped yet from a midpoint start: reversing means the exact step goes backward */
-        it->pending_exact = 0;
-        it->have_prev = 0;
-        it->lam_hint = -it->opt.h;
+        it->st.pending_exact = 0;
+        it->st.have_prev = 0;
+        it->st.lam_hint = -it->st.h;
     }
 }
 
@@ -430,14 +448,14 @@ AI void midpoint_n(const dth_integrator *it, const size_t nc, const double *x, d
     if (nc || it->auton) {
         /* unknowns (d_q, d_p, lambda) */
         for (size_t i = 0; i < n; i++) {
-            zb[i] = it->z[i] + (it->zlo[i] + x[i]);
-            zb[n + 1 + i] = it->z[n + 1 + i] + (it->zlo[n + 1 + i] + x[n + i]);
+            zb[i] = it->st.z[i] + (it->st.zlo[i] + x[i]);
+            zb[n + 1 + i] = it->st.z[n + 1 + i] + (it->st.zlo[n + 1 + i] + x[n + i]);
         }
-        zb[n] = it->z[n] + (it->zlo[n] + 0.5 * x[m - 1]);
-        zb[N - 1] = it->z[N - 1] + it->zlo[N - 1];
+        zb[n] = it->st.z[n] + (it->st.zlo[n] + 0.5 * x[m - 1]);
+        zb[N - 1] = it->st.z[N - 1] + it->st.zlo[N - 1];
         return;
     }
-    for (int a = 0; a < m - 1; a++) zb[a] = it->z[a] + (it->zlo[a] + x[a]);
+    for (int a = 0; a < m - 1; a++) zb[a] = it->st.z[a] + (it->st.zlo[a] + x[a]);
 }
 
 static void midpoint_from_x(const dth_integrator *it, const double *x, double *zb) { midpoint_n(it, 0, x, zb); }
@@ -565,10 +583,10 @@ static void block_scales(const dth_integrator *it, const double *zb, double bs[4
 {
     size_t n = it->n;
     double top = 0;
-    bs[0] = block_max(it->z, zb, 0, n);
-    bs[1] = block_max(it->z, zb, n, n + 1);
-    bs[2] = block_max(it->z, zb, n + 1, 2 * n + 1);
-    bs[3] = block_max(it->z, zb, 2 * n + 1, 2 * n + 2);
+    bs[0] = block_max(it->st.z, zb, 0, n);
+    bs[1] = block_max(it->st.z, zb, n, n + 1);
+    bs[2] = block_max(it->st.z, zb, n + 1, 2 * n + 1);
+    bs[3] = block_max(it->st.z, zb, 2 * n + 1, 2 * n + 2);
     for (int b = 0; b < 4; b++) top = fmax(top, bs[b]);
     for (int b = 0; b < 4; b++)
         if (bs[b] == 0) bs[b] = top > 0 ? top : 1.0;
@@ -760,12 +778,12 @@ static int compensate(dth_integrator *it, double *x)
         }
         assemble(it, x, zb, it->Hphys, F, NULL);
         midpoint_lo(it, x, it->zblo);
-        int rc = rho_from_mid(it, zb, it->zblo, it->grad, it->z, it->zlo, &dh); /* H(z_k) - H(zbar) */
+        int rc = rho_from_mid(it, zb, it->zblo, it->grad, it->st.z, it->st.zlo, &dh); /* H(z_k) - H(zbar) */
         if (rc) {
             seterr(it, "model evaluation failed in the compensated constraint: %s", dth_strerror(rc));
             return rc;
         }
-        double ec = it->rho - dh, rd = zb[N - 1] + it->Hphys, tau = 4 * DBL_EPSILON * h_scale(it, zb, it->Hphys);
+        double ec = it->st.rho - dh, rd = zb[N - 1] + it->Hphys, tau = 4 * DBL_EPSILON * h_scale(it, zb, it->Hphys);
         F[m - 1] = fabs(ec - rd) <= tau ? ec : rd;
         rc = ops_of(it)->solve(it, F);
         if (rc) return rc;
@@ -831,43 +849,43 @@ static int commit(dth_integrator *it, double lam)
     double *d = it->dnew; /* scratch: becomes the newest history slot */
     for (size_t j = 0; j < N; j++) {
         d[j] = zn[j];
-        zn[j] = two_sum(it->z[j], 2 * d[j] + it->zlo[j], &zl[j]);
+        zn[j] = two_sum(it->st.z[j], 2 * d[j] + it->st.zlo[j], &zl[j]);
         if (!isfinite(zn[j])) {
             seterr(it, "the new vertex overflows (component %zu)", j);
             return DTH_EDOMAIN;
         }
     }
     if (it->auton) { /* wp carried bit for bit */
-        zn[N - 1] = it->z[N - 1];
-        zl[N - 1] = it->zlo[N - 1];
+        zn[N - 1] = it->st.z[N - 1];
+        zl[N - 1] = it->st.zlo[N - 1];
     }
-    double rho = it->rho;
+    double rho = it->st.rho;
     if (it->opt.compensate) {
         /* the new vertex's offset measured from this step's midpoint (it->grad is there) */
         /* the exact first step of a midpoint start has its midpoint exact in double */
-        int rc = rho_from_mid(it, it->zb, it->pending_exact ? NULL : it->zblo, it->grad, zn, zl, &rho);
+        int rc = rho_from_mid(it, it->zb, it->st.pending_exact ? NULL : it->zblo, it->grad, zn, zl, &rho);
         if (rc) {
             seterr(it, "model evaluation failed at the new vertex: %s", dth_strerror(rc));
             return rc;
         }
     }
-    it->rho = rho;
-    memcpy(it->z, zn, N * sizeof *zn);
-    memcpy(it->zlo, zl, N * sizeof *zl);
+    it->st.rho = rho;
+    memcpy(it->st.z, zn, N * sizeof *zn);
+    memcpy(it->st.zlo, zl, N * sizeof *zl);
     /* the predictor's history: the last three offsets and steps (the oldest slot is the next scratch) */
-    it->dnew = it->dprev3;
-    it->dprev3 = it->dprev2;
-    it->dprev2 = it->dprev;
-    it->dprev = d;
-    it->lam3 = it->lam2;
-    it->lam2 = it->lam;
-    it->nhist = it->nhist < 3 ? it->nhist + 1 : 3;
-    memcpy(it->zbar, it->zb, N * sizeof *it->zb);
-    it->fact_valid = 1; /* an ordinary step: a tangent map exists (a regularizer's step clears it) */
-    it->lam = lam;
-    it->have_prev = 1;
-    it->have_mid = 1;
-    it->steps++;
+    it->dnew = it->st.dprev3;
+    it->st.dprev3 = it->st.dprev2;
+    it->st.dprev2 = it->st.dprev;
+    it->st.dprev = d;
+    it->st.lam3 = it->st.lam2;
+    it->st.lam2 = it->st.lam;
+    it->st.nhist = it->st.nhist < 3 ? it->st.nhist + 1 : 3;
+    memcpy(it->st.zbar, it->zb, N * sizeof *it->zb);
+    it->st.fact_valid = 1; /* an ordinary step: a tangent map exists (a regularizer's step clears it) */
+    it->st.lam = lam;
+    it->st.have_prev = 1;
+    it->st.have_mid = 1;
+    it->st.steps++;
     return DTH_OK;
 }
 
@@ -878,30 +896,27 @@ int dth__integrator_commit(dth_integrator *it, double lam) { return commit(it, l
 static const double *predict(dth_integrator *it, double *lam0)
 {
     size_t N = it->N;
-    *lam0 = it->lam;
-    if (it->nhist < 3) return it->dprev;
-    double l = 3 * (it->lam - it->lam2) + it->lam3;
-    if (!(l * it->dir > 0) || !(fabs(l) <= 2 * fabs(it->lam)) || !(2 * fabs(l) >= fabs(it->lam))) return it->dprev;
+    *lam0 = it->st.lam;
+    if (it->st.nhist < 3) return it->st.dprev;
+    double l = 3 * (it->st.lam - it->st.lam2) + it->st.lam3;
+    if (!(l * it->st.dir > 0) || !(fabs(l) <= 2 * fabs(it->st.lam)) || !(2 * fabs(l) >= fabs(it->st.lam))) return it->st.dprev;
     double *d = it->znewlo;
-    for (size_t j = 0; j < N; j++) d[j] = 3 * (it->dprev[j] - it->dprev2[j]) + it->dprev3[j];
+    for (size_t j = 0; j < N; j++) d[j] = 3 * (it->st.dprev[j] - it->st.dprev2[j]) + it->st.dprev3[j];
     *lam0 = l;
     return d;
 }
 
-int dth_integrator_step(dth_integrator *it, dth_step_info *info)
+/* One step; on failure the caller (dth_integrator_step) puts the state back. */
+static int step(dth_integrator *it, dth_step_info *info)
 {
-    dth_step_info tmp;
-    if (!info) info = &tmp;
-    memset(info, 0, sizeof *info);
-    if (!it) return DTH_EINVAL;
     size_t N = it->N;
     int m = it->m;
-    if (it->pending_exact) {
+    if (it->st.pending_exact) {
         /* Midpoint start: zbar_0 and lambda = h solve the step equations exactly. */
-        double lam = it->lam_hint;
-        for (int a = 0; a < m - 1; a++) it->x[a] = it->dprev[it->act[a]];
+        double lam = it->st.lam_hint;
+        for (int a = 0; a < m - 1; a++) it->x[a] = it->st.dprev[it->act[a]];
         it->x[m - 1] = lam;
-        memcpy(it->zb, it->zbar, N * sizeof *it->zb);
+        memcpy(it->zb, it->st.zbar, N * sizeof *it->zb);
         int rc = dth_model_eval(it->model, it->zb, DTH_EVAL_H | DTH_EVAL_GRAD, &it->Hphys, it->grad, NULL);
         if (rc) {
             seterr(it, "model evaluation failed at the first (exact) midpoint");
@@ -909,11 +924,11 @@ int dth_integrator_step(dth_integrator *it, dth_step_info *info)
         }
         rc = commit(it, lam);
         if (rc) return rc;
-        it->nhist = 1;
-        it->pending_exact = 0;
+        it->st.nhist = 1;
+        it->st.pending_exact = 0;
         info->lambda = lam;
         info->iters = 0;
-        info->residual = fabs(it->zbar[N - 1] + it->Hphys);
+        info->residual = fabs(it->st.zbar[N - 1] + it->Hphys);
         info->branch = DTH_BRANCH_EXACT;
         return DTH_OK;
     }
@@ -927,17 +942,17 @@ int dth_integrator_step(dth_integrator *it, dth_step_info *info)
     int pre_iters = info->iters;
     double lam0;
     const double *d0;
-    if (it->have_prev) {
+    if (it->st.have_prev) {
         d0 = predict(it, &lam0);
     } else {
         double Hphys, psi, dpsi;
-        int rc = dth_model_eval(it->model, it->z, DTH_EVAL_H | DTH_EVAL_GRAD, &Hphys, it->grad, NULL);
-        if (!rc) rc = dth_model_psi(it->model, it->z, &psi, &dpsi, it->work);
+        int rc = dth_model_eval(it->model, it->st.z, DTH_EVAL_H | DTH_EVAL_GRAD, &Hphys, it->grad, NULL);
+        if (!rc) rc = dth_model_psi(it->model, it->st.z, &psi, &dpsi, it->work);
         if (rc) {
             seterr(it, "model evaluation failed at the vertex");
             return rc;
         }
-        lam0 = cubic_predict(it->z[N - 1] + Hphys, psi, dpsi, it->lam_hint);
+        lam0 = cubic_predict(it->st.z[N - 1] + Hphys, psi, dpsi, it->st.lam_hint);
         flow_z(it->n, it->grad, it->u);
         for (size_t j = 0; j < N; j++) it->znewlo[j] = 0.5 * lam0 * it->u[j];
         d0 = it->znewlo;
@@ -967,21 +982,80 @@ int dth_integrator_step(dth_integrator *it, dth_step_info *info)
     return DTH_OK;
 }
 
+/* The vectors of the step state, by name (the pointers rotate in commit): their slots in v. */
+#define VEC_SLOT(name, kind, check, doc) VEC_SLOT_##kind(name)
+#define VEC_SLOT_VEC(name) &it->st.name,
+#define VEC_SLOT_F64(name)
+#define VEC_SLOT_INT(name)
+#define VEC_SLOT_LONG(name)
+static void state_vectors(dth_integrator *it, double **v[DTH__STATE_NVEC])
+{
+    double **list[DTH__STATE_NVEC] = {DTH__STATE_FIELDS(VEC_SLOT)};
+    memcpy(v, list, sizeof list);
+}
+#undef VEC_SLOT
+#undef VEC_SLOT_VEC
+#undef VEC_SLOT_F64
+#undef VEC_SLOT_INT
+#undef VEC_SLOT_LONG
+
+void dth__state_snapshot(dth_integrator *it)
+{
+    it->snapped = 1;
+    double **v[DTH__STATE_NVEC];
+    state_vectors(it, v);
+    for (size_t k = 0; k < DTH__STATE_NVEC; k++) memcpy(it->snap + k * it->N, *v[k], it->N * sizeof(double));
+}
+
+static void state_rollback(dth_integrator *it)
+{
+    double **v[DTH__STATE_NVEC];
+    state_vectors(it, v);
+    for (size_t k = 0; k < DTH__STATE_NVEC; k++) memcpy(*v[k], it->snap + k * it->N, it->N * sizeof(double));
+}
+
+int dth_integrator_step(dth_integrator *it, dth_step_info *info)
+{
+    dth_step_info tmp;
+    if (!info) info = &tmp;
+    memset(info, 0, sizeof *info);
+    if (!it) return DTH_EINVAL;
+    /* A failed step leaves the state as it was: the scalars and the vector pointers are kept
+     * here, the regularizer's own state too (its hook may change it before the step fails); the
+     * vectors change only in commits, an ordinary step's is atomic and a regularizer's multi-part
+     * commit keeps a copy of them (it->snap, reg_finish). */
+    dth__state saved = it->st;
+    double *dnew = it->dnew;
+    if (it->regsnap_len) dth__reg_save_state(it->reg, it->regsnap);
+    it->snapped = 0;
+    it->errmsg[0] = '\0'; /* the message describes this step */
+    int rc = step(it, info);
+    if (!rc) memcpy(it->errmsg, "no error", sizeof "no error");
+    else if (!it->errmsg[0]) snprintf(it->errmsg, sizeof it->errmsg, "%s", dth_strerror(rc));
+    if (rc) {
+        it->st = saved;
+        it->dnew = dnew;
+        if (it->snapped) state_rollback(it); /* into the buffers the names had */
+        if (it->regsnap_len) dth__reg_load_state(it->reg, it->regsnap, it->regsnap_len);
+    }
+    return rc;
+}
+
 int dth_integrator_tangent(dth_integrator *it, double *M)
 {
     if (!it || !M) return DTH_EINVAL;
-    if (!it->fact_valid) return DTH_EINVAL; /* no step yet, or a regularizer's step */
-    if (it->band) return dth__band_tangent(it->band, it->model, it->zbar, it->lam, M);
+    if (!it->st.fact_valid) return DTH_EINVAL; /* no step yet, or a regularizer's step */
+    if (it->band) return dth__band_tangent(it->band, it->model, it->st.zbar, it->st.lam, M);
     size_t n = it->n, N = it->N;
     int m = it->m;
-    double lam = it->lam;
+    double lam = it->st.lam;
     /* the Jacobian at the converged midpoint (not at Newton's last iterate), factored afresh */
-    int rc = dth_model_eval(it->model, it->zbar, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &it->Hphys, it->grad,
+    int rc = dth_model_eval(it->model, it->st.zbar, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &it->Hphys, it->grad,
                             it->hess);
     if (rc) return rc;
-    for (int a = 0; a < m - 1; a++) it->x[a] = it->dprev[it->act[a]];
+    for (int a = 0; a < m - 1; a++) it->x[a] = it->st.dprev[it->act[a]];
     it->x[m - 1] = lam;
-    assemble(it, it->x, it->zbar, it->Hphys, it->F, it->A);
+    assemble(it, it->x, it->st.zbar, it->Hphys, it->F, it->A);
     rc = dth__lu_factor(it->kind, m, it->A, it->piv);
     if (rc) return rc;
     /* B = dF/dz_k (m x N, column-major): rows of -(lambda/2) J H_zz, last row grad H. */

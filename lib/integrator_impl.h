@@ -7,6 +7,58 @@
 #include "dth/integrator.h"
 #include "dth_internal.h"
 
+/*
+ * The step state: everything that carries from one step to the next, nothing else (no workspace,
+ * no options). This one list declares the fields of dth__state and generates the checkpoint's
+ * field table (checkpoint.c), so a field cannot be left out of a checkpoint; the regularizer's
+ * own state is saved through its type. X(name, kind, check, meaning):
+ *   kind  VEC: N = 2n+2 doubles behind a pointer; F64: double; INT: int; LONG: long
+ *   check what a restored value must satisfy (checkpoint.c): FINITE, NONZERO (finite, != 0),
+ *         UNIT (+1 or -1), BOOL (0 or 1), SIGN (-1, 0, 1), NHIST (0..3), COUNT (>= 0),
+ *         PSISTEP (>= -2)
+ */
+#define DTH__STATE_FIELDS(X)                                                                        \
+    X(z, VEC, FINITE, "vertex z_k, high part")                                                      \
+    X(zlo, VEC, FINITE, "vertex, low part: z_k = z + zlo exactly (double-double)")                  \
+    X(zbar, VEC, FINITE, "midpoint of the last step")                                               \
+    X(dprev, VEC, FINITE, "offset zbar - z_(k-1) of the last step (predictor)")                     \
+    X(dprev2, VEC, FINITE, "the offset of the step before it (quadratic predictor)")               \
+    X(dprev3, VEC, FINITE, "the offset of the step before that")                                    \
+    X(lam, F64, FINITE, "the last step's lambda (0 if none)")                                       \
+    X(lam2, F64, FINITE, "lambda of the step before it")                                            \
+    X(lam3, F64, FINITE, "lambda of the step before that")                                          \
+    X(nhist, INT, NHIST, "consecutive ordinary steps in dprev, dprev2, dprev3")                     \
+    X(rho, F64, FINITE, "carried vertex offset H(z_k) of the compensated constraint")              \
+    X(lam_hint, F64, FINITE, "step size to aim for when there is no history")                       \
+    X(dir, F64, UNIT, "direction of travel")                                                        \
+    X(h, F64, NONZERO, "the step option h as it stands (dth_integrator_reverse flips it)")         \
+    X(have_prev, INT, BOOL, "dprev and lam hold a step")                                            \
+    X(have_mid, INT, BOOL, "zbar holds a midpoint")                                                 \
+    X(pending_exact, INT, BOOL, "midpoint start: the exact first step is still to be taken")        \
+    X(fact_valid, INT, BOOL, "the last step was an ordinary DTH step (a tangent map exists)")       \
+    X(steps, LONG, COUNT, "steps since the start")                                                  \
+    X(psi_known, INT, BOOL, "psi_sign holds the sign of psi at z_k (regularizers)")                 \
+    X(psi_sign, INT, SIGN, "sign of psi at z_k")                                                    \
+    X(psi_prev, F64, FINITE, "branch policy: psi at the vertex of the last root it accepted")       \
+    X(psi_step, LONG, PSISTEP, "branch policy: that vertex's step count (-2: none)")
+
+#define DTH__CTYPE_VEC double *
+#define DTH__CTYPE_F64 double
+#define DTH__CTYPE_INT int
+#define DTH__CTYPE_LONG long
+#define DTH__STATE_MEMBER(name, kind, check, doc) DTH__CTYPE_##kind name;
+typedef struct dth__state {
+    DTH__STATE_FIELDS(DTH__STATE_MEMBER)
+} dth__state;
+#undef DTH__STATE_MEMBER
+/* how many VEC fields the list has */
+#define DTH__STATE_ISVEC(name, kind, check, doc) +DTH__ISVEC_##kind
+#define DTH__ISVEC_VEC 1
+#define DTH__ISVEC_F64 0
+#define DTH__ISVEC_INT 0
+#define DTH__ISVEC_LONG 0
+enum { DTH__STATE_NVEC = 0 DTH__STATE_FIELDS(DTH__STATE_ISVEC) };
+
 struct dth_integrator {
     const dth_model *model;
     const dth_allocator *alloc;
@@ -16,38 +68,28 @@ struct dth_integrator {
     int m;            /* Newton unknowns: active components of d, then lambda */
     int *act;         /* z-index of each active unknown (m-1 of them) */
     dth_linsolve kind; /* the linear solver in use (never AUTO) */
-    /* state: vertex in double-double, last step */
-    double *z, *zlo;  /* vertex z_k = z + zlo */
-    double *zbar;     /* midpoint of the last step */
-    double *dprev;    /* offset zbar - z_{k-1} of the last step (predictor) */
-    double *dprev2, *dprev3; /* the two offsets before it (quadratic predictor) */
-    double *dnew;     /* scratch for the next offset (the four buffers rotate) */
+    dth__state st;    /* the step state (above): everything a checkpoint holds */
+    /* workspace: nothing here carries from one step to the next */
+    double *dnew;     /* scratch for the next offset (rotates with st.dprev..st.dprev3) */
     double *hwork;    /* 2(2n+1) doubles for dth__model_hdiff */
     double *zblo;     /* low part of the midpoint of the compensated solution (it->zb + it->zblo) */
-    double lam;       /* last step (0 if none) */
-    double lam2, lam3; /* the steps before it */
-    int nhist;        /* consecutive ordinary steps in dprev.. (0..3) */
-    double rho;       /* the vertex offset H(z_k), carried: H(z_(k+1)) - H(zbar) from the model's hdiff
-                         (the compensated constraint, dth__newton) */
-    double lam_hint;  /* step size to aim for when there is no history */
-    double dir;       /* +1 forward, -1 backward */
-    int have_prev, have_mid, pending_exact;
-    long steps;
-    /* workspace */
     double *znew, *znewlo, *zb, *grad, *hess, *u, *ybar, *A, *F, *x, *dx, *work, *B;
     double Hphys;     /* H_phys at it->zb after the last step evaluation */
     double bs[4];     /* block scales (q, t, p, wp) of the Newton solve in progress (step_judge) */
     int *piv;
-    int fact_valid;   /* the last step was an ordinary DTH step: a tangent map exists */
     dth__newton_track nt; /* progress of the current Newton solve (messages) */
     double *block;
     struct dth__band *band; /* banded step solve (banded.c), NULL for the dense path */
     struct dth_rootfinder *rf; /* branch selection (branch.c), NULL when opt.branch_check is off */
-    /* regularization (regularize.c): the hook, and one flag of state: the sign of psi at the
-     * current vertex (psi_known = 0 until computed; reset with the history). */
+    /* regularization (regularize.c): the hook and its workspace (its state: st.psi_sign, and the
+     * regularizer's own, saved through its type) */
     dth_regularizer *reg;
-    int psi_sign, psi_known;
     double *rbuf;     /* 4 N doubles of hook workspace */
+    double *snap;     /* with a regularizer: DTH__STATE_NVEC x N doubles, the vectors of st while a step
+                         may fail after committing (a regularizer's segment: the vertex offset afresh) */
+    int snapped;      /* snap holds the vectors of this step's start */
+    unsigned char *regsnap; /* the regularizer's own state at the start of the step (restored on failure) */
+    size_t regsnap_len;
     char errmsg[192];
 };
 
@@ -90,6 +132,9 @@ int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_bran
 /** After a step that is not an ordinary DTH step (a regularizer's): the carried vertex offset
  *  from a direct evaluation at the new vertex (no-op when opt.compensate is off). */
 int dth__integrator_rho_reset(dth_integrator *it);
+/** Copy the vectors of the step state into it->snap (before a commit that a later failure of the
+ *  same step must undo); dth_integrator_step copies them back if the step fails. */
+void dth__state_snapshot(dth_integrator *it);
 /** Nonzero if the attached regularizer replaces every step (its type's replaces_all). */
 int dth__reg_replaces_all(const dth_integrator *it);
 /** dth__reg_pre's answer: the hook kept the ordinary step, which is still to be computed. */

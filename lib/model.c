@@ -134,8 +134,20 @@ int dth_model_new(const dth_model_type *type, const dth_kv *kv, size_t nkv, size
     dth_model_args args = {kv, nkv, n_hint, alloc, err, errlen};
     if (err && errlen) err[0] = '\0';
     int rc = type->create(&args, &m->self, &m->info);
-    if (rc == DTH_OK && m->info.n == 0) {
-        dth__set_err(err, errlen, "model '%s' reported zero degrees of freedom", type->name);
+    if (rc == DTH_OK && (m->info.n == 0 || m->info.n > DTH__MAX_DOF)) {
+        dth__set_err(err, errlen, "model '%s' reported %zu degrees of freedom (1 to 2^40 supported)", type->name,
+                     m->info.n);
+        rc = DTH_EINVAL;
+    }
+    size_t ninv = rc == DTH_OK && type->n_invariants && type->invariants ? type->n_invariants(m->self) : 0;
+    if (ninv > DTH__MAX_INVARIANTS) {
+        dth__set_err(err, errlen, "model '%s' reported %zu invariants (at most %zu supported)", type->name, ninv,
+                     DTH__MAX_INVARIANTS);
+        rc = DTH_EINVAL;
+    }
+    if (rc == DTH_OK && m->info.bandwidth >= 2 * m->info.n && (m->info.hess_kind == DTH_HESS_BANDED)) {
+        dth__set_err(err, errlen, "model '%s' reported a Hessian bandwidth of %zu for %zu degrees of freedom",
+                     type->name, m->info.bandwidth, m->info.n);
         rc = DTH_EINVAL;
     }
     if (rc != DTH_OK) {
@@ -280,6 +292,44 @@ static size_t hess_size(const dth_model *m)
 {
     size_t n = m->info.n, d = 2 * n + 1;
     return dth__model_banded(m) ? 2 * n * (2 * m->info.bandwidth + 1) : d * d;
+}
+
+int dth_model_domain_check(const dth_model *m, const double *y, char *why, size_t len)
+{
+    if (why && len) why[0] = '\0';
+    if (!m || !y) return DTH_EINVAL;
+    size_t n = m->info.n, d = 2 * n + 1;
+    for (size_t j = 0; j < d; j++)
+        if (!isfinite(y[j])) {
+            dth__set_err(why, len, "%c%zu = %g is not finite", j < n ? 'q' : 'p', j < n ? j + 1 : j - n, y[j]);
+            if (j == n) dth__set_err(why, len, "t = %g is not finite", y[j]);
+            return DTH_EDOMAIN;
+        }
+    double *g = dth_calloc(m->alloc, d, sizeof *g), H = 0;
+    if (!g) return DTH_ENOMEM;
+    int rc = m->type->eval(m->self, y, DTH_EVAL_H | DTH_EVAL_GRAD, &H, g, NULL);
+    if (rc < 0) {
+        dth__set_err(why, len, "the model's evaluation failed (%d)", rc);
+        rc = DTH_EMODEL;
+    } else if (rc > 0 || !isfinite(H)) {
+        rc = DTH_EDOMAIN;
+    } else {
+        for (size_t j = 0; j < d && !rc; j++)
+            if (!isfinite(g[j])) {
+                rc = DTH_EDOMAIN;
+                if (j == n) dth__set_err(why, len, "dH/dt is not finite");
+                else dth__set_err(why, len, "dH/d%c%zu is not finite", j < n ? 'q' : 'p', j < n ? j + 1 : j - n);
+            }
+    }
+    if (rc == DTH_EDOMAIN && (!why || !len || !why[0] || m->type->domain)) {
+        char own[160] = "";
+        if (m->type->domain && m->type->domain(m->self, y, own, sizeof own) && own[0])
+            dth__set_err(why, len, "%s", own);
+        else if (!why || !len || !why[0])
+            dth__set_err(why, len, "%s", isfinite(H) ? "outside the model's domain" : "H is not finite");
+    }
+    dth_free(m->alloc, g);
+    return rc;
 }
 
 size_t dth_model_work_size(const dth_model *m)

@@ -460,17 +460,17 @@ static int psi_sign_at(dth_integrator *it, const double *z, int *sign)
 /* The sign of psi at the current vertex, computed once and then carried from step to step. */
 static int known_psi_sign(dth_integrator *it)
 {
-    if (it->psi_known) return DTH_OK;
-    int r = psi_sign_at(it, it->z, &it->psi_sign);
-    if (!r) it->psi_known = 1;
+    if (it->st.psi_known) return DTH_OK;
+    int r = psi_sign_at(it, it->st.z, &it->st.psi_sign);
+    if (!r) it->st.psi_known = 1;
     return r;
 }
 
 /* The event the hook sees at the current vertex (plain: the ordinary step's outcome, or NULL). */
 static dth_reg_event reg_event(dth_integrator *it, int rc, int plain_ok, const double *dd, double plain_lambda, int sb)
 {
-    dth_reg_event ev = {it->model, it->N, it->z, it->zlo, it->lam, it->dir, it->psi_sign, rc, plain_ok ? dd : NULL,
-                        plain_ok ? plain_lambda : 0.0, plain_ok ? sb : 0, it->have_prev ? it->dprev : NULL, 0};
+    dth_reg_event ev = {it->model, it->N, it->st.z, it->st.zlo, it->st.lam, it->st.dir, it->st.psi_sign, rc, plain_ok ? dd : NULL,
+                        plain_ok ? plain_lambda : 0.0, plain_ok ? sb : 0, it->st.have_prev ? it->st.dprev : NULL, 0};
     return ev;
 }
 
@@ -525,14 +525,14 @@ int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_bran
     int m = it->m;
     double *cand = it->rbuf, *dd = it->rbuf + N;
     if (rc < 0) return rc;
-    int plain_ok = rc == DTH_OK && sol->lambda * it->dir > 0;
+    int plain_ok = rc == DTH_OK && sol->lambda * it->st.dir > 0;
     if (rc == DTH_OK && !plain_ok) {
         snprintf(it->errmsg, sizeof it->errmsg, "Newton found lambda = %.17g, against the direction of travel", sol->lambda);
         rc = DTH_ENOROOT;
     }
     int r0 = known_psi_sign(it);
     if (r0) return r0;
-    int sa = it->psi_sign, sb = 0;
+    int sa = it->st.psi_sign, sb = 0;
     if (plain_ok) {
         for (size_t j = 0; j < N; j++) dd[j] = 0;
         for (int a = 0; a < m - 1; a++) dd[it->act[a]] = it->x[a];
@@ -554,18 +554,18 @@ int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_bran
         return reg_finish(it, &act, rc, plain_ok, sol, br, info);
     }
     if (plain_ok) {
-        for (size_t j = 0; j < N; j++) cand[j] = it->z[j] + (2 * dd[j] + it->zlo[j]);
+        for (size_t j = 0; j < N; j++) cand[j] = it->st.z[j] + (2 * dd[j] + it->st.zlo[j]);
         int r = psi_sign_at(it, cand, &sb);
         if (r) return r;
         int admit = 1;
         if (sb == sa && it->reg->type->admit) {
-            admit = it->reg->type->admit(it->reg->self, it->z, cand, sol->lambda);
+            admit = it->reg->type->admit(it->reg->self, it->st.z, cand, sol->lambda);
             if (admit < 0) return DTH_EMODEL;
         }
         if (sb == sa && admit) {
             r = dth__integrator_commit(it, sol->lambda);
             if (r) return r;
-            it->psi_sign = sb;
+            it->st.psi_sign = sb;
             info->lambda = sol->lambda;
             info->iters = sol->iters;
             info->residual = sol->residual;
@@ -586,14 +586,14 @@ static int reg_finish(dth_integrator *it, const dth_reg_action *act, int rc, int
                       dth_branch br, dth_step_info *info)
 {
     size_t N = it->N;
-    int m = it->m, r, sa = it->psi_sign, sb = 0;
+    int m = it->m, r, sa = it->st.psi_sign, sb = 0;
     double *dd = it->rbuf + N, *zt = it->rbuf + 2 * N, *ad = it->rbuf + 3 * N;
     int replace = act->what == DTH_REG_REPLACE;
     if (!replace && !plain_ok) return rc;
     /* check everything, and the sign of psi at the new vertex, before touching the state */
     const double *dk = replace ? ad : dd;
     double lam = replace ? act->lambda : sol->lambda;
-    if (replace && (!(lam * it->dir > 0) || !isfinite(lam))) {
+    if (replace && (!(lam * it->st.dir > 0) || !isfinite(lam))) {
         snprintf(it->errmsg, sizeof it->errmsg, "regularizer '%s' answered a step %.17g against the direction of travel",
                  dth_regularizer_get_type(it->reg)->name, lam);
         return DTH_EREFUSED;
@@ -604,21 +604,24 @@ static int reg_finish(dth_integrator *it, const dth_reg_action *act, int rc, int
                      dth_regularizer_get_type(it->reg)->name);
             return DTH_EREFUSED;
         }
-        zt[j] = it->z[j] + (it->zlo[j] + 2 * dk[j]);
+        zt[j] = it->st.z[j] + (it->st.zlo[j] + 2 * dk[j]);
     }
     r = psi_sign_at(it, zt, &sb);
     if (r) return r;
     if (replace) {
         for (int a = 0; a < m - 1; a++) it->x[a] = dk[it->act[a]];
         it->x[m - 1] = lam;
-        for (size_t j = 0; j < N; j++) it->zb[j] = it->z[j] + (it->zlo[j] + dk[j]);
-        if (it->auton) it->zb[it->n] = it->z[it->n] + (it->zlo[it->n] + 0.5 * lam);
+        for (size_t j = 0; j < N; j++) it->zb[j] = it->st.z[j] + (it->st.zlo[j] + dk[j]);
+        if (it->auton) it->zb[it->n] = it->st.z[it->n] + (it->st.zlo[it->n] + 0.5 * lam);
     }
-    /* it->x / it->zb hold the ordinary solution otherwise */
+    /* it->x / it->zb hold the ordinary solution otherwise. After a replacing segment's commit the
+     * carried vertex offset is evaluated afresh, which may fail: keep a copy of the vectors for
+     * dth_integrator_step to undo the step with */
+    if (replace) dth__state_snapshot(it);
     r = dth__integrator_commit(it, lam);
     if (r) return r;
     if (replace) {
-        it->fact_valid = 0; /* no factors of this segment: no tangent map */
+        it->st.fact_valid = 0; /* no factors of this segment: no tangent map */
         info->residual = act->residual;
         info->branch = DTH_BRANCH_REG;
         info->flags |= DTH_STEP_REGULARIZED;
@@ -627,8 +630,8 @@ static int reg_finish(dth_integrator *it, const dth_reg_action *act, int rc, int
         info->branch = br;
     }
     if (sb != sa) info->flags |= DTH_STEP_CROSSING;
-    it->psi_sign = sb;
-    it->psi_known = 1;
+    it->st.psi_sign = sb;
+    it->st.psi_known = 1;
     info->lambda = lam;
     /* a regularizer's segment: the carried vertex offset afresh (an ordinary step kept here has it
      * already) */

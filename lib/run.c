@@ -543,7 +543,7 @@ static int run_common(dth_integrator *it, dth_fixed *fx, const dth_run_config *c
     d.n = dth_model_dof(d.model);
     d.N = 2 * d.n + 2;
     size_t N = d.N, ne = cfg->nevents;
-    d.dir = it ? it->dir : dth_fixed_h(fx) > 0 ? 1.0 : -1.0;
+    d.dir = it ? it->st.dir : dth_fixed_h(fx) > 0 ? 1.0 : -1.0;
     size_t nd = 7 * N + (2 * d.n + 1) + 5 * ne + 1;
     double *blk = dth_calloc(cfg->alloc, nd, sizeof *blk);
     int *dev = dth_calloc(cfg->alloc, ne + 1, sizeof *dev);

@@ -4,11 +4,13 @@
  * -s override), and its validation into a run setup (model, initial state, DTH step options of
  * the paper's section 2 and the start modes, output). Parsing uses inih; nothing is printed.
  */
+#include <ctype.h>
 #include <errno.h>
 #include <ini.h>
 #include <limits.h>
 #include <math.h>
 #include <stdarg.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -18,6 +20,7 @@
 
 typedef struct entry {
     char *section, *key, *value, *origin;
+    size_t vlen, vcap; /* length of value and its allocation (continuation lines grow it) */
 } entry;
 
 struct dth_scene {
@@ -99,6 +102,8 @@ static void put(dth_scene *s, entry *x)
     dth_free(s->alloc, e->value);
     dth_free(s->alloc, e->origin);
     e->value = x->value;
+    e->vlen = x->vlen;
+    e->vcap = x->vcap;
     e->origin = x->origin;
     dth_free(s->alloc, x->section);
     dth_free(s->alloc, x->key);
@@ -110,6 +115,8 @@ static int make_entry(const dth_allocator *a, const char *section, size_t sl, co
     x->section = dup_n(a, section, sl);
     x->key = dup_n(a, key, kl);
     x->value = dup_n(a, value, vl);
+    x->vlen = vl;
+    x->vcap = vl + 1;
     x->origin = dup_s(a, origin);
     if (x->section && x->key && x->value && x->origin) return DTH_OK;
     entry_free(a, x);
@@ -118,30 +125,59 @@ static int make_entry(const dth_allocator *a, const char *section, size_t sl, co
 
 /* ---------------------------------------------------------------- loading */
 
+/* The longest line a scene file may hold (inih reads lines into 200 bytes: 197 characters, CR,
+ * LF, NUL), and the longest section or key name inih keeps whole (its buffers hold 49). */
+enum { LINE_MAX_CHARS = 197, NAME_MAX_CHARS = 49 };
+
 typedef struct load_ctx {
     dth_scene *tmp;
     FILE *f;
     const char *path;
     int lineno;     /* lines read so far: the line the handler is called for */
     int too_long;   /* a line did not fit inih's buffer */
-    int indented;   /* the current line starts with blank space: inih's continuation line */
+    int nul;        /* a line holds a NUL byte (it would hide the rest of the line) */
+    const char *line; /* inih's line buffer and its size (what reader() was given) */
+    int linecap;
     int nomem;
+    long last;      /* the entry the last handler call stored or extended (-1: none) */
+    const char *why; /* a line the loader refuses although inih reads it: what is wrong */
+    int why_line;
 } load_ctx;
 
-/* fgets that counts lines, notes indented (continuation) lines, and refuses lines inih would split. */
+/* One line for inih: counts lines and refuses lines longer than LINE_MAX_CHARS (inih would split
+ * them) and lines with a NUL byte (fgets would hide the rest of the line behind it). */
 static char *reader(char *str, int num, void *stream)
 {
     load_ctx *c = stream;
-    if (!fgets(str, num, c->f)) return NULL;
-    c->lineno++;
-    c->indented = str[0] == ' ' || str[0] == '\t';
-    size_t len = strlen(str);
-    if (len + 1 == (size_t)num && str[len - 1] != '\n') {
-        int ch = fgetc(c->f);
-        if (ch != EOF) {
-            c->too_long = 1;
+    FILE *f = c->f;
+    int len = 0, ch = EOF;
+    c->line = str;
+    c->linecap = num;
+    while (len + 1 < num && (ch = getc(f)) != EOF) {
+        if (ch == '\0') {
+            c->lineno++;
+            c->nul = 1;
             return NULL;
         }
+        str[len++] = (char)ch;
+        if (ch == '\n') break;
+    }
+    if (len == 0) return NULL;
+    str[len] = '\0';
+    c->lineno++;
+    /* inih keeps 49 characters of a section name and drops the rest: refuse longer ones (an
+     * indented line continues a value) */
+    const char *close = str[0] == '[' ? strchr(str, ']') : NULL;
+    if (close && close - str - 1 > NAME_MAX_CHARS && !c->why) {
+        c->why = "a section name longer than 49 characters";
+        c->why_line = c->lineno;
+    }
+    int vis = len; /* without the line end */
+    if (vis && str[vis - 1] == '\n') vis--;
+    if (vis && str[vis - 1] == '\r') vis--;
+    if (vis > LINE_MAX_CHARS || (len + 1 == num && str[len - 1] != '\n' && (ch = getc(f)) != EOF)) {
+        c->too_long = 1;
+        return NULL;
     }
     return str;
 }
@@ -149,23 +185,56 @@ static char *reader(char *str, int num, void *stream)
 static int handler(void *user, const char *section, const char *name, const char *value)
 {
     load_ctx *c = user;
-    long i = c->indented ? find(c->tmp, section, name) : -1;
+    long i = -1;
+    /* inih passes a key=value line's name from its line buffer, and a continuation line's (the
+     * previous key's) from a buffer of its own: the exact test of what inih decided */
+    uintptr_t np = (uintptr_t)name, lp = (uintptr_t)c->line;
+    if (!(np >= lp && np < lp + (uintptr_t)c->linecap)) {
+        /* inih calls back with the previous key: usually the entry stored last */
+        if (c->last >= 0 && !strcmp(c->tmp->e[c->last].section, section) && !strcmp(c->tmp->e[c->last].key, name))
+            i = c->last;
+        else
+            i = find(c->tmp, section, name);
+    }
     if (i >= 0) {
         /* A continuation line extends the key's value as more list items (long q= and p=
-         * lists), keeping the origin of the key's first line. */
+         * lists), keeping the origin of the key's first line. The value grows geometrically,
+         * so a list over L lines loads in O(L) (a copy per line made it O(L^2)). */
         entry *e = &c->tmp->e[i];
-        size_t ol = strlen(e->value), vl = strlen(value);
+        size_t ol = e->vlen, vl = 0;
+        /* a ';' after a blank starts a comment here too, as on the key's own line (inih 55 keeps it
+         * in continuation lines, later versions drop it): one rule, and values never hold it */
+        for (; value[vl]; vl++)
+            if (value[vl] == ';' && vl > 0 && isspace((unsigned char)value[vl - 1])) break;
+        while (vl > 0 && isspace((unsigned char)value[vl - 1])) vl--;
         while (ol && (e->value[ol - 1] == ',' || e->value[ol - 1] == ' ')) ol--;
-        char *v = dth_calloc(c->tmp->alloc, ol + vl + 2, 1);
-        if (!v) {
-            c->nomem = 1;
-            return 0;
+        size_t need = ol + vl + 2;
+        if (need > e->vcap) {
+            size_t cap = e->vcap > need / 2 ? 2 * e->vcap : need;
+            char *v = dth_calloc(c->tmp->alloc, cap, 1);
+            if (!v) {
+                c->nomem = 1;
+                return 0;
+            }
+            memcpy(v, e->value, ol);
+            dth_free(c->tmp->alloc, e->value);
+            e->value = v;
+            e->vcap = cap;
         }
-        memcpy(v, e->value, ol);
-        v[ol] = ',';
-        memcpy(v + ol + 1, value, vl);
-        dth_free(c->tmp->alloc, e->value);
-        e->value = v;
+        e->value[ol] = ',';
+        memcpy(e->value + ol + 1, value, vl);
+        e->value[ol + 1 + vl] = '\0';
+        e->vlen = ol + 1 + vl;
+        c->last = i;
+        return 1;
+    }
+    /* inih passes an empty key ("= value") and keeps only 49 characters of a key for its
+     * continuation lines: refuse both, so that every loaded key can be written back (dth_scene_text) */
+    if (!name[0] || strlen(name) > NAME_MAX_CHARS) {
+        if (!c->why) {
+            c->why = name[0] ? "a key longer than 49 characters" : "a value without a key";
+            c->why_line = c->lineno;
+        }
         return 1;
     }
     char origin[4096 + 32];
@@ -177,6 +246,7 @@ static int handler(void *user, const char *section, const char *name, const char
         return 0;
     }
     put(c->tmp, &x);
+    c->last = find(c->tmp, section, name);
     return 1;
 }
 
@@ -203,7 +273,7 @@ int dth_scene_load_mem(dth_scene *s, const char *name, const char *text, size_t 
         dth__set_err(err, errlen, "invalid arguments to dth_scene_load_mem");
         return DTH_EINVAL;
     }
-    static const char empty[1] = "";
+    static const char empty[1] = "\n"; /* fmemopen needs a nonempty buffer: an empty line */
     FILE *f = fmemopen((void *)(len ? text : empty), len ? len : 1, "r");
     if (!f) {
         dth__set_err(err, errlen, "%s: cannot read: %s", name, strerror(errno));
@@ -215,7 +285,7 @@ int dth_scene_load_mem(dth_scene *s, const char *name, const char *text, size_t 
 /* Parse an open stream (closed here) into the scene; on failure the scene is unchanged. */
 static int load_stream(dth_scene *s, FILE *f, const char *path, char *err, size_t errlen)
 {
-    load_ctx c = {.f = f, .path = path};
+    load_ctx c = {.f = f, .path = path, .last = -1};
     int rc = dth_scene_new(s->alloc, &c.tmp);
     if (rc) {
         fclose(f);
@@ -230,7 +300,13 @@ static int load_stream(dth_scene *s, FILE *f, const char *path, char *err, size_
         dth__set_err(err, errlen, "%s: cannot read: %s", path, strerror(ioerr));
         rc = DTH_EIO;
     } else if (c.too_long) {
-        dth__set_err(err, errlen, "%s:%d: line longer than 197 characters", path, c.lineno);
+        dth__set_err(err, errlen, "%s:%d: line longer than %d characters", path, c.lineno, LINE_MAX_CHARS);
+        rc = DTH_EPARSE;
+    } else if (c.nul) {
+        dth__set_err(err, errlen, "%s:%d: a NUL byte in the line (not a text file?)", path, c.lineno);
+        rc = DTH_EPARSE;
+    } else if (c.why && (line == 0 || c.why_line < line)) {
+        dth__set_err(err, errlen, "%s:%d: %s", path, c.why_line, c.why);
         rc = DTH_EPARSE;
     } else if (c.nomem || line == -2 || (!s->source && !src) || reserve(s, c.tmp->n)) {
         dth__set_err(err, errlen, "out of memory");
@@ -252,11 +328,145 @@ static int load_stream(dth_scene *s, FILE *f, const char *path, char *err, size_
     return DTH_OK;
 }
 
+/* ---------------------------------------------------------------- writing */
+
+/* inih's notion of blank (its lskip, rstrip and the blank before an inline ';') */
+static int blank(char ch) { return isspace((unsigned char)ch) != 0; }
+
+
+/*
+ * How the writer lays out `key=value` over lines (dth_scene_text): the first line is key=, and
+ * the value is split at commas onto continuation lines " item,item" where the loader puts it back
+ * exactly. inih drops a line's leading and trailing blanks (isspace), reads a piece starting with
+ * ';' or '#' as a comment and cuts at a blank followed by ';'; the loader then joins a continuation
+ * piece B to the value so far A as strip(A) "," B, strip removing trailing commas and spaces. So
+ * the value may be split at its comma at index c when the next piece v[c+1..] is nonempty and
+ * starts with none of blank, ';', '#', and the piece before it is empty only at the start (c == 0)
+ * and does not end in ',' or ' '. The split comma is not written (the loader puts it back), unless
+ * v[c-1] is another blank (a tab, a form feed), which inih would drop from the line end: then the
+ * comma ends the line and the loader strips it. Greedy (each line as long as it can be) finds a
+ * layout whenever one exists, and the lines of any file the loader read are one (they are at least
+ * as long). Writes into t (if not NULL) and returns the number of characters, or 0 if the value
+ * cannot be laid out.
+ */
+static size_t layout(const char *key, const char *v, char *t)
+{
+    size_t kl = strlen(key), vl = strlen(v), n = 0, pos = 0, room = LINE_MAX_CHARS - kl - 1;
+    if (kl + 1 > LINE_MAX_CHARS) return 0;
+    if (t) {
+        memcpy(t, key, kl);
+        t[kl] = '=';
+    }
+    n = kl + 1;
+    for (;;) {
+        if (vl - pos <= room) { /* the rest fits */
+            if (t) memcpy(t + n, v + pos, vl - pos);
+            n += vl - pos;
+            break;
+        }
+        size_t best = 0, keep = 0; /* the furthest allowed split comma within reach; its line's length */
+        for (size_t c = pos; c < vl && c - pos <= room; c++) {
+            if (v[c] != ',') continue;
+            if (c == pos ? pos > 0 : (v[c - 1] == ',' || v[c - 1] == ' ')) continue; /* stripped by the loader */
+            char nx = v[c + 1];
+            if (!nx || blank(nx) || nx == ';' || nx == '#') continue; /* dropped, or read as a comment */
+            size_t len = c - pos + (c > pos && blank(v[c - 1])); /* with the comma after a tab or so */
+            if (len > room) continue;
+            best = c + 1;
+            keep = len;
+        }
+        if (!best || kl > NAME_MAX_CHARS) return 0; /* inih keeps 49 characters of a continued key */
+        if (t) {
+            memcpy(t + n, v + pos, keep);
+            t[n + keep] = '\n';
+            t[n + keep + 1] = ' ';
+        }
+        n += keep + 2;
+        pos = best;
+        room = LINE_MAX_CHARS - 1;
+    }
+    if (t) t[n] = '\n';
+    return n + 1;
+}
+
+/* Why a scene file cannot hold this entry (NULL: it can). Section and key as stored after
+ * trimming; the value as well. */
+static const char *unwritable(const char *sec, const char *key, const char *val)
+{
+    const char *parts[] = {sec, key, val};
+    for (int i = 0; i < 3; i++)
+        for (const char *p = parts[i]; *p; p++) {
+            if ((unsigned char)*p < 0x20 && *p != '\t') return "a control character";
+            if (*p == 0x7f) return "a control character";
+            if (*p == ';' && p > parts[i] && blank(p[-1])) return "';' after a blank (a comment)";
+        }
+    if (!sec[0] || strlen(sec) > NAME_MAX_CHARS) return "a section name of 1 to 49 characters";
+    if (strchr(sec, ']')) return "']' in the section name";
+    if (!key[0] || strlen(key) > NAME_MAX_CHARS) return "a key of 1 to 49 characters";
+    if (strpbrk(key, "=:")) return "'=' or ':' in the key";
+    if (key[0] == '#' || key[0] == '[' || key[0] == ';') return "a key starting with '#', '[' or ';'";
+    if (!layout(key, val, NULL)) return "a value that does not fit scene lines (197 characters between commas)";
+    return NULL;
+}
+
+int dth_scene_text(const dth_scene *s, int (*keep)(void *ctx, const char *section, const char *key), void *ctx,
+                   char **text, size_t *len)
+{
+    if (text) *text = NULL;
+    if (len) *len = 0;
+    if (!s || !text || !len) return DTH_EINVAL;
+    /* pass 1 sizes, pass 2 writes; entries grouped by section in order of first appearance */
+    char *t = NULL;
+    size_t n = 0;
+    for (int pass = 0; pass < 2; pass++) {
+        n = 0;
+        for (size_t i = 0; i < s->n; i++) {
+            const char *sec = s->e[i].section;
+            int first = 1;
+            for (size_t j = 0; j < i && first; j++)
+                if (!strcmp(s->e[j].section, sec)) first = 0;
+            if (!first) continue;
+            int header = 0;
+            for (size_t j = i; j < s->n; j++) {
+                const entry *e = &s->e[j];
+                if (strcmp(e->section, sec) || (keep && !keep(ctx, e->section, e->key))) continue;
+                if (!header) {
+                    size_t sl = strlen(sec);
+                    if (t) {
+                        t[n] = '[';
+                        memcpy(t + n + 1, sec, sl);
+                        memcpy(t + n + 1 + sl, "]\n", 2);
+                    }
+                    n += sl + 3;
+                    header = 1;
+                }
+                size_t l = layout(e->key, e->value, t ? t + n : NULL);
+                if (!l) {
+                    dth_free(s->alloc, t);
+                    return DTH_EINVAL; /* cannot happen: every entry was checked when stored */
+                }
+                n += l;
+            }
+        }
+        if (pass == 0) {
+            t = dth_calloc(s->alloc, n + 1, 1);
+            if (!t) return DTH_ENOMEM;
+        }
+    }
+    t[n] = '\0';
+    *text = t;
+    *len = n;
+    return DTH_OK;
+}
+
 static void trim(const char **b, const char **e)
 {
     while (*b < *e && (**b == ' ' || **b == '\t')) (*b)++;
     while (*e > *b && ((*e)[-1] == ' ' || (*e)[-1] == '\t')) (*e)--;
 }
+
+/* An override in a message: its first 80 characters, and "..." if there are more (printf "%.*s%s"). */
+#define AS_CUT(a) strlen(a) > 80 ? 80 : (int)strlen(a), (a), strlen(a) > 80 ? "..." : ""
 
 int dth_scene_set(dth_scene *s, const char *assignment, char *err, size_t errlen)
 {
@@ -267,7 +477,7 @@ int dth_scene_set(dth_scene *s, const char *assignment, char *err, size_t errlen
     const char *eq = strchr(assignment, '=');
     const char *dot = eq ? memchr(assignment, '.', (size_t)(eq - assignment)) : NULL;
     if (!eq || !dot) {
-        dth__set_err(err, errlen, "-s %s: expected section.key=value", assignment);
+        dth__set_err(err, errlen, "-s %.*s%s: expected section.key=value", AS_CUT(assignment));
         return DTH_EPARSE;
     }
     const char *sb = assignment, *se = dot, *kb = dot + 1, *ke = eq, *vb = eq + 1,
@@ -276,15 +486,36 @@ int dth_scene_set(dth_scene *s, const char *assignment, char *err, size_t errlen
     trim(&kb, &ke);
     trim(&vb, &ve);
     if (sb == se || kb == ke) {
-        dth__set_err(err, errlen, "-s %s: expected section.key=value", assignment);
+        dth__set_err(err, errlen, "-s %.*s%s: expected section.key=value", AS_CUT(assignment));
         return DTH_EPARSE;
     }
-    size_t olen = strlen(assignment) + 4;
+    /* only what a scene file could hold (a checkpoint saves the scene as a file) */
+    char sec[NAME_MAX_CHARS + 2] = "", key[NAME_MAX_CHARS + 2] = "";
+    const char *why = NULL;
+    if ((size_t)(se - sb) > NAME_MAX_CHARS || (size_t)(ke - kb) > NAME_MAX_CHARS) {
+        why = "a section name and key of 1 to 49 characters";
+    } else {
+        memcpy(sec, sb, (size_t)(se - sb));
+        memcpy(key, kb, (size_t)(ke - kb));
+        char *val = dup_n(s->alloc, vb, (size_t)(ve - vb));
+        if (!val) {
+            dth__set_err(err, errlen, "out of memory");
+            return DTH_ENOMEM;
+        }
+        why = unwritable(sec, key, val);
+        dth_free(s->alloc, val);
+    }
+    if (why) {
+        dth__set_err(err, errlen, "-s %.*s%s: a scene file cannot hold this (%s)", AS_CUT(assignment), why);
+        return DTH_EPARSE;
+    }
+    /* the override names itself in messages, cut after 80 characters */
+    size_t olen = 80 + 8;
     char *origin = dth_calloc(s->alloc, olen, 1);
     entry x = {0};
     int rc = origin ? DTH_OK : DTH_ENOMEM;
     if (!rc) {
-        snprintf(origin, olen, "-s %s", assignment);
+        snprintf(origin, olen, "-s %.*s%s", AS_CUT(assignment));
         rc = make_entry(s->alloc, sb, (size_t)(se - sb), kb, (size_t)(ke - kb), vb, (size_t)(ve - vb),
                         origin, &x);
     }
@@ -367,17 +598,31 @@ static int bad(char *err, size_t len, const entry *e, const char *fmt, ...)
     return DTH_EINVAL;
 }
 
-/* Whole-string decimal integer in [lo, hi]. */
+/* A count: a whole-string decimal integer, or a number with an integer value ("1e6"), in
+ * [lo, hi]. 0, or PARSE_NOT_INT (not an integer), PARSE_LOW / PARSE_HIGH (an integer below lo,
+ * above hi). */
+enum { PARSE_NOT_INT = -1, PARSE_LOW = -2, PARSE_HIGH = -3 };
 static int parse_long(const char *v, long lo, long hi, long *out)
 {
     while (*v == ' ' || *v == '\t') v++;
-    if (!*v) return -1;
+    if (!*v) return PARSE_NOT_INT;
     char *end;
     errno = 0;
     long x = strtol(v, &end, 10);
-    if (end == v || errno) return -1;
-    while (*end == ' ' || *end == '\t') end++;
-    if (*end || x < lo || x > hi) return -1;
+    const char *rest = end;
+    while (*rest == ' ' || *rest == '\t') rest++;
+    if (end == v || *rest) {
+        /* not plain decimal: a number whose value is an integer (1e6, 2.0) counts too */
+        double d;
+        if (dth_parse_double(v, &d) || d != floor(d)) return PARSE_NOT_INT;
+        if (d < (double)lo || !(d > -0x1p63)) return PARSE_LOW;
+        if (d > (double)hi || !(d < 0x1p63)) return PARSE_HIGH;
+        x = (long)d;
+    } else if (errno == ERANGE) {
+        return x < 0 ? PARSE_LOW : PARSE_HIGH;
+    }
+    if (x < lo) return PARSE_LOW;
+    if (x > hi) return PARSE_HIGH;
     *out = x;
     return 0;
 }
@@ -444,6 +689,15 @@ typedef struct setup_ctx {
     int points_kind; /* -1 auto, else dth_points */
 } setup_ctx;
 
+/* The message for a count that parse_long refused. */
+static int bad_count(setup_ctx *c, const entry *e, int why, long lo, long hi)
+{
+    if (why == PARSE_HIGH)
+        return bad(c->err, c->errlen, e, "'%s' is too large (an integer from %ld to %ld)", e->value, lo, hi);
+    if (hi < LONG_MAX) return bad(c->err, c->errlen, e, "'%s' is not an integer in %ld..%ld", e->value, lo, hi);
+    return bad(c->err, c->errlen, e, "'%s' is not an integer >= %ld", e->value, lo);
+}
+
 static int check_initial(setup_ctx *c, dth_run_setup *rs, const entry *e)
 {
     const dth_allocator *a = c->s->alloc;
@@ -502,12 +756,14 @@ static int check_integrator(setup_ctx *c, dth_run_setup *rs, const entry *e)
         if (rs->opt.h == 0) return bad(c->err, c->errlen, e, "the step must be nonzero (its sign sets the direction of time)");
     } else if (strcmp(k, "steps") == 0) {
         c->steps = e;
-        if (parse_long(v, 0, LONG_MAX, &rs->steps)) return bad(c->err, c->errlen, e, "'%s' is not an integer >= 0", v);
+        int pr = parse_long(v, 0, LONG_MAX, &rs->steps);
+        if (pr) return bad_count(c, e, pr, 0, LONG_MAX);
     } else if (strcmp(k, "t_end") == 0) {
         c->t_end = e;
         if (dth_parse_double(v, &rs->t_end)) return bad(c->err, c->errlen, e, "'%s' is not a finite number", v);
     } else if (strcmp(k, "max_iter") == 0) {
-        if (parse_long(v, 1, 100000, &x)) return bad(c->err, c->errlen, e, "'%s' is not an integer in 1..100000", v);
+        int pr = parse_long(v, 1, 100000, &x);
+        if (pr) return bad_count(c, e, pr, 1, 100000);
         rs->opt.max_iter = (int)x;
     } else if (strcmp(k, "K") == 0) {
         if (dth_parse_double(v, &rs->opt.K) || rs->opt.K < 0)
@@ -539,7 +795,8 @@ static int check_output(setup_ctx *c, dth_run_setup *rs, const entry *e)
         else return bad(c->err, c->errlen, e, "'%s' is not one of auto, vertices, midpoints", v);
     } else if (strcmp(k, "every") == 0) {
         c->every = e;
-        if (parse_long(v, 1, LONG_MAX, &rs->every)) return bad(c->err, c->errlen, e, "'%s' is not an integer >= 1", v);
+        int pr = parse_long(v, 1, LONG_MAX, &rs->every);
+        if (pr) return bad_count(c, e, pr, 1, LONG_MAX);
     } else if (strcmp(k, "dt") == 0) {
         c->dt = e;
         if (dth_parse_double(v, &rs->dt) || rs->dt < 0)
@@ -774,6 +1031,17 @@ static int check_cross(setup_ctx *c, dth_run_setup *rs)
         return DTH_EINVAL;
     }
     rs->has_t_end = c->t_end != NULL;
+    /* the time must move: a step below the resolution of t (t + h == t, or nearly) never
+     * advances it, and a run to t_end would never end */
+    double h = fabs(rs->opt.h);
+    if (!(h > 2 * DBL_EPSILON * fabs(rs->t0)))
+        return bad(c->err, c->errlen, c->t ? c->t : c->h,
+                   "the time t = %.17g does not advance by steps of h = %.3g (t + h == t in double precision): "
+                   "start the clock nearer 0 or take a larger step", rs->t0, rs->opt.h);
+    if (c->t_end && !(h > 2 * DBL_EPSILON * fabs(rs->t_end)))
+        return bad(c->err, c->errlen, c->t_end,
+                   "t_end = %.17g cannot be reached by steps of h = %.3g (t + h == t in double precision long before)",
+                   rs->t_end, rs->opt.h);
     if (c->t_end && (rs->t_end - rs->t0) * rs->opt.h < 0)
         return bad(c->err, c->errlen, c->t_end, "t_end = %.17g lies behind t = %.17g for h = %.17g (the sign of h is the direction of time)",
                    rs->t_end, rs->t0, rs->opt.h);
@@ -783,6 +1051,11 @@ static int check_cross(setup_ctx *c, dth_run_setup *rs)
         return bad(c->err, c->errlen, c->dt, "dt > 0 resamples at uniform times and cannot be combined with every= (%s)",
                    c->every->origin);
     int is_dth = strcmp(rs->method, "dth") == 0;
+    /* output times far denser than the steps: millions of rows per step fill a disk, they do not
+     * resolve the trajectory (the method's steps do) */
+    if (rs->dt > 0 && !(fabs(rs->opt.h) / rs->dt <= 1e6))
+        return bad(c->err, c->errlen, c->dt, "%.3g asks for %.3g rows per step of h = %.3g: at most 1e6 (a larger dt)",
+                   rs->dt, fabs(rs->opt.h) / rs->dt, rs->opt.h);
     if (rs->dt > 0) {
         if (c->points && c->points_kind >= 0)
             return bad(c->err, c->errlen, c->points, "dt > 0 writes output times and cannot be combined with points=%s (%s)",
@@ -866,6 +1139,26 @@ static int setup_regularizer(const dth_scene *s, const dth_registry *reg, dth_ru
     return rc;
 }
 
+/* The model must evaluate at the initial state (q, t, p): else say why, naming initial.q. */
+static int check_start(setup_ctx *c, dth_run_setup *rs, const char *model)
+{
+    size_t n = rs->n;
+    double *y = dth_calloc(c->s->alloc, 2 * n + 1, sizeof *y);
+    if (!y) {
+        dth__set_err(c->err, c->errlen, "out of memory");
+        return DTH_ENOMEM;
+    }
+    memcpy(y, rs->q0, n * sizeof *y);
+    y[n] = rs->t0;
+    memcpy(y + n + 1, rs->p0, n * sizeof *y);
+    char why[200];
+    int rc = dth_model_domain_check(rs->model, y, why, sizeof why);
+    dth_free(c->s->alloc, y);
+    if (rc == DTH_ENOMEM) dth__set_err(c->err, c->errlen, "out of memory");
+    else if (rc) rc = bad(c->err, c->errlen, c->q, "the model '%s' cannot start here (initial.q, initial.p): %s", model, why);
+    return rc;
+}
+
 int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *out, char *err, size_t errlen)
 {
     if (!s || !reg || !out) {
@@ -918,6 +1211,8 @@ int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *
         } else if (dth_model_dof(rs.model) != rs.n) {
             rc = bad(err, errlen, c.q, "model '%s' has %zu degrees of freedom, but %zu q values are given",
                      type->name, dth_model_dof(rs.model), rs.n);
+        } else {
+            rc = check_start(&c, &rs, type->name);
         }
     }
     dth_free(s->alloc, kv);

@@ -6,6 +6,7 @@
  * and angular momentum, and the banded Hessian used by the banded step solve (lib/banded.c).
  */
 #include <math.h>
+#include <stdio.h>
 #include <stdint.h>
 #include <string.h>
 #include "dth/models.h"
@@ -445,6 +446,28 @@ static int invariants(const void *self, const double *y, double *out)
     return 0;
 }
 
+/* A spring with rest length L > 0 whose ends coincide has no direction: name them. */
+static int domain(const void *self, const double *y, char *why, size_t len)
+{
+    const coupled *c = self;
+    for (int anchor = 0; anchor < 2; anchor++) {
+        size_t cnt = anchor ? c->na : c->ns;
+        const spring *sp = anchor ? c->anc : c->spr;
+        for (size_t s = 0; s < cnt; s++) {
+            double r[3], l, f;
+            if (!geometry(c, &sp[s], anchor, y, r, &l, &f)) continue;
+            if (anchor)
+                snprintf(why, len, "particle %zu sits on the fixed end of its anchor spring (rest length %g > 0)",
+                         sp[s].i + 1, sp[s].L);
+            else
+                snprintf(why, len, "particles %zu and %zu are at the same point (their spring has rest length %g > 0)",
+                         sp[s].i + 1, sp[s].j + 1, sp[s].L);
+            return 1;
+        }
+    }
+    return 0;
+}
+
 const dth_model_type dth_model_coupled = {
     .name = "coupled",
     .doc = "coupled oscillators: N particles in 1-3 dimensions, springs k/2 (|x_i - x_j| - L)^2 (chain, ring, lattice or explicit)",
@@ -459,4 +482,5 @@ const dth_model_type dth_model_coupled = {
     .invariants = invariants,
     .hess_band = hess_band,
     .hdiff = hdiff,
+    .domain = domain,
 };

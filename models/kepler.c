@@ -7,6 +7,7 @@
  */
 #include <float.h>
 #include <math.h>
+#include <stdio.h>
 #include "dth/models.h"
 
 #define PI 3.14159265358979323846
@@ -255,6 +256,17 @@ static int exact(const void *self, const double *y0, double t, double *y)
     return 0;
 }
 
+/* The one singular point: the centre. */
+static int domain(const void *self, const double *y, char *why, size_t len)
+{
+    const kepler *k = self;
+    double r2 = dot(k->n, y, y);
+    if (r2 > 0 && isfinite(r2)) return 0;
+    if (k->n == 2) snprintf(why, len, "the centre r = 0 is singular (q1 = %g, q2 = %g)", y[0], y[1]);
+    else snprintf(why, len, "the centre r = 0 is singular (q1 = %g, q2 = %g, q3 = %g)", y[0], y[1], y[2]);
+    return 1;
+}
+
 const dth_model_type dth_model_kepler = {
     .name = "kepler",
     .doc = "Kepler problem H = |p|^2/2 - mu/|q| in 2 or 3 Cartesian dimensions",
@@ -269,4 +281,5 @@ const dth_model_type dth_model_kepler = {
     .invariant_name = invariant_name,
     .invariants = invariants,
     .exact = exact,
+    .domain = domain,
 };

@@ -28,7 +28,7 @@ if [ ! -f "$bd/build.ninja" ]; then
 fi
 ninja -C "$bd" >/dev/null
 secs=${DTH_FUZZ_SECONDS:-60}
-targets=${*:-fuzz_scene fuzz_override fuzz_integrator}
+targets=${*:-fuzz_scene fuzz_override fuzz_integrator fuzz_checkpoint}
 export ASAN_OPTIONS=halt_on_error=1:print_stacktrace=1:detect_leaks=1
 export UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
 mkdir -p "$bd/artifacts"

@@ -49,7 +49,7 @@ ci_cli_smoke() {
     for s in "$root"/scenes/*.ini; do
         # 3: the trajectory stopped early (e.g. the raw rotating pendulum): a clean, expected end
         expect '0|3' "$@" "$dth" run "$s" -o "$tmp/run.csv"
-        expect '0|3' "$@" "$dth" run "$s" -s output.diagnostics=yes -s output.dt=0.05
+        expect '0|3' "$@" "$dth" run "$s" -s output.diagnostics=yes -s output.every=1 -s output.dt=0.05
     done
     p="$root/scenes/pendulum.ini"
     expect 0 "$@" "$dth" run "$p" -s integrator.start=vertex -s integrator.steps=50
@@ -67,6 +67,11 @@ ci_cli_smoke() {
         -o "$tmp/evt.csv"
     expect 0 "$@" "$dth" run "$root/scenes/kepler-e06.ini" -s output.dt=0.1 -s events.section=q2 -o "$tmp/k.h5"
     expect 0 "$@" "$dth" run "$p" --progress=0.01 -s integrator.steps=2000 -o "$tmp/pr.csv"
+    # checkpoints: written, resumed into the same file, refused overrides, a folder as checkpoint
+    expect 0 "$@" "$dth" run "$p" -s integrator.steps=300 -o "$tmp/c.csv" --checkpoint "$tmp/c.ckpt" --checkpoint-every 50
+    expect 0 "$@" "$dth" run --resume "$tmp/c.ckpt" -s integrator.steps=600 --checkpoint "$tmp/c.ckpt"
+    expect 2 "$@" "$dth" run --resume "$tmp/c.ckpt" -s model.omega2=2 -o "$tmp/c2.csv"
+    expect 2 "$@" "$dth" run --resume "$tmp"
     # dth sweep (OpenMP threads; MPI is covered by meson test cli-sweep-mpi): a grid with MEGNO and
     # trajectories, a list with a baseline method, a refused key
     expect 0 "$@" "$dth" sweep "$p" --vary initial.q=0.5:1:3 --vary initial.p=0:0.5:2 -s integrator.t_end=2 \

@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <dirent.h>
 #include <unistd.h>
 #include "cu_main.h"
 #include "dth/dth.h"
@@ -266,7 +267,24 @@ static void reseal(unsigned char *b, size_t len)
     for (int i = 0; i < 8; i++) b[len - 8 + (size_t)i] = (unsigned char)(h >> (8 * i));
 }
 
-/* Content errors behind a valid checksum: version, NaN in the state, foreign model. */
+/* Offset of the first value of the state field `name` (format: u32 name length, name, u32 type,
+ * u64 count, values), 0 if not found. */
+static size_t field_values(const unsigned char *b, size_t len, const char *name)
+{
+    size_t nl = strlen(name);
+    for (size_t i = 0; i + 4 + nl + 12 <= len; i++)
+        if (b[i] == nl && !b[i + 1] && !b[i + 2] && !b[i + 3] && memcmp(b + i + 4, name, nl) == 0 &&
+            b[i + 4 + nl] >= 1 && b[i + 4 + nl] <= 2)
+            return i + 4 + nl + 12;
+    return 0;
+}
+
+static void put_le(unsigned char *p, uint64_t v)
+{
+    for (int i = 0; i < 8; i++) p[i] = (unsigned char)(v >> (8 * i));
+}
+
+/* Content errors behind a valid checksum: version, invalid fields, other options, foreign model. */
 static void test_invalid_content_refused(void)
 {
     dth_model *m = make_model(&dth_model_pendulum), *hm = NULL;
@@ -287,13 +305,56 @@ static void test_invalid_content_refused(void)
     reseal(bad, len);
     CU_ASSERT(dth_checkpoint_restore(A, bad, len, err, sizeof err) == DTH_EPARSE);
     CU_ASSERT(strstr(err, "version") != NULL);
-    /* NaN in the vertex: after magic(8) version(4) pad(4) len(8) name(4+8) n(8) m(4) auton(4) */
+    /* an old version is refused with a message naming both versions */
     memcpy(bad, good, len);
-    size_t z0 = 8 + 4 + 4 + 8 + 4 + 8 + 8 + 4 + 4;
-    double nan = NAN;
-    memcpy(bad + z0, &nan, 8); /* little-endian hosts: the byte order of the format */
+    bad[8] = 3;
     reseal(bad, len);
     CU_ASSERT(dth_checkpoint_restore(A, bad, len, err, sizeof err) == DTH_EPARSE);
+    CU_ASSERT(strstr(err, "version 3") != NULL);
+    /* NaN in the vertex, a flag out of range, an unknown field name: refused naming the field */
+    size_t z0 = field_values(good, len, "z"), ps = field_values(good, len, "psi_sign"),
+           nh = field_values(good, len, "nhist");
+    CU_ASSERT_FATAL(z0 && ps && nh);
+    memcpy(bad, good, len);
+    put_le(bad + z0, 0x7ff8000000000000ULL); /* a NaN */
+    reseal(bad, len);
+    CU_ASSERT(dth_checkpoint_restore(A, bad, len, err, sizeof err) == DTH_EPARSE);
+    CU_ASSERT(strstr(err, "'z'") != NULL);
+    memcpy(bad, good, len);
+    put_le(bad + ps, 5);
+    reseal(bad, len);
+    CU_ASSERT(dth_checkpoint_restore(A, bad, len, err, sizeof err) == DTH_EPARSE);
+    CU_ASSERT(strstr(err, "'psi_sign'") != NULL);
+    memcpy(bad, good, len);
+    put_le(bad + nh, (uint64_t)-1);
+    reseal(bad, len);
+    CU_ASSERT(dth_checkpoint_restore(A, bad, len, err, sizeof err) == DTH_EPARSE);
+    CU_ASSERT(strstr(err, "'nhist'") != NULL);
+    memcpy(bad, good, len);
+    bad[nh - 12 - 5] ^= 0x20; /* the name "nhist" -> "Nhist" */
+    reseal(bad, len);
+    CU_ASSERT(dth_checkpoint_restore(A, bad, len, err, sizeof err) == DTH_EPARSE);
+    CU_ASSERT(strstr(err, "'Nhist'") != NULL && strstr(err, "'nhist'") != NULL);
+    /* the options that change the steps must match: branch check, regularizer */
+    dth_options o;
+    dth_options_default(&o);
+    o.h = 0.1;
+    o.branch_check = 0;
+    dth_integrator *B = NULL;
+    CU_ASSERT_FATAL(dth_integrator_new(m, &o, &B) == DTH_OK);
+    CU_ASSERT(dth_checkpoint_restore(B, good, len, err, sizeof err) == DTH_EINVAL);
+    CU_ASSERT(strstr(err, "branch_check") != NULL);
+    dth_integrator_free(B);
+    dth_regularizer *rg = NULL;
+    CU_ASSERT_FATAL(dth_regularizer_new(&dth_reg_prescribed, NULL, 0, m, NULL, &rg, NULL, 0) == DTH_OK);
+    dth_options_default(&o);
+    o.h = 0.1;
+    o.regularizer = rg;
+    CU_ASSERT_FATAL(dth_integrator_new(m, &o, &B) == DTH_OK);
+    CU_ASSERT(dth_checkpoint_restore(B, good, len, err, sizeof err) == DTH_EINVAL);
+    CU_ASSERT(strstr(err, "no regularizer") != NULL && strstr(err, "'prescribed'") != NULL);
+    dth_integrator_free(B);
+    dth_regularizer_free(rg);
     /* a pendulum checkpoint does not fit a harmonic oscillator of the same dimension */
     dth_integrator *H = make_it(hm, 0.1, DTH_START_MIDPOINT);
     CU_ASSERT(dth_checkpoint_restore(H, good, len, err, sizeof err) == DTH_EINVAL);
@@ -305,6 +366,18 @@ static void test_invalid_content_refused(void)
     dth_integrator_free(H);
     dth_model_free(m);
     dth_model_free(hm);
+}
+
+/* Entries of a folder other than . and .. */
+static int files_in(const char *dir)
+{
+    DIR *d = opendir(dir);
+    int k = 0;
+    if (!d) return -1;
+    for (struct dirent *e; (e = readdir(d));)
+        if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..")) k++;
+    closedir(d);
+    return k;
 }
 
 /* Files: crash-safe replace, no temporary left, read back, errors name the file, ENOMEM clean. */
@@ -326,6 +399,12 @@ static void test_files(void)
     for (int k = 0; k < 7; k++) CU_ASSERT(dth_integrator_step(A, NULL) == DTH_OK);
     CU_ASSERT(dth_checkpoint_write_file(A, &b, 1, path, err, sizeof err) == DTH_OK); /* replaces */
     CU_ASSERT(access(tmp, F_OK) != 0);
+    CU_ASSERT(files_in(dir) == 1); /* no temporary left: only run.ckpt */
+    /* a folder is no checkpoint: said so (not "out of memory") */
+    void *dbuf = NULL;
+    size_t dlen;
+    CU_ASSERT(dth_checkpoint_read_file(dir, NULL, &dbuf, &dlen, err, sizeof err) == DTH_EIO);
+    CU_ASSERT(strstr(err, "Is a directory") != NULL && dbuf == NULL);
     void *buf = NULL;
     size_t len;
     CU_ASSERT_FATAL(dth_checkpoint_read_file(path, NULL, &buf, &len, err, sizeof err) == DTH_OK);
@@ -385,12 +464,91 @@ static void test_files(void)
     dth_model_free(m);
 }
 
+/* The documented layout (docs/checkpoint.md) read independently: walk a checkpoint by it, and
+ * every option and state field it holds is named in the document's tables, with the counts. */
+static uint64_t le(const unsigned char *p, int n)
+{
+    uint64_t v = 0;
+    for (int i = n - 1; i >= 0; i--) v = (v << 8) | p[i];
+    return v;
+}
+
+static void test_documented_layout(void)
+{
+    const char *root = getenv("DTH_SOURCE_ROOT");
+    dth_model *m = make_model(&dth_model_pendulum);
+    dth_integrator *A = make_it(m, 0.1, DTH_START_MIDPOINT);
+    double q = 1.0, p = 0.2;
+    CU_ASSERT_FATAL(dth_integrator_start(A, &q, &p, 0) == DTH_OK);
+    CU_ASSERT(dth_integrator_step(A, NULL) == DTH_OK);
+    const char text[] = "x";
+    dth_blob blob = {"scene", text, 1};
+    size_t len;
+    unsigned char *b = save_alloc(A, &blob, 1, &len);
+    char *doc = NULL;
+    if (root) {
+        char path[4096];
+        snprintf(path, sizeof path, "%s/docs/checkpoint.md", root);
+        FILE *f = fopen(path, "rb");
+        CU_ASSERT_FATAL(f != NULL);
+        doc = calloc(1, 1 << 16);
+        CU_ASSERT_FATAL(doc != NULL);
+        size_t got = fread(doc, 1, (1 << 16) - 1, f);
+        fclose(f);
+        CU_ASSERT(got > 0);
+    } else {
+        printf("  [DTH_SOURCE_ROOT not set: the document is not compared]\n");
+    }
+    /* header, model, n, m, autonomous */
+    size_t pos = 24;
+    CU_ASSERT(memcmp(b, "DTHCKPT", 8) == 0 && le(b + 8, 4) == DTH_CHECKPOINT_VERSION && le(b + 16, 8) == len);
+    pos += 4 + le(b + pos, 4);
+    CU_ASSERT(le(b + pos, 8) == 1);
+    pos += 8 + 4 + 4;
+    for (int group = 0; group < 2; group++) {
+        uint64_t nf = le(b + pos, 4);
+        pos += 4;
+        char want[64];
+        snprintf(want, sizeof want, "u32 count (%llu)", (unsigned long long)nf);
+        if (doc) CU_ASSERT(strstr(doc, want) != NULL);
+        for (uint64_t i = 0; i < nf; i++) {
+            size_t nl = (size_t)le(b + pos, 4);
+            char name[64] = "`";
+            CU_ASSERT_FATAL(nl > 0 && nl < 60);
+            memcpy(name + 1, b + pos + 4, nl);
+            memcpy(name + 1 + nl, "` |", 4);
+            pos += 4 + nl;
+            uint64_t type = le(b + pos, 4), count = le(b + pos + 4, 8);
+            CU_ASSERT(type == 1 || type == 2);
+            CU_ASSERT(count == 1 || count == 4);
+            pos += 12 + 8 * count;
+            if (doc && !strstr(doc, name)) {
+                printf("  [field %s is not in docs/checkpoint.md]\n", name);
+                CU_FAIL("undocumented field");
+            }
+        }
+    }
+    /* regularizer name (none), its state, one blob, checksum */
+    CU_ASSERT(le(b + pos, 4) == 0 && le(b + pos + 4, 8) == 0);
+    pos += 12;
+    CU_ASSERT(le(b + pos, 4) == 1);
+    pos += 4;
+    CU_ASSERT(le(b + pos, 4) == 5 && memcmp(b + pos + 4, "scene", 5) == 0 && le(b + pos + 9, 8) == 1);
+    pos += 4 + 5 + 8 + 1;
+    CU_ASSERT(pos + 8 == len);
+    free(doc);
+    free(b);
+    dth_integrator_free(A);
+    dth_model_free(m);
+}
+
 static CU_TestInfo checkpoint_tests[] = {
     {"N + save/restore + N == 2N steps, bit for bit (every model, both starts)", test_resume_bit_identical},
     {"resume across the rotating pendulum's psi = 0 crossing", test_resume_across_crossing},
     {"corrupted / truncated / extended checkpoints: DTH_EPARSE, untouched", test_corruption_refused},
     {"invalid content behind a valid checksum; foreign model", test_invalid_content_refused},
     {"files: crash-safe replace, read back, errors name the file, ENOMEM", test_files},
+    {"the layout of docs/checkpoint.md, and every field named there", test_documented_layout},
     CU_TEST_INFO_NULL,
 };
 

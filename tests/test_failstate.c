@@ -7,64 +7,44 @@
  * message naming the key.
  */
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include "cu_main.h"
 #include "dth/dth.h"
-#include "integrator_impl.h"
 
-/* ---- a bitwise snapshot of everything a step may change ---- */
+/* ---- the whole serialised state (dth_checkpoint_save: every field of the step state, the
+ * options, the regularizer's own state), compared bitwise ---- */
 
-enum { MAXN = 16 };
+enum { SNAPMAX = 1 << 16 };
 
 typedef struct snap {
-    double z[MAXN], zlo[MAXN], zbar[MAXN], dprev[MAXN], dprev2[MAXN], dprev3[MAXN];
-    double lam, lam2, lam3, lam_hint, dir, h;
-    int nhist, have_prev, have_mid, pending_exact, fact_valid;
-    long steps;
+    size_t len;
+    unsigned char b[SNAPMAX];
 } snap;
 
 static void take(const dth_integrator *it, snap *s)
 {
-    memset(s, 0, sizeof *s);
-    size_t N = it->N, m = (size_t)it->m;
-    CU_ASSERT_FATAL(N <= MAXN && m <= MAXN);
-    memcpy(s->z, it->z, N * sizeof *s->z);
-    memcpy(s->zlo, it->zlo, N * sizeof *s->zlo);
-    memcpy(s->zbar, it->zbar, N * sizeof *s->zbar);
-    memcpy(s->dprev, it->dprev, N * sizeof *s->dprev);
-    memcpy(s->dprev2, it->dprev2, N * sizeof *s->dprev2);
-    memcpy(s->dprev3, it->dprev3, N * sizeof *s->dprev3);
-    s->lam = it->lam;
-    s->lam2 = it->lam2;
-    s->lam3 = it->lam3;
-    s->nhist = it->nhist;
-    s->lam_hint = it->lam_hint;
-    s->dir = it->dir;
-    s->h = it->opt.h;
-    s->have_prev = it->have_prev;
-    s->have_mid = it->have_mid;
-    s->pending_exact = it->pending_exact;
-    s->fact_valid = it->fact_valid;
-    s->steps = it->steps;
+    CU_ASSERT_FATAL(dth_checkpoint_save(it, NULL, 0, s->b, sizeof s->b, &s->len) == DTH_OK);
 }
 
-/* Bitwise equality (memcmp: -0.0 vs 0.0 and NaN payloads count as changes). */
-static int same(const snap *a, const snap *b) { return memcmp(a, b, sizeof *a) == 0; }
+static int same(const snap *a, const snap *b) { return a->len == b->len && memcmp(a->b, b->b, a->len) == 0; }
 
 /* Step until the first failure (at most `max` steps); check the state it leaves. */
 static int step_until_failure(dth_integrator *it, long max, long *at)
 {
-    snap before, after;
+    static snap before, after;
     for (long k = 0; k < max; k++) {
         take(it, &before);
+        long steps_before = dth_integrator_steps(it);
         dth_step_info info;
         int rc = dth_integrator_step(it, &info);
         if (rc == DTH_OK) continue;
         take(it, &after);
         CU_ASSERT(same(&before, &after));
         /* The public view agrees, and a retry fails the same way (nothing was half-committed). */
-        CU_ASSERT(dth_integrator_steps(it) == before.steps);
+        CU_ASSERT(dth_integrator_steps(it) == steps_before);
         CU_ASSERT(dth_integrator_step(it, &info) == rc);
         take(it, &after);
         CU_ASSERT(same(&before, &after));
@@ -267,6 +247,254 @@ static void test_rotating_pendulum_termination(void)
     dth_model_free(m);
 }
 
+/* ---- with a regularizer attached: its own state and a multi-part commit are undone too ---- */
+
+static dth_integrator *new_integrator_reg(const dth_model *m, double h, dth_start start, dth_regularizer *reg)
+{
+    dth_options o;
+    dth_options_default(&o);
+    o.h = h;
+    o.start = start;
+    o.regularizer = reg;
+    dth_integrator *it = NULL;
+    CU_ASSERT_FATAL(dth_integrator_new(m, &o, &it) == DTH_OK);
+    return it;
+}
+
+/* The shipped regularizers where they stop: prescribed on Kepler e = 0.9 without its fallback (no
+ * kicked segment of the constant step at pericentre) and with it (the ordinary step it falls back
+ * to fails too, after the hook dropped its seed: the seed comes back), raw DTH's own statuses under
+ * none, and prescribed on the pendulum with a step too large for a kicked segment. */
+static void test_shipped_regularizers(void)
+{
+    dth_model *kep = new_model(&dth_model_kepler, NULL, 0, 2), *pen = new_model(&dth_model_pendulum, NULL, 0, 1);
+    static const dth_kv nofb[] = {{"fallback", "no"}};
+    struct {
+        const dth_model *m;
+        const dth_regularizer_type *t;
+        const dth_kv *kv;
+        size_t nkv;
+        double q[2], p[2], h;
+        long max;
+    } cases[] = {
+        {kep, &dth_reg_prescribed, nofb, 1, {-1.9, 0}, {0, -0.22941573387056177}, 0.05, 2000},
+        {kep, &dth_reg_prescribed, NULL, 0, {-1.9, 0}, {0, -0.22941573387056177}, 0.05, 2000}, /* fallback */
+        {pen, &dth_reg_none, NULL, 0, {0, 0}, {2.2, 0}, 0.05, 2000},
+        {pen, &dth_reg_prescribed, nofb, 1, {0, 0}, {2.2, 0}, 2.5, 2000},
+    };
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        dth_regularizer *reg = NULL;
+        char err[256] = "";
+        CU_ASSERT_FATAL(dth_regularizer_new(cases[c].t, cases[c].kv, cases[c].nkv, cases[c].m, NULL, &reg, err,
+                                            sizeof err) == DTH_OK);
+        dth_integrator *it = new_integrator_reg(cases[c].m, cases[c].h, DTH_START_MIDPOINT, reg);
+        CU_ASSERT_FATAL(dth_integrator_start(it, cases[c].q, cases[c].p, 0) == DTH_OK);
+        long at;
+        int rc = step_until_failure(it, cases[c].max, &at);
+        printf("  [%s with %s: %s after %ld steps: %s]\n", dth_model_get_type(cases[c].m)->name, cases[c].t->name,
+               dth_status_name(rc), at, dth_integrator_errmsg(it));
+        CU_ASSERT(rc > 0);
+        dth_integrator_free(it);
+        dth_regularizer_free(reg);
+    }
+    dth_model_free(kep);
+    dth_model_free(pen);
+}
+
+/* A harmonic oscillator whose energy alone (DTH_EVAL_H by itself) cannot be evaluated for
+ * 0.25 < q < 0.35 while its derivatives can: a failure the integrator meets only after it has
+ * committed a regularizer's segment (the carried vertex offset evaluated afresh). */
+static int fickle_create(const dth_model_args *a, void **self, dth_model_info *info)
+{
+    (void)a;
+    *self = NULL;
+    *info = (dth_model_info){.n = 1, .autonomous = 1, .separable = 1};
+    return DTH_OK;
+}
+
+static int fickle_eval(const void *self, const double *y, unsigned what, double *H, double *g, double *h)
+{
+    (void)self;
+    double q = y[0], p = y[2];
+    if (what == DTH_EVAL_H && q > 0.25 && q < 0.35) return 1;
+    if (what & DTH_EVAL_H) *H = 0.5 * (p * p + q * q);
+    if (what & DTH_EVAL_GRAD) {
+        g[0] = q;
+        g[1] = 0;
+        g[2] = p;
+    }
+    if (what & DTH_EVAL_HESS) {
+        for (int i = 0; i < 9; i++) h[i] = 0;
+        h[0] = h[8] = 1;
+    }
+    return 0;
+}
+
+static const dth_model_type fickle_type = {.name = "fickle", .doc = "oscillator, H alone fails at 0.25 < q < 0.35",
+                                           .create = fickle_create, .eval = fickle_eval};
+
+/* A regularizer that replaces every step and counts its calls (state a checkpoint keeps). Its
+ * action, by mode: 0 a segment to q = 0.3, where the energy alone fails (after the commit);
+ * 1 a NaN lambda; 2 an unknown action; 3 an offset that changes wp. */
+typedef struct tricky {
+    int mode;
+    double calls;
+} tricky;
+
+static int tricky_create(const dth_reg_args *a, void **self)
+{
+    tricky *t = dth_calloc(a->alloc, 1, sizeof *t);
+    if (!t) return DTH_ENOMEM;
+    t->mode = a->nkv ? atoi(a->kv[0].value) : 0;
+    *self = t;
+    return DTH_OK;
+}
+
+static void tricky_destroy(void *self, const dth_allocator *al) { dth_free(al, self); }
+
+static int tricky_apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
+{
+    tricky *t = self;
+    size_t N = ev->N;
+    t->calls++;
+    act->what = DTH_REG_REPLACE;
+    act->lambda = 0.1 * ev->dir;
+    act->d[1] = 0.05 * ev->dir; /* t advances by lambda / 2 */
+    switch (t->mode) {
+    case 0: act->d[0] = 0.5 * (0.3 - ev->z[0]); break; /* the new vertex at q = 0.3 */
+    case 1: act->lambda = NAN; break;
+    case 2: act->what = 5u; break;
+    default: act->d[N - 1] = 1e-3; break;
+    }
+    return DTH_OK;
+}
+
+static int tricky_all(const void *self)
+{
+    (void)self;
+    return 1;
+}
+static size_t tricky_size(const void *self)
+{
+    (void)self;
+    return sizeof(double);
+}
+static void tricky_save(const void *self, void *buf) { memcpy(buf, &((const tricky *)self)->calls, sizeof(double)); }
+static int tricky_load(void *self, const void *buf, size_t len)
+{
+    if (len != sizeof(double)) return -1;
+    memcpy(&((tricky *)self)->calls, buf, sizeof(double));
+    return 0;
+}
+
+static const dth_param_spec tricky_params[] = {{"mode", "0", "which bad action"}};
+static const dth_regularizer_type tricky_type = {
+    .name = "tricky", .doc = "test", .params = tricky_params, .n_params = 1, .create = tricky_create,
+    .destroy = tricky_destroy, .apply = tricky_apply, .state_size = tricky_size, .save_state = tricky_save,
+    .load_state = tricky_load, .replaces_all = tricky_all,
+};
+
+static void test_regularizer_failures(void)
+{
+    dth_model *m = new_model(&fickle_type, NULL, 0, 1);
+    const char *modes[] = {"0", "1", "2", "3"};
+    const int want[] = {DTH_EDOMAIN, DTH_EREFUSED, DTH_EREFUSED, DTH_EREFUSED};
+    const char *says[] = {"", "against the direction", "unknown action", "changes wp"};
+    for (int mode = 0; mode < 4; mode++) {
+        dth_kv kv = {"mode", modes[mode]};
+        dth_regularizer *reg = NULL;
+        CU_ASSERT_FATAL(dth_regularizer_new(&tricky_type, &kv, 1, m, NULL, &reg, NULL, 0) == DTH_OK);
+        dth_integrator *it = new_integrator_reg(m, 0.1, DTH_START_VERTEX, reg);
+        double q = 0, p = 1;
+        CU_ASSERT_FATAL(dth_integrator_start(it, &q, &p, 0) == DTH_OK);
+        long at;
+        int rc = step_until_failure(it, 3, &at);
+        CU_ASSERT(rc == want[mode]);
+        CU_ASSERT(at == 0);
+        const char *msg = dth_integrator_errmsg(it);
+        if (rc == DTH_EREFUSED) CU_ASSERT(strstr(msg, "tricky") != NULL && strstr(msg, says[mode]) != NULL);
+        printf("  [mode %d: %s: %s]\n", mode, dth_status_name(rc), msg);
+        dth_integrator_free(it);
+        dth_regularizer_free(reg);
+    }
+    dth_model_free(m);
+}
+
+/* ---- absurd sizes: refused with a status, never a crash (sizes must not overflow) ---- */
+
+static size_t big_n;
+static int big_create(const dth_model_args *a, void **self, dth_model_info *info)
+{
+    (void)a;
+    *self = NULL;
+    *info = (dth_model_info){.n = big_n, .autonomous = 1};
+    return DTH_OK;
+}
+static int big_eval(const void *self, const double *y, unsigned what, double *H, double *g, double *h)
+{
+    (void)self, (void)y, (void)what, (void)H, (void)g, (void)h;
+    return 0;
+}
+static const dth_model_type big_type = {.name = "big", .doc = "n from a global", .create = big_create,
+                                        .eval = big_eval};
+
+static void test_absurd_sizes(void)
+{
+    const size_t ns[] = {(size_t)1 << 62, SIZE_MAX, SIZE_MAX / 2 + 1, ((size_t)1 << 40) + 1};
+    for (size_t i = 0; i < sizeof ns / sizeof ns[0]; i++) {
+        big_n = ns[i];
+        dth_model *m = (dth_model *)&big_n;
+        char err[256] = "";
+        CU_ASSERT(dth_model_new(&big_type, NULL, 0, 0, NULL, &m, err, sizeof err) == DTH_EINVAL);
+        CU_ASSERT(m == NULL);
+        CU_ASSERT(strstr(err, "degrees of freedom") != NULL);
+    }
+    /* within the model's limit, the dense step matrix is still too large: refused up front */
+    const size_t ok[] = {(size_t)1 << 40, (size_t)1 << 30, 40000};
+    for (size_t i = 0; i < sizeof ok / sizeof ok[0]; i++) {
+        big_n = ok[i];
+        dth_model *m = NULL;
+        CU_ASSERT_FATAL(dth_model_new(&big_type, NULL, 0, 0, NULL, &m, NULL, 0) == DTH_OK);
+        dth_options o;
+        dth_options_default(&o);
+        dth_integrator *it = (dth_integrator *)&big_n;
+        CU_ASSERT(dth_integrator_new(m, &o, &it) == DTH_EUNSUPPORTED);
+        CU_ASSERT(it == NULL);
+        dth_model_free(m);
+    }
+}
+
+/* ---- a starting state outside the domain: the reason names the coordinate ---- */
+
+static void test_domain_check(void)
+{
+    static const dth_kv nan_kv[] = {{"nan", "1"}};
+    dth_model *w = new_model(&wall_type, NULL, 0, 1), *wn = new_model(&wall_type, nan_kv, 1, 1);
+    char why[200];
+    double in[3] = {0.2, 0, 1}, out[3] = {0.7, 0, 1}, inf[3] = {0.2, INFINITY, 1};
+    CU_ASSERT(dth_model_domain_check(w, in, why, sizeof why) == DTH_OK && why[0] == '\0');
+    CU_ASSERT(dth_model_domain_check(w, out, why, sizeof why) == DTH_EDOMAIN);
+    CU_ASSERT(strstr(why, "outside the model's domain") != NULL);
+    CU_ASSERT(dth_model_domain_check(wn, out, why, sizeof why) == DTH_EDOMAIN);
+    CU_ASSERT(strstr(why, "H is not finite") != NULL);
+    CU_ASSERT(dth_model_domain_check(w, inf, why, sizeof why) == DTH_EDOMAIN);
+    CU_ASSERT(strstr(why, "t = inf") != NULL);
+    dth_model *k = new_model(&dth_model_kepler, NULL, 0, 2);
+    double y[5] = {0, 0, 0, 0.5, 0.5};
+    CU_ASSERT(dth_model_domain_check(k, y, why, sizeof why) == DTH_EDOMAIN);
+    CU_ASSERT(strstr(why, "q1 = 0, q2 = 0") != NULL);
+    /* the library refuses a start whose time steps of h cannot advance */
+    dth_integrator *it = new_integrator(k, 0.05, DTH_START_MIDPOINT, 30);
+    double q[2] = {1, 0}, p[2] = {0, 1};
+    CU_ASSERT(dth_integrator_start(it, q, p, 1e300) == DTH_EINVAL);
+    CU_ASSERT(strstr(dth_integrator_errmsg(it), "t + h == t") != NULL);
+    CU_ASSERT(dth_integrator_start(it, q, p, 1e14) == DTH_OK);
+    dth_integrator_free(it);
+    dth_model_free(w);
+    dth_model_free(wn);
+    dth_model_free(k);
+}
+
 /* ---- parameter validation: messages name the key ---- */
 
 static void expect_rejected2(const dth_model_type *t, const char *key, const char *value, const char *key2,
@@ -411,6 +639,11 @@ static CU_TestInfo failstate_tests[] = {
     {"DTH_EDOMAIN (NaN / outside the domain) leaves the state untouched", test_edomain},
     {"DTH_ESINGULAR (H_phys = 0) leaves the state untouched", test_esingular},
     {"rotating pendulum termination: recoverable status, state untouched", test_rotating_pendulum_termination},
+    {"shipped regularizers where they stop: whole serialised state untouched", test_shipped_regularizers},
+    {"a regularizer's bad actions and a failure after its commit: state and its own state untouched",
+     test_regularizer_failures},
+    {"absurd model sizes (n = 2^62, SIZE_MAX, 2^40): refused, no overflow", test_absurd_sizes},
+    {"a state outside the domain: the reason names the coordinate", test_domain_check},
     {"bad model parameters: DTH_EINVAL naming the key", test_param_messages},
     {"fuzz regression: midpoint start overflow gives no DTH_OK with a non-finite vertex", test_fuzz_start_overflow},
     {"fuzz regression: a step whose vertex overflows is not DTH_OK", test_fuzz_step_overflow},

@@ -107,8 +107,8 @@ static int bad_create(const dth_model_args *a, void **self, dth_model_info *info
     return 0;
 }
 
-static const dth_model_type bad_type = {"bad_pendulum", "pendulum with a wrong Hessian sign", NULL, 0, bad_create,
-                                        NULL, bad_eval, NULL, NULL, NULL, NULL, NULL, NULL, NULL};
+static const dth_model_type bad_type = {.name = "bad_pendulum", .doc = "pendulum with a wrong Hessian sign",
+                                        .create = bad_create, .eval = bad_eval};
 
 static void test_check_verdict(void)
 {

@@ -248,6 +248,15 @@ static const bad_case bad_cases[] = {
     {BASE_PEND "steps = 10\n[integrator]\nstart = middle\n", 10, "integrator.start", "middle"},
     {BASE_PEND "steps = -1\n", 8, "integrator.steps", "-1"},
     {BASE_PEND "steps = 1.5\n", 8, "integrator.steps", "1.5"},
+    {BASE_PEND "steps = 1e20\n", 8, "integrator.steps", "'1e20' is too large"},
+    {BASE_PEND "steps = 99999999999999999999\n", 8, "integrator.steps", "too large"},
+    {BASE_PEND "steps = 10\nmax_iter = 1e9\n", 9, "integrator.max_iter", "'1e9' is too large (an integer from 1 to 100000)"},
+    {BASE_PEND "steps = 10\n[initial]\nt = 1e300\n", 10, "initial.t", "t + h == t"},
+    {BASE_PEND "t_end = 1e300\nh = 1e-300\n", 8, "integrator.t_end", "cannot be reached"},
+    {"[model]\nname = kepler\n[initial]\nq = 0, 0\np = 0, 1\n[integrator]\nh = 0.1\nsteps = 1\n", 4, "initial.q",
+     "r = 0 is singular (q1 = 0, q2 = 0)"},
+    {"[model]\nname = coupled\npreset = chain\nsize = 3\ndim = 2\n[initial]\nq = 0,0, 1,0, 1,0\np = 0,0, 0,0, 0,0\n"
+     "[integrator]\nh = 0.1\nsteps = 1\n", 7, "initial.q", "particles 2 and 3 are at the same point"},
     {BASE_PEND "steps = 10\nt_end = 3\n", 9, "integrator.t_end", "not both"},
     {BASE_PEND "t_end = -3\n", 8, "integrator.t_end", "behind"},
     {BASE_PEND "steps = 10\nmax_iter = 0\n", 9, "integrator.max_iter", "0"},
@@ -259,6 +268,7 @@ static const bad_case bad_cases[] = {
     {BASE_PEND "steps = 10\n[regularize]\nmethod = none\neps = 1\n", 11, "regularize.eps", "no parameters"},
     {BASE_PEND "steps = 10\n[output]\nevery = 0\n", 10, "output.every", "0"},
     {BASE_PEND "steps = 10\n[output]\ndt = -1\n", 10, "output.dt", "-1"},
+    {BASE_PEND "steps = 10\n[output]\ndt = 1e-12\n", 10, "output.dt", "rows per step"},
     {BASE_PEND "steps = 10\n[output]\ndt = 0.5\nevery = 2\n", 10, "output.dt", "every"},
     {BASE_PEND "steps = 10\n[output]\ndiagnostics = maybe\n", 10, "output.diagnostics", "maybe"},
     {BASE_PEND "steps = 10\n[output]\nfile =\n", 10, "output.file", "empty"},
@@ -374,6 +384,185 @@ static void test_load_mem(void)
     dth_registry_free(reg);
 }
 
+/* ---- the scene as text: dth_scene_text reads back to the same entries, by construction ---- */
+
+static unsigned long long rng = 0x243F6A8885A308D3ull;
+static unsigned rnd(unsigned n)
+{
+    rng = rng * 6364136223846793005ull + 1442695040888963407ull;
+    return (unsigned)(rng >> 33) % n;
+}
+
+/* Random text over an alphabet with every character the layout must respect. */
+static void random_text(char *out, size_t len, const char *alpha)
+{
+    size_t na = strlen(alpha);
+    for (size_t i = 0; i < len; i++) out[i] = alpha[rnd((unsigned)na)];
+    out[len] = '\0';
+}
+
+/* Two scenes hold the same sections, keys and values (the text groups keys by section). */
+static int same_entries(const dth_scene *a, const dth_scene *b)
+{
+    if (dth_scene_count(a) != dth_scene_count(b)) return 0;
+    for (size_t i = 0; i < dth_scene_count(a); i++) {
+        const char *s1, *k1, *v1, *v2;
+        dth_scene_entry(a, i, &s1, &k1, &v1, NULL);
+        v2 = dth_scene_get(b, s1, k1);
+        if (!v2 || strcmp(v1, v2)) return 0;
+    }
+    return 1;
+}
+
+static int round_trips(const dth_scene *s, long *failed)
+{
+    char *text = NULL, err[512];
+    size_t len;
+    CU_ASSERT_FATAL(dth_scene_text(s, NULL, NULL, &text, &len) == DTH_OK);
+    CU_ASSERT(strlen(text) == len);
+    dth_scene *b;
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &b) == DTH_OK);
+    int rc = dth_scene_load_mem(b, "saved.ini", text, len, err, sizeof err);
+    int ok = rc == DTH_OK && same_entries(s, b);
+    if (!ok && (*failed)++ < 3) {
+        fprintf(stderr, "\nround trip failed (%s):\n%s\n", rc ? err : "entries differ", text);
+        for (size_t i = 0; i < dth_scene_count(s); i++) {
+            const char *s1, *k1, *v1;
+            dth_scene_entry(s, i, &s1, &k1, &v1, NULL);
+            fprintf(stderr, "  [%s] <%s> = <%s>\n", s1, k1, v1);
+        }
+    }
+    dth_scene_free(b);
+    dth_free(NULL, text);
+    return ok;
+}
+
+static int skip_steps(void *ctx, const char *section, const char *key)
+{
+    (void)ctx;
+    return strcmp(section, "integrator") || strcmp(key, "steps");
+}
+
+static void test_text_round_trip(void)
+{
+    /* overrides: whatever dth_scene_set accepts is written so that it loads back the same */
+    static const char alpha[] = "12,,, ;#[]=:ab\t.e-";
+    long accepted = 0, refused = 0, failed = 0;
+    char err[512];
+    for (int trial = 0; trial < 3000; trial++) {
+        dth_scene *s;
+        CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+        for (int k = 0; k < 3; k++) {
+            char sec[8], key[8], val[700], as[800];
+            random_text(sec, 1 + rnd(3), "abc]; ");
+            random_text(key, 1 + rnd(3), "xyz=:;#[ ");
+            random_text(val, rnd(trial % 5 == 0 ? 650 : 40), alpha);
+            snprintf(as, sizeof as, "%s.%s=%s", sec, key, val);
+            int rc = dth_scene_set(s, as, err, sizeof err);
+            CU_ASSERT(rc == DTH_OK || rc == DTH_EPARSE);
+            if (rc == DTH_OK) accepted++;
+            else {
+                refused++;
+                int named = strstr(err, "a scene file cannot hold") || strstr(err, "expected section.key=value");
+                if (!named) fprintf(stderr, "\nunexpected message: %s\n", err);
+                CU_ASSERT(named);
+            }
+        }
+        CU_ASSERT(round_trips(s, &failed));
+        dth_scene_free(s);
+    }
+    printf("  [overrides: %ld accepted, %ld refused]\n", accepted, refused);
+    CU_ASSERT(accepted > 1000 && refused > 1000);
+    /* files: whatever the loader reads is written so that it loads back the same (long lists over
+     * continuation lines, lines up to the limit, comments, blank continuation candidates) */
+    long loaded = 0;
+    for (int trial = 0; trial < 3000; trial++) {
+        char text[4096];
+        size_t n = 0;
+        n += (size_t)sprintf(text + n, "[s%u]\n", rnd(3));
+        for (int line = 0; line < 12; line++) {
+            char body[260];
+            random_text(body, rnd(5) ? rnd(60) : 150 + rnd(60), "1234,,, ;#ab");
+            switch (rnd(5)) {
+            case 0: n += (size_t)sprintf(text + n, "; %s\n", body); break;
+            case 1: n += (size_t)sprintf(text + n, "  %s\n", body); break;       /* continuation */
+            case 2: n += (size_t)sprintf(text + n, "\t%s\n", body); break;
+            default: n += (size_t)sprintf(text + n, "k%u = %s\n", rnd(4), body); break;
+            }
+        }
+        dth_scene *s;
+        CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+        if (dth_scene_load_mem(s, "r.ini", text, n, err, sizeof err) == DTH_OK) {
+            loaded++;
+            long f0 = failed;
+            CU_ASSERT(round_trips(s, &failed));
+            if (failed != f0 && failed <= 3) fprintf(stderr, "from the file:\n%.*s\n", (int)n, text);
+        }
+        dth_scene_free(s);
+    }
+    printf("  [files: %ld of 3000 loaded]\n", loaded);
+    CU_ASSERT(loaded > 300);
+    CU_ASSERT(failed == 0);
+    /* the writer's own layout: a long list over lines of at most 197 characters */
+    dth_scene *s;
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    char big[20000] = "initial.q=";
+    for (int i = 0; i < 3000; i++) snprintf(big + strlen(big), sizeof big - strlen(big), "%d,", i);
+    CU_ASSERT(dth_scene_set(s, big, err, sizeof err) == DTH_OK);
+    char *text;
+    size_t len;
+    CU_ASSERT_FATAL(dth_scene_text(s, NULL, NULL, &text, &len) == DTH_OK);
+    size_t lines = 0, longest = 0;
+    for (char *p = text, *e; *p; p = e + 1) {
+        e = strchr(p, '\n');
+        CU_ASSERT_FATAL(e != NULL);
+        longest = (size_t)(e - p) > longest ? (size_t)(e - p) : longest;
+        lines++;
+    }
+    CU_ASSERT(longest <= 197 && longest >= 190);
+    CU_ASSERT(lines > 70);
+    dth_free(NULL, text);
+    /* keep() leaves keys out */
+    CU_ASSERT(dth_scene_set(s, "integrator.steps=5", err, sizeof err) == DTH_OK);
+    CU_ASSERT_FATAL(dth_scene_text(s, skip_steps, NULL, &text, &len) == DTH_OK);
+    CU_ASSERT(strstr(text, "steps") == NULL && strstr(text, "q=0,1,2") != NULL);
+    dth_free(NULL, text);
+    /* what no file can hold, named */
+    const char *bad[] = {"a.b=x ;y", "a.b:c=1", "a].b=1", "a.;b=1", "a.b=1\n2", "a.b=\x01", NULL};
+    for (int i = 0; bad[i]; i++) {
+        CU_ASSERT(dth_scene_set(s, bad[i], err, sizeof err) == DTH_EPARSE);
+        CU_ASSERT(strstr(err, "a scene file cannot hold") != NULL);
+    }
+    char longval[400] = "a.b=";
+    memset(longval + 4, '7', 300);
+    longval[304] = '\0';
+    CU_ASSERT(dth_scene_set(s, longval, err, sizeof err) == DTH_EPARSE);
+    CU_ASSERT(strstr(err, "197") != NULL);
+    dth_scene_free(s);
+}
+
+/* A NUL byte hides the rest of its line from a C-string reader: refused, naming the line; a line
+ * of exactly 197 characters loads, one of 198 is refused (also with CR LF line ends). */
+static void test_nul_and_line_limit(void)
+{
+    dth_scene *s;
+    char err[512];
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    static const char nul[] = "[model]\nname = pendulum\nomega2 = 1\0 ; hidden\n";
+    CU_ASSERT(dth_scene_load_mem(s, "nul.ini", nul, sizeof nul - 1, err, sizeof err) == DTH_EPARSE);
+    CU_ASSERT(strstr(err, "nul.ini:3") != NULL && strstr(err, "NUL") != NULL);
+    CU_ASSERT(dth_scene_count(s) == 0);
+    for (int crlf = 0; crlf < 2; crlf++)
+        for (int extra = 0; extra < 2; extra++) {
+            char text[400];
+            int n = snprintf(text, sizeof text, "[a]\nk = %0*d%s", 197 - 4 + extra, 0, crlf ? "\r\n" : "\n");
+            int rc = dth_scene_load_mem(s, "l.ini", text, (size_t)n, err, sizeof err);
+            CU_ASSERT(rc == (extra ? DTH_EPARSE : DTH_OK));
+            if (extra) CU_ASSERT(strstr(err, "l.ini:2: line longer than 197") != NULL);
+        }
+    dth_scene_free(s);
+}
+
 /* Without [regularize] method=, DTH runs get the default regularizer `smooth` (a new scene crosses
  * psi = 0) and the baselines none; method = none keeps raw DTH. */
 static void test_default_regularizer(void)
@@ -459,6 +648,8 @@ static CU_TestInfo scene_tests[] = {
     {"load errors: missing file, syntax, long line; no partial load", test_load_errors},
     {"bad inputs: status, FILE:LINE, key; output untouched", test_bad_inputs},
     {"bad override values name the override", test_bad_override_values},
+    {"dth_scene_text loads back to the same entries (random overrides and files)", test_text_round_trip},
+    {"a NUL byte is refused; the 197-character line limit, exactly", test_nul_and_line_limit},
     {"default regularizer: smooth for DTH, none for baselines", test_default_regularizer},
     {"the default regularizer refusing a key; [output] points and [events]", test_default_regularizer_bad_key_and_events},
     CU_TEST_INFO_NULL,

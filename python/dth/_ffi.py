@@ -65,6 +65,7 @@ typedef struct dth_model_type {
     int (*exact)(const void *self, const double *y0, double t, double *y);
     int (*hess_band)(const void *self, const double *y, double *band);
     int (*hdiff)(const void *self, const double *y1, const double *y0, double *dH);
+    int (*domain)(const void *self, const double *y, char *why, size_t len);
 } dth_model_type;
 typedef struct dth_model dth_model;
 int dth_model_new(const dth_model_type *type, const dth_kv *kv, size_t nkv, size_t n_hint,

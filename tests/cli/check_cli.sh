@@ -237,8 +237,8 @@ pid=$!
 sleep 1.3
 kill -KILL $pid
 wait $pid 2>/dev/null
-tmp=$(ls "$T" | grep "^kill\.csv\.tmp\.$pid\$")
-[ -n "$tmp" ] || fail "SIGKILL: no temporary file kill.csv.tmp.$pid ($(ls "$T"))"
+tmp=$(ls "$T" | grep "^kill\.csv\.tmp\.$pid\.......\$")
+[ -n "$tmp" ] || fail "SIGKILL: no temporary file kill.csv.tmp.$pid.XXXXXX ($(ls "$T"))"
 [ -e "$T/kill.csv" ] && fail "SIGKILL: the final name exists"
 for f in "$T/term.csv" "$T/$tmp"; do
     [ -f "$f" ] || continue

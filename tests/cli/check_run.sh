@@ -70,7 +70,8 @@ wait $pid 2>/dev/null
 [ -f "$T/kill.ckpt" ] || fail "no checkpoint written before the kill"
 "$DTH" run --resume "$T/kill.ckpt" -o "$T/kill-res.csv" 2>"$T/kill.err" || fail "resume after kill: $(cat "$T/kill.err")"
 cmp -s "$T/kill-ref.csv" "$T/kill-res.csv" || fail "resumed output after kill -9 differs"
-ok "kill -9 and resume"
+ls "$T" | grep -q '^kill\.csv\.tmp\.' && fail "the killed run's temporary is left after the resume"
+ok "kill -9 and resume (the killed run's temporary removed)"
 
 # corrupted and truncated inputs are refused with one line, exit 2
 cp "$T/steps.ckpt" "$T/bad.ckpt"

@@ -2,19 +2,25 @@
 /**
  * @file checkpoint.h  Checkpoint and restart, bit for bit.
  *
- * A checkpoint holds the complete dynamic state of an integrator (the vertex in double-double,
- * the last midpoint, the predictor's offset and step, direction, flags (including the sign of psi
- * at the vertex that regularizers keep), step counter and the
- * predictor's last three offsets) plus named blobs the caller supplies
- * (for example the scene text and output counters), with a format version and an FNV-1a 64
- * checksum. Restoring it into an integrator created for the same model with the same options
- * continues the run exactly: N steps, save, restore, N steps gives the same bits as 2N steps.
+ * A checkpoint holds the complete step state of an integrator (every field of its state list:
+ * the vertex in double-double, the last midpoint, the predictor's history, the carried vertex
+ * offset, direction, flags, the sign of psi that regularizers keep, the branch policy's memory,
+ * the step counter), the regularizer's own state, the options that change the steps, plus named
+ * blobs the caller supplies (for example the scene text and output counters), with a format
+ * version and an FNV-1a 64 checksum. Restoring it into an integrator created for the same model
+ * with the same options and regularizer continues the run exactly: from any step, N steps, save,
+ * restore into a fresh integrator, M steps gives the same bits as N + M steps.
  *
- * Layout (all integers and doubles little-endian, doubles as their IEEE-754 bit patterns):
- *   "DTHCKPT\0", u32 version, u32 0, u64 total length, model name, state, u32 blob count,
- *   blobs (name, u64 size, bytes), u64 FNV-1a 64 of everything before it.
- * The static options (start, max_iter, K, explicit wp) are not restored: they come from the
- * integrator the checkpoint is restored into (the scene the caller rebuilds it from).
+ * The format is documented field by field in docs/checkpoint.md. All integers and doubles are
+ * little-endian, doubles as their IEEE-754 bit patterns:
+ *   "DTHCKPT\0", u32 version, u32 0, u64 total length,
+ *   model name, u64 n, u32 m, u32 autonomous,
+ *   u32 count, options (branch_check, compensate, max_iter, linsolve, K) as fields,
+ *   u32 count, state fields (name, u32 type, u64 count, values),
+ *   regularizer type name, u64 length, its state bytes,
+ *   u32 blob count, blobs (name, u64 size, bytes), u64 FNV-1a 64 of everything before it.
+ * Other versions are refused. The start options (start mode, explicit wp) act at the start only
+ * and are not recorded.
  */
 #ifndef DTH_CHECKPOINT_H
 #define DTH_CHECKPOINT_H
@@ -27,7 +33,10 @@ extern "C" {
 #endif
 
 /** Format version written by this library. */
-#define DTH_CHECKPOINT_VERSION 3 /* 3: the predictor's three offsets; no LU factors (the tangent refactors) */
+/* 4: state as named fields from one list (adds the branch policy's memory psi_prev, psi_step and
+ *    the carried vertex offset rho), the options that change the steps, the regularizer's name;
+ * 3: the predictor's three offsets; no LU factors (the tangent refactors) */
+#define DTH_CHECKPOINT_VERSION 4
 
 /** A named blob of caller data stored alongside the state. */
 typedef struct dth_blob {
@@ -52,9 +61,11 @@ DTH_API int dth_checkpoint_verify(const void *buf, size_t len, char *err, size_t
 
 /**
  * Restore the state in buf into `it`, which must have been created for a model of the same
- * type and dimension. On any failure `it` is untouched.
- * @return DTH_OK, DTH_EPARSE (corrupted, truncated, unknown version, invalid state),
- *         DTH_EINVAL (a different model or dimension; NULL arguments).
+ * type and dimension, with the same step-changing options and a regularizer of the same type
+ * (or none). On any failure `it` and its regularizer are untouched.
+ * @return DTH_OK, DTH_EPARSE (corrupted, truncated, other version, invalid field: the message
+ *         names it), DTH_EINVAL (a different model, dimension, option or regularizer: the message
+ *         says which; NULL arguments).
  */
 DTH_API int dth_checkpoint_restore(dth_integrator *it, const void *buf, size_t len, char *err,
                                    size_t errlen);
@@ -70,10 +81,12 @@ DTH_API int dth_checkpoint_blob(const void *buf, size_t len, const char *name, c
 DTH_API int dth_checkpoint_model_name(const void *buf, size_t len, char *name, size_t namelen);
 
 /**
- * Write a checkpoint to `path` crash-safely: into "path.tmp", fflush + fsync, then rename over
- * `path` (and fsync the directory), so `path` always holds either the old or the new checkpoint.
+ * Write a checkpoint to `path` crash-safely: into a temporary of its own, "path.tmp.PID.XXXXXX"
+ * (two writers of one path cannot collide; a killed writer's temporary is recognised by its PID),
+ * write, fsync, then rename over `path` (and fsync the directory), so `path` always holds either
+ * the old or the new checkpoint. On failure the temporary is removed and `path` is unchanged.
  * Memory comes from the integrator's allocator.
- * @return DTH_OK, DTH_EIO (message names the file), DTH_ENOMEM, DTH_EINVAL.
+ * @return DTH_OK, DTH_EIO (message names the file and the system's reason), DTH_ENOMEM, DTH_EINVAL.
  */
 DTH_API int dth_checkpoint_write_file(const dth_integrator *it, const dth_blob *blobs, size_t nblobs,
                                       const char *path, char *err, size_t errlen);
@@ -81,7 +94,8 @@ DTH_API int dth_checkpoint_write_file(const dth_integrator *it, const dth_blob *
 /**
  * Read a whole checkpoint file into memory allocated with `alloc` (free with dth_free) and
  * verify it.
- * @return DTH_OK, DTH_EIO (cannot read), DTH_EPARSE (corrupted / truncated), DTH_ENOMEM.
+ * @return DTH_OK, DTH_EIO (cannot read, or not a regular file), DTH_EPARSE (corrupted /
+ *         truncated), DTH_ENOMEM.
  */
 DTH_API int dth_checkpoint_read_file(const char *path, const dth_allocator *alloc, void **buf,
                                      size_t *len, char *err, size_t errlen);

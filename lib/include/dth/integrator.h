@@ -114,7 +114,8 @@ DTH_API void dth_integrator_free(dth_integrator *it);
 
 /**
  * Place the initial state according to the start mode. q0, p0 have n values each.
- * @return DTH_OK, DTH_EINVAL (non-finite input), DTH_EDOMAIN / DTH_EMODEL from the model.
+ * @return DTH_OK, DTH_EINVAL (non-finite input, or a time t0 that steps of h cannot advance:
+ *         t0 + h == t0), DTH_EDOMAIN / DTH_EMODEL from the model.
  */
 DTH_API int dth_integrator_start(dth_integrator *it, const double *q0, const double *p0, double t0);
 

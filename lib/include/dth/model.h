@@ -131,6 +131,13 @@ typedef struct dth_model_type {
      * Gauss-Legendre rule.
      */
     int (*hdiff)(const void *self, const double *y1, const double *y0, double *dH);
+    /**
+     * Why y = (q, t, p) lies outside the model's domain, in a few words that name the
+     * coordinates or particles (e.g. "r = 0 (q1 = q2 = 0)", "particles 1 and 2 coincide"),
+     * written into why (len bytes, NUL-terminated); return nonzero then, 0 if y is inside. For
+     * messages about a starting state (dth_model_domain_check).
+     */
+    int (*domain)(const void *self, const double *y, char *why, size_t len);
 } dth_model_type;
 
 /** An instance: a type plus its state. Opaque. */
@@ -151,6 +158,14 @@ DTH_API const dth_model_info *dth_model_get_info(const dth_model *m);
 DTH_API const dth_model_type *dth_model_get_type(const dth_model *m);
 /** Degrees of freedom n. */
 DTH_API size_t dth_model_dof(const dth_model *m);
+
+/**
+ * Whether H_phys and its gradient evaluate to finite values at y = (q, t, p); if not, a one-line
+ * reason in why (may be NULL) naming the coordinates or particles: the model's own (its type's
+ * `domain`), else the first non-finite output ("dH/dq2 is not finite").
+ * @return DTH_OK, DTH_EDOMAIN, DTH_EMODEL.
+ */
+DTH_API int dth_model_domain_check(const dth_model *m, const double *y, char *why, size_t len);
 
 /**
  * Evaluate the model at y and check the outputs for NaN/Inf.

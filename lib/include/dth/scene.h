@@ -52,7 +52,10 @@ DTH_API int dth_scene_load_mem(dth_scene *s, const char *name, const char *text,
                                char *err, size_t errlen);
 /**
  * Apply an override "section.key=value" (spaces around the parts are trimmed; the value may
- * be empty). @return DTH_OK, DTH_EPARSE (message names the override), DTH_ENOMEM.
+ * be empty). Only what a scene file could hold is accepted (no control characters, no comment
+ * ';' after a blank, names of at most 49 characters without '=', ':' or ']', values that fit
+ * lines of 197 characters between commas), so that dth_scene_text can always write the scene.
+ * @return DTH_OK, DTH_EPARSE (message names the override and what is wrong), DTH_ENOMEM.
  */
 DTH_API int dth_scene_set(dth_scene *s, const char *assignment, char *err, size_t errlen);
 /** Value of section.key, or NULL. */
@@ -67,6 +70,16 @@ DTH_API size_t dth_scene_count(const dth_scene *s);
  */
 DTH_API int dth_scene_entry(const dth_scene *s, size_t i, const char **section, const char **key,
                             const char **value, const char **origin);
+
+/**
+ * The scene as INI text that dth_scene_load_mem reads back to the same sections, keys and values
+ * (by construction: long values are split at commas where the loader joins them back exactly).
+ * Entries for which keep(ctx, section, key) returns 0 are left out (keep may be NULL). *text is
+ * NUL-terminated, allocated with the scene's allocator (free with dth_free).
+ * @return DTH_OK, DTH_EINVAL, DTH_ENOMEM.
+ */
+DTH_API int dth_scene_text(const dth_scene *s, int (*keep)(void *ctx, const char *section, const char *key),
+                           void *ctx, char **text, size_t *len);
 
 /** Everything needed to run a scene, validated. Free with dth_run_setup_clear(). */
 typedef struct dth_run_setup {
