@@ -28,7 +28,9 @@ enum {
     X(roots, "SCENE.ini [-s section.key=value]... [--range L]",                                  \
       "every root of the step constraint at the initial vertex, classified (CSV)")               \
     X(map, "SCENE.ini --q a:b:n --p c:d:m [--dof i] [--range L] [--out PREFIX] [-s ...]",      \
-      "phase-plane map of psi, [psi, H], regions and roots, plus the scene's trajectory (CSV)")
+      "phase-plane map of psi, [psi, H], regions and roots, plus the scene's trajectory (CSV)")     \
+    X(sweep, "SCENE.ini (--vary section.key=a:b:n)... | --list FILE [-s ...] [-o FILE] [options]",  \
+      "an ensemble: one run per grid point or list row, a summary row each (MEGNO, drifts); OpenMP, MPI")
 
 #define CLI__DECL(name, usage, summary) int cli_cmd_##name(int argc, char **argv);
 CLI_COMMANDS(CLI__DECL)

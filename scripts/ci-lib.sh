@@ -72,6 +72,13 @@ ci_cli_smoke() {
     expect 0 "$@" "$dth" run --resume "$tmp/c.ckpt" -s integrator.steps=600 --checkpoint "$tmp/c.ckpt"
     expect 2 "$@" "$dth" run --resume "$tmp/c.ckpt" -s model.omega2=2 -o "$tmp/c2.csv"
     expect 2 "$@" "$dth" run --resume "$tmp"
+    # dth sweep (OpenMP threads; MPI is covered by meson test cli-sweep-mpi): a grid with MEGNO and
+    # trajectories, a list with a baseline method, a refused key
+    expect 0 "$@" "$dth" sweep "$p" --vary initial.q=0.5:1:3 --vary initial.p=0:0.5:2 -s integrator.t_end=2 \
+        --trajectories "$tmp/sw/r" -o "$tmp/sw.csv"
+    printf 'initial.q,integrator.h\n0.5,0.05\n"1",0.1\n' >"$tmp/list.csv"
+    expect 0 "$@" "$dth" sweep "$p" --list "$tmp/list.csv" -s integrator.method=rk4 -s integrator.t_end=2 -o "$tmp/sl.csv"
+    expect 2 "$@" "$dth" sweep "$p" --vary model.nope=0:1:2
     expect 2 "$@" "$dth" run
     expect 2 "$@" "$dth" frobnicate
     printf '[model]\nname = pendulum\n[initial]\nq = 1,\n' >"$tmp/bad.ini"

@@ -8,7 +8,8 @@ builddir=${1:-build}
 [ $# -gt 0 ] && shift
 
 packages=(gcc pkg-config meson ninja-build liblapacke-dev libopenblas-dev libcunit1-dev
-          libinih-dev libgsl-dev gnuplot-nox libhdf5-dev)
+          libinih-dev libgsl-dev gnuplot-nox libhdf5-dev
+          python3-cffi python3-numpy python3-pytest python3-matplotlib libopenmpi-dev openmpi-bin)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -23,8 +24,13 @@ if [ ${#missing[@]} -gt 0 ]; then
 fi
 
 if [ ! -f "$builddir/build.ninja" ]; then
-  meson setup "$builddir" -Dhdf5=enabled "$@" >/dev/null
+  meson setup "$builddir" -Dhdf5=enabled -Dpython=enabled -Dmpi=enabled "$@" >/dev/null
 elif [ $# -gt 0 ]; then
   meson setup --reconfigure "$builddir" "$@" >/dev/null
 fi
 ninja -C "$builddir" >/dev/null
+# The Python package is used from the checkout with PYTHONPATH (it finds build/libdth.so itself;
+# another build directory: DTH_LIBRARY=BUILDDIR/libdth.so), or installed by meson install.
+if [ -z "${DTH_SETUP_QUIET:-}" ]; then
+  echo "setup: built in $builddir; Python: export PYTHONPATH=$PWD/python (see docs/python.md)" >&2
+fi

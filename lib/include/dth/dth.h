@@ -15,5 +15,6 @@
 #include "dth/checkpoint.h"
 #include "dth/methods.h"
 #include "dth/run.h"
+#include "dth/chaos.h"
 
 #endif

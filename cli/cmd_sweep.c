@@ -1,0 +1,1104 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * dth sweep: an ensemble of trajectories of one scene, one per point of a parameter grid (--vary) or
+ * row of a list (--list), each integrated by the run driver (run.h), with one summary row per run:
+ * status, steps, end time, energy error, invariant drifts, psi = 0 crossings (paper, section 7),
+ * the regularized share, events, and MEGNO / a Lyapunov estimate from the DTH tangent map
+ * (chaos.h). OpenMP threads on one machine; with the meson feature mpi, MPI ranks across machines
+ * (mpirun -n N dth sweep ...), static or dynamic distribution. Results are stored by run index and
+ * written in order, so the output is the same bytes for any number of threads and ranks.
+ */
+#include <ctype.h>
+#include <dlfcn.h>
+#include <errno.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include "cli.h"
+#include "fmt.h"
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+#ifdef DTH_HAVE_MPI
+#include <mpi.h>
+#endif
+
+#define SWEEP_MAX_RUNS 100000000L
+#define SWEEP_MAX_KEYS 16
+#define SWEEP_MAX_INV 8
+
+/* One varied key: section.key, or section.key[i] (element i, 1-based, of a comma-separated list). */
+typedef struct vkey {
+    char sec[64], key[64];
+    int elem;        /* 0: the whole value */
+    double a, b;     /* --vary: the grid a:b:n */
+    long n;
+} vkey;
+
+/* The numbers of one summary row (doubles, so that MPI moves them as one array). */
+enum {
+    R_STATUS, R_SETUP, R_STEPS, R_T, R_EERR, R_CROSS, R_REG, R_EVENTS, R_MEGNO, R_LYAP, R_MEGT, R_MEM, R_NINV, R_INV,
+    R_LEN = R_INV + SWEEP_MAX_INV
+};
+
+/* The library's heap of one run, counted (--stats: memory per run): every allocation of the scene,
+ * the model, the regularizer, the integrator, the driver and MEGNO goes through it. */
+typedef struct counter {
+    size_t cur, peak;
+} counter;
+
+typedef union hdr {
+    size_t size;
+    max_align_t align;
+} hdr;
+
+static void *count_alloc(void *ctx, size_t size)
+{
+    counter *c = ctx;
+    hdr *h = size <= SIZE_MAX - sizeof *h ? malloc(sizeof *h + size) : NULL;
+    if (!h) return NULL;
+    h->size = size;
+    c->cur += size;
+    if (c->cur > c->peak) c->peak = c->cur;
+    return h + 1;
+}
+
+static void count_free(void *ctx, void *p)
+{
+    if (!p) return;
+    hdr *h = (hdr *)p - 1;
+    ((counter *)ctx)->cur -= h->size;
+    free(h);
+}
+
+typedef struct sweep {
+    const char *scene_path;
+    char *text;              /* the scene file */
+    size_t textlen;
+    const char **sets;       /* -s overrides, in order */
+    int nsets;
+    vkey keys[SWEEP_MAX_KEYS];
+    int nkeys;
+    int is_list;
+    char ***list;            /* --list: row r, key j -> the value text */
+    long nruns;
+    const dth_registry *reg;
+    int megno;               /* follow MEGNO (DTH runs) */
+    const char *traj;        /* --trajectories PREFIX, or NULL */
+    int traj_width;          /* digits of the run number in trajectory file names */
+    double *rec;             /* nruns x R_LEN */
+    int ninv;                /* invariants of run 0's model (summary columns) */
+    char inv_names[SWEEP_MAX_INV][32];
+} sweep;
+
+static void usage_sweep(FILE *f)
+{
+    fprintf(f,
+            "usage: dth sweep SCENE.ini (--vary section.key=a:b:n)... [-s section.key=value]... [-o FILE]\n"
+            "       dth sweep SCENE.ini --list FILE [-s section.key=value]... [-o FILE]\n"
+            "  --vary K=a:b:n    n values of the scene key K from a to b (n >= 1); several --vary span a grid,\n"
+            "                    the first one varying slowest. K is section.key, or section.key[i] for element i\n"
+            "                    (1-based) of a list such as initial.q\n"
+            "  --list FILE       one run per row of a CSV file: a header of keys K, then their values (verbatim;\n"
+            "                    quote a value holding commas: \"0, 0.1\"; lines starting with # are skipped)\n"
+            "  -s K=value        override a key of every run (before the varied ones)\n"
+            "  -o FILE           the summary CSV (default: standard output)\n"
+            "  --trajectories P  also write each run's trajectory to P-RUN.csv (the scene's [output] points, every,\n"
+            "                    dt; the columns of dth run without diagnostics)\n"
+            "  --no-megno        skip MEGNO (it costs a tangent map per step)\n"
+            "  --model-lib F:SYM load a model type from a shared object: SYM names its const dth_model_type\n"
+            "  --schedule static|dynamic  how MPI ranks share the runs (default dynamic: chunks from a counter)\n"
+            "  --chunk N         runs per chunk of the dynamic schedule (default 16)\n"
+            "  --stats           print the wall time, runs per second and the library's heap per run to stderr\n"
+            "summary columns: run, the varied keys, status (ok or the status name), steps, t (where the run ended),\n"
+            "  energy_error (largest |E - E0|/|E0| over the step midpoints; vertices for baseline methods),\n"
+            "  NAME_drift per invariant (largest |I - I0|/|I0| over the vertices), psi_crossings, regularized_share,\n"
+            "  events, megno, lyapunov, megno_t (the time MEGNO followed: the indicators end at the first\n"
+            "  regularized step, which has no tangent map; see lib/include/dth/chaos.h). Empty: not available.\n"
+            "threads: OMP_NUM_THREADS; ranks: mpirun -n N dth sweep ... (meson feature mpi). The output is the same\n"
+            "bytes for any number of threads and ranks. Exit 0 when every run could be set up (a trajectory that\n"
+            "stops early is a status in its row), 2 for bad input, 1 for a hard error.\n");
+}
+
+/* ---------------------------------------------------------------- parsing */
+
+/* "section.key" or "section.key[i]" into k; prints the error. */
+static int parse_key(const char *opt, const char *s, size_t len, vkey *k)
+{
+    memset(k, 0, sizeof *k);
+    const char *dot = memchr(s, '.', len), *br = memchr(s, '[', len);
+    size_t end = br ? (size_t)(br - s) : len;
+    if (!dot || dot == s || (size_t)(dot - s) >= sizeof k->sec || end <= (size_t)(dot - s) + 1 ||
+        end - (size_t)(dot - s) - 1 >= sizeof k->key) {
+        cli_error("%s: '%.*s' is not section.key or section.key[i]", opt, (int)len, s);
+        return -1;
+    }
+    memcpy(k->sec, s, (size_t)(dot - s));
+    memcpy(k->key, dot + 1, end - (size_t)(dot - s) - 1);
+    if (br) {
+        char *e;
+        long i = strtol(br + 1, &e, 10);
+        if (e == br + 1 || *e != ']' || (size_t)(e - s) != len - 1 || i < 1 || i > 100000) {
+            cli_error("%s: '%.*s': the element index must be a positive integer in [ ]", opt, (int)len, s);
+            return -1;
+        }
+        k->elem = (int)i;
+    }
+    return 0;
+}
+
+/* --vary K=a:b:n */
+static int parse_vary(const char *s, vkey *k)
+{
+    const char *eq = strchr(s, '=');
+    if (!eq || parse_key("--vary", s, (size_t)(eq - s), k)) {
+        if (!eq) cli_error("--vary: '%s' is not of the form section.key=a:b:n", s);
+        return -1;
+    }
+    char buf[256];
+    const char *v = eq + 1;
+    size_t len = strlen(v);
+    const char *c1 = strchr(v, ':'), *c2 = c1 ? strchr(c1 + 1, ':') : NULL;
+    if (len >= sizeof buf || !c1 || !c2 || strchr(c2 + 1, ':')) {
+        cli_error("--vary: '%s' is not of the form section.key=a:b:n", s);
+        return -1;
+    }
+    memcpy(buf, v, len + 1);
+    buf[c1 - v] = buf[c2 - v] = '\0';
+    char *e;
+    errno = 0;
+    long n = strtol(buf + (c2 - v) + 1, &e, 10);
+    if (dth_parse_double(buf, &k->a) || dth_parse_double(buf + (c1 - v) + 1, &k->b)) {
+        cli_error("--vary: '%s': the bounds must be finite numbers", s);
+        return -1;
+    }
+    if (errno || e == buf + (c2 - v) + 1 || *e || n < 1 || n > SWEEP_MAX_RUNS) {
+        cli_error("--vary: '%s': the number of values must be an integer from 1 to %ld", s, SWEEP_MAX_RUNS);
+        return -1;
+    }
+    k->n = n;
+    return 0;
+}
+
+/* Grid value i of an axis (symmetric in a and b, as dth map's). */
+static double axis_at(const vkey *k, long i)
+{
+    if (k->n == 1) return k->a;
+    return ((double)(k->n - 1 - i) * k->a + (double)i * k->b) / (double)(k->n - 1);
+}
+
+/* Split one CSV line into fields (double quotes group commas; "" is a quote). Trims spaces outside
+ * quotes. Returns the number of fields, -1 on a malformed line; fields are malloc'ed. */
+static int split_csv(const char *line, char **out, int max)
+{
+    int nf = 0;
+    const char *p = line;
+    for (;;) {
+        while (*p == ' ' || *p == '\t') p++;
+        size_t cap = strlen(p) + 1, len = 0;
+        char *f = malloc(cap);
+        if (!f || nf >= max) {
+            free(f);
+            return -1;
+        }
+        if (*p == '"') {
+            for (p++;; p++) {
+                if (!*p) {
+                    free(f);
+                    return -1;
+                }
+                if (*p == '"' && p[1] == '"') f[len++] = '"', p++;
+                else if (*p == '"') break;
+                else f[len++] = *p;
+            }
+            p++;
+            while (*p == ' ' || *p == '\t') p++;
+            if (*p && *p != ',') {
+                free(f);
+                return -1;
+            }
+        } else {
+            while (*p && *p != ',') f[len++] = *p++;
+            while (len && (f[len - 1] == ' ' || f[len - 1] == '\t')) len--;
+        }
+        f[len] = '\0';
+        out[nf++] = f;
+        if (*p != ',') break;
+        p++;
+    }
+    return nf;
+}
+
+static int read_list(sweep *sw, const char *path)
+{
+    FILE *f = fopen(path, "r");
+    if (!f) {
+        cli_error("cannot read '%s': %s", path, strerror(errno));
+        return -1;
+    }
+    char *line = NULL;
+    size_t cap = 0;
+    ssize_t got;
+    long lineno = 0, rows = 0, rcap = 0;
+    int header = 0, rc = 0;
+    char *fields[SWEEP_MAX_KEYS + 1];
+    while ((got = getline(&line, &cap, f)) > 0) {
+        lineno++;
+        while (got > 0 && (line[got - 1] == '\n' || line[got - 1] == '\r')) line[--got] = '\0';
+        const char *s = line;
+        while (isspace((unsigned char)*s)) s++;
+        if (!*s || *s == '#') continue;
+        int nf = split_csv(line, fields, SWEEP_MAX_KEYS + 1);
+        if (nf < 0 || (header && nf != sw->nkeys)) {
+            cli_error("%s:%ld: %s", path, lineno,
+                      nf < 0 ? "malformed CSV line (or more than 16 columns)" : "not as many values as keys in the header");
+            for (int j = 0; j < nf; j++) free(fields[j]);
+            rc = -1;
+            break;
+        }
+        if (!header) {
+            for (int j = 0; j < nf && !rc; j++)
+                rc = parse_key(path, fields[j], strlen(fields[j]), &sw->keys[j]);
+            for (int j = 0; j < nf; j++) free(fields[j]);
+            if (rc) break;
+            sw->nkeys = nf;
+            header = 1;
+            continue;
+        }
+        if (rows == rcap) {
+            rcap = rcap ? 2 * rcap : 64;
+            char ***l = realloc(sw->list, (size_t)rcap * sizeof *l);
+            if (!l) {
+                for (int j = 0; j < nf; j++) free(fields[j]);
+                cli_error("out of memory");
+                rc = -1;
+                break;
+            }
+            sw->list = l;
+        }
+        sw->list[rows] = malloc((size_t)nf * sizeof **sw->list);
+        if (!sw->list[rows]) {
+            for (int j = 0; j < nf; j++) free(fields[j]);
+            cli_error("out of memory");
+            rc = -1;
+            break;
+        }
+        memcpy(sw->list[rows], fields, (size_t)nf * sizeof *fields);
+        rows++;
+        sw->nruns = rows;
+    }
+    free(line);
+    fclose(f);
+    if (!rc && !header) {
+        cli_error("%s: no header line of keys", path);
+        rc = -1;
+    }
+    if (!rc && rows == 0) {
+        cli_error("%s: no rows", path);
+        rc = -1;
+    }
+    return rc;
+}
+
+/* ---------------------------------------------------------------- one run */
+
+/* The value text of key j for run i into buf. */
+static void value_text(const sweep *sw, long i, int j, char *buf, size_t cap)
+{
+    if (sw->is_list) {
+        snprintf(buf, cap, "%s", sw->list[i][j]);
+        return;
+    }
+    long stride = 1;
+    for (int l = sw->nkeys - 1; l > j; l--) stride *= sw->keys[l].n;
+    dth_fmt_g17(axis_at(&sw->keys[j], (i / stride) % sw->keys[j].n), buf);
+}
+
+/* Set key k to text v in the scene (element k->elem of its list, or the whole value). */
+static int set_key(dth_scene *s, const vkey *k, const char *v, char *err, size_t errlen)
+{
+    size_t cap = strlen(v) + 256;
+    const char *old = k->elem ? dth_scene_get(s, k->sec, k->key) : NULL;
+    if (old) cap += strlen(old);
+    char *a = malloc(cap);
+    if (!a) return DTH_ENOMEM;
+    int rc = DTH_OK;
+    if (!k->elem) {
+        snprintf(a, cap, "%s.%s=%s", k->sec, k->key, v);
+    } else if (!old) {
+        snprintf(err, errlen, "%s.%s[%d]: the scene has no %s.%s to take element %d of", k->sec, k->key, k->elem,
+                 k->sec, k->key, k->elem);
+        rc = DTH_EINVAL;
+    } else {
+        /* the list with element elem replaced */
+        size_t n = (size_t)snprintf(a, cap, "%s.%s=", k->sec, k->key);
+        int idx = 1, found = 0;
+        for (const char *p = old;; idx++) {
+            const char *c = strchr(p, ',');
+            size_t l = c ? (size_t)(c - p) : strlen(p);
+            if (idx > 1) a[n++] = ',';
+            if (idx == k->elem) {
+                n += (size_t)snprintf(a + n, cap - n, "%s", v);
+                found = 1;
+            } else {
+                memcpy(a + n, p, l);
+                n += l;
+            }
+            if (!c) break;
+            p = c + 1;
+        }
+        a[n] = '\0';
+        if (!found) {
+            snprintf(err, errlen, "%s.%s[%d]: the scene's %s.%s has %d values", k->sec, k->key, k->elem, k->sec,
+                     k->key, idx);
+            rc = DTH_EINVAL;
+        }
+    }
+    if (!rc) rc = dth_scene_set(s, a, err, errlen);
+    free(a);
+    return rc;
+}
+
+/* The scene of run i, set up (alloc: the library's allocator for everything the run owns, or NULL). */
+static int run_setup(const sweep *sw, long i, const dth_allocator *alloc, dth_scene **scene, dth_run_setup *rs,
+                     char *err, size_t errlen)
+{
+    char v[1024];
+    int rc = dth_scene_new(alloc, scene);
+    if (!rc) rc = dth_scene_load_mem(*scene, sw->scene_path, sw->text, sw->textlen, err, errlen);
+    for (int j = 0; !rc && j < sw->nsets; j++) rc = dth_scene_set(*scene, sw->sets[j], err, errlen);
+    for (int j = 0; !rc && j < sw->nkeys; j++) {
+        value_text(sw, i, j, v, sizeof v);
+        rc = set_key(*scene, &sw->keys[j], v, err, errlen);
+    }
+    if (!rc) rc = dth_scene_setup(*scene, sw->reg, rs, err, errlen);
+    if (rc == DTH_ENOMEM) snprintf(err, errlen, "out of memory");
+    return rc;
+}
+
+/* What the driver's callbacks of one run need. */
+typedef struct runctx {
+    const sweep *sw;
+    const dth_run_setup *rs;
+    dth_integrator *it;
+    dth_fixed *fx;
+    dth_megno *meg;
+    int megno_rc;
+    size_t n, N, ninv;
+    long k_done;           /* steps accounted for */
+    double E0, eerr;
+    double inv0[SWEEP_MAX_INV], drift[SWEEP_MAX_INV], inv[SWEEP_MAX_INV];
+    int inv_ok;
+    cli_out out;           /* the trajectory file */
+    char *line;
+    int werr;
+} runctx;
+
+static double rel(double x, double x0) { return x0 != 0 ? fabs(x - x0) / fabs(x0) : fabs(x - x0); }
+
+/* Per step: the energy at the step's midpoint (baselines: at the vertex), the invariants at the
+ * vertex, MEGNO. Called from the progress callback (before every step but the first) and once after
+ * the run. */
+static int account(runctx *c)
+{
+    long k = c->it ? dth_integrator_steps(c->it) : dth_fixed_steps(c->fx);
+    if (k == c->k_done) return 0;
+    c->k_done = k;
+    double H;
+    const double *z = c->it ? dth_integrator_vertex(c->it) : dth_fixed_state(c->fx);
+    const double *zm = c->it ? dth_integrator_midpoint(c->it) : z;
+    if (zm && dth_model_eval(c->rs->model, zm, DTH_EVAL_H, &H, NULL, NULL) == DTH_OK) c->eerr = fmax(c->eerr, rel(H, c->E0));
+    if (c->inv_ok && dth_model_invariants(c->rs->model, z, c->inv) == DTH_OK)
+        for (size_t j = 0; j < c->ninv; j++) c->drift[j] = fmax(c->drift[j], rel(c->inv[j], c->inv0[j]));
+    if (c->meg && !c->megno_rc) c->megno_rc = dth_megno_update(c->meg, c->it);
+    return 0;
+}
+
+static int on_progress(void *user, const dth_run_state *st)
+{
+    (void)st;
+    if (cli_signal_received()) return DTH_ESTOPPED;
+    return account(user);
+}
+
+/* A trajectory row: the columns of dth run without diagnostics. */
+static int on_sample(void *user, const dth_sample *s)
+{
+    runctx *c = user;
+    const dth_run_setup *rs = c->rs;
+    size_t n = c->n, N = c->N;
+    const double *z = s->z;
+    double Hp;
+    if (dth_model_eval(rs->model, z, DTH_EVAL_H, &Hp, NULL, NULL) != DTH_OK) Hp = NAN;
+    long k = s->kind == DTH_SAMPLE_TIME || (s->kind == DTH_SAMPLE_END && rs->dt > 0) ? s->index : s->k;
+    char *p = c->line;
+    p += dth_fmt_long(k, p);
+    *p++ = ',';
+    p += dth_fmt_g17(z[n], p);
+    *p++ = ',';
+    p += dth_fmt_g17(s->step->lambda, p);
+    for (size_t i = 0; i < n; i++) *p++ = ',', p += dth_fmt_g17(z[i], p);
+    for (size_t i = 0; i < n; i++) *p++ = ',', p += dth_fmt_g17(z[n + 1 + i], p);
+    *p++ = ',';
+    p += dth_fmt_g17(z[N - 1], p);
+    *p++ = ',';
+    p += dth_fmt_g17(z[N - 1] + Hp, p);
+    *p++ = ',';
+    p += dth_fmt_g17(Hp, p);
+    if (rs->regularizer) *p++ = ',', *p++ = (s->step->flags & DTH_STEP_REGULARIZED) ? '0' : '1';
+    if (cli_out_line(&c->out, c->line, (size_t)(p - c->line))) {
+        c->werr = 1;
+        return DTH_EIO;
+    }
+    cli_out_maybe_flush(&c->out);
+    return 0;
+}
+
+static char *traj_path(const sweep *sw, long i)
+{
+    size_t l = strlen(sw->traj) + 32;
+    char *p = malloc(l);
+    if (p) snprintf(p, l, "%s-%0*ld.csv", sw->traj, sw->traj_width, i);
+    return p;
+}
+
+/* Run i, its summary numbers into rec (R_LEN doubles). */
+static void run_one(const sweep *sw, long i, double *rec)
+{
+    char err[1024];
+    dth_scene *scene = NULL;
+    dth_run_setup rs;
+    memset(&rs, 0, sizeof rs);
+    for (int j = 0; j < R_LEN; j++) rec[j] = NAN;
+    rec[R_SETUP] = 0;
+    counter cnt = {0, 0};
+    dth_allocator al = {count_alloc, count_free, &cnt};
+    int rc = run_setup(sw, i, &al, &scene, &rs, err, sizeof err);
+    runctx c;
+    memset(&c, 0, sizeof c);
+    c.out.fd = -1;
+    char *path = NULL;
+    dth_run_state S;
+    dth_run_state_init(&S);
+    if (rc) {
+        rec[R_STATUS] = rc;
+        rec[R_SETUP] = 1;
+        goto done;
+    }
+    c.sw = sw;
+    c.rs = &rs;
+    c.n = rs.n;
+    c.N = 2 * rs.n + 2;
+    int is_dth = !strcmp(rs.method, "dth");
+    if (is_dth) {
+        rc = dth_integrator_new(rs.model, &rs.opt, &c.it);
+        if (!rc) rc = dth_integrator_start(c.it, rs.q0, rs.p0, rs.t0);
+    } else {
+        rc = dth_fixed_check(rs.model, rs.method, NULL, 0);
+        if (!rc) rc = dth_fixed_new(rs.model, rs.method, rs.opt.h, &al, &c.fx);
+        if (!rc) rc = dth_fixed_start(c.fx, rs.q0, rs.p0, rs.t0);
+    }
+    if (rc) {
+        rec[R_STATUS] = rc;
+        rec[R_SETUP] = 1;
+        goto done;
+    }
+    /* the reference energy and invariants at the initial condition */
+    double *y = calloc(c.N, sizeof *y);
+    if (!y) {
+        rec[R_STATUS] = DTH_ENOMEM;
+        goto done;
+    }
+    memcpy(y, rs.q0, rs.n * sizeof *y);
+    y[rs.n] = rs.t0;
+    memcpy(y + rs.n + 1, rs.p0, rs.n * sizeof *y);
+    if (dth_model_eval(rs.model, y, DTH_EVAL_H, &c.E0, NULL, NULL) != DTH_OK) c.E0 = NAN;
+    c.ninv = dth_model_n_invariants(rs.model);
+    if (c.ninv > SWEEP_MAX_INV) c.ninv = SWEEP_MAX_INV;
+    c.inv_ok = c.ninv > 0 && dth_model_invariants(rs.model, y, c.inv0) == DTH_OK;
+    free(y);
+    if (sw->megno && c.it && (rc = dth_megno_new(c.it, NULL, &al, &c.meg)) != DTH_OK) {
+        rec[R_STATUS] = rc;
+        goto done;
+    }
+    dth_run_config cfg;
+    dth_run_config_default(&cfg);
+    cfg.has_t_end = rs.has_t_end;
+    cfg.t_end = rs.t_end;
+    cfg.steps = rs.steps;
+    cfg.t0 = rs.t0;
+    cfg.events = rs.events;
+    cfg.nevents = rs.nevents;
+    cfg.user = &c;
+    cfg.alloc = &al;
+    cfg.progress = on_progress;
+    cfg.progress_every = 1;
+    if (sw->traj) {
+        path = traj_path(sw, i);
+        c.line = malloc(32 * (c.N + 8));
+        if (!path || !c.line || cli_out_open(&c.out, path)) {
+            rec[R_STATUS] = !path || !c.line ? DTH_ENOMEM : DTH_EIO;
+            goto done;
+        }
+        char *p = c.line;
+        p += sprintf(p, "k,t,lambda");
+        for (size_t j = 0; j < rs.n; j++) p += sprintf(p, ",q%zu", j + 1);
+        for (size_t j = 0; j < rs.n; j++) p += sprintf(p, ",p%zu", j + 1);
+        p += sprintf(p, ",wp,H,E%s", rs.regularizer ? ",ordinary" : "");
+        if (cli_out_line(&c.out, c.line, (size_t)(p - c.line))) c.werr = 1;
+        cfg.points = rs.points;
+        cfg.every = rs.every;
+        cfg.dt = rs.dt;
+        cfg.sample = on_sample;
+    }
+    rc = c.werr ? DTH_EIO : c.it ? dth_run(c.it, &cfg, &S) : dth_run_fixed(c.fx, &cfg, &S);
+    if (!c.werr) account(&c); /* the last step: no progress call follows it */
+    if (c.werr) rc = DTH_EIO;
+    rec[R_STATUS] = rc;
+    rec[R_STEPS] = (double)S.k;
+    rec[R_T] = rc ? S.t : S.t_stop;
+    rec[R_EERR] = c.eerr;
+    rec[R_CROSS] = (double)S.crossings;
+    rec[R_REG] = S.k > 0 ? (double)S.regularized / (double)S.k : 0;
+    rec[R_EVENTS] = (double)S.events;
+    rec[R_NINV] = c.inv_ok ? (double)c.ninv : 0;
+    for (size_t j = 0; c.inv_ok && j < c.ninv; j++) rec[R_INV + j] = c.drift[j];
+    if (c.meg && !c.megno_rc) {
+        dth_megno_result m;
+        dth_megno_get(c.meg, &m);
+        rec[R_MEGNO] = m.megno;
+        rec[R_LYAP] = m.lyapunov;
+        rec[R_MEGT] = m.span;
+    }
+    if (c.out.fd >= 0 || c.out.buf) {
+        if (rc == DTH_EIO || cli_out_finish(&c.out)) rec[R_STATUS] = DTH_EIO;
+    }
+done:
+    if (c.out.buf) cli_out_abort(&c.out);
+    free(path);
+    free(c.line);
+    dth_megno_free(c.meg);
+    dth_integrator_free(c.it);
+    dth_fixed_free(c.fx);
+    dth_run_setup_clear(&rs);
+    dth_scene_free(scene);
+    rec[R_MEM] = (double)cnt.peak;
+}
+
+/* ---------------------------------------------------------------- output */
+
+static int write_summary(const sweep *sw, cli_out *o)
+{
+    size_t cap = 4096;
+    for (int j = 0; j < sw->nkeys; j++) cap += 2048;
+    char *line = malloc(cap), v[1024];
+    if (!line) return -1;
+    size_t len = (size_t)snprintf(line, cap, "run");
+    for (int j = 0; j < sw->nkeys; j++) {
+        const vkey *k = &sw->keys[j];
+        len += k->elem ? (size_t)snprintf(line + len, cap - len, ",%s.%s[%d]", k->sec, k->key, k->elem)
+                       : (size_t)snprintf(line + len, cap - len, ",%s.%s", k->sec, k->key);
+    }
+    len += (size_t)snprintf(line + len, cap - len, ",status,steps,t,energy_error");
+    for (int j = 0; j < sw->ninv; j++) len += (size_t)snprintf(line + len, cap - len, ",%s_drift", sw->inv_names[j]);
+    len += (size_t)snprintf(line + len, cap - len, ",psi_crossings,regularized_share,events,megno,lyapunov,megno_t");
+    int rc = cli_out_line(o, line, len);
+    for (long i = 0; !rc && i < sw->nruns; i++) {
+        const double *r = sw->rec + i * R_LEN;
+        char *p = line;
+        p += dth_fmt_long(i, p);
+        for (int j = 0; j < sw->nkeys; j++) {
+            value_text(sw, i, j, v, sizeof v);
+            *p++ = ',';
+            if (strpbrk(v, ",\"")) { /* quote as CSV */
+                *p++ = '"';
+                for (const char *s = v; *s; s++) {
+                    if (*s == '"') *p++ = '"';
+                    *p++ = *s;
+                }
+                *p++ = '"';
+            } else {
+                p += sprintf(p, "%s", v);
+            }
+        }
+        int st = (int)r[R_STATUS];
+        p += sprintf(p, ",%s", st == DTH_OK ? "ok" : dth_status_name(st));
+        if (r[R_SETUP] != 0) { /* never ran: the numbers are empty */
+            for (int j = 0; j < 9 + sw->ninv; j++) *p++ = ',';
+        } else {
+            /* one number: empty if not available (NaN) */
+#define PUT(x) (*p++ = ',', p += isnan(x) ? 0 : dth_fmt_g17((x), p))
+            *p++ = ',';
+            p += dth_fmt_long((long)r[R_STEPS], p);
+            PUT(r[R_T]);
+            PUT(r[R_EERR]);
+            for (int j = 0; j < sw->ninv; j++) PUT(j < (int)r[R_NINV] ? r[R_INV + j] : NAN);
+            *p++ = ',';
+            p += dth_fmt_long((long)r[R_CROSS], p);
+            PUT(r[R_REG]);
+            *p++ = ',';
+            p += dth_fmt_long((long)r[R_EVENTS], p);
+            PUT(r[R_MEGNO]);
+            PUT(r[R_LYAP]);
+            PUT(r[R_MEGT]);
+#undef PUT
+        }
+        rc = cli_out_line(o, line, (size_t)(p - line));
+        cli_out_maybe_flush(o);
+    }
+    free(line);
+    return rc;
+}
+
+/* ---------------------------------------------------------------- the work, spread over threads and ranks */
+
+/* Runs lo .. hi-1 with OpenMP threads. */
+static void run_range(const sweep *sw, long lo, long hi, const long *idx)
+{
+#ifdef _OPENMP
+#pragma omp parallel for schedule(dynamic, 1)
+#endif
+    for (long j = lo; j < hi; j++) {
+        long i = idx ? idx[j] : j;
+        if (cli_signal_received()) continue;
+        run_one(sw, i, sw->rec + i * R_LEN);
+    }
+}
+
+#ifdef DTH_HAVE_MPI
+/* Launched by mpirun (or another MPI launcher)? */
+static int under_mpi(void)
+{
+    return getenv("OMPI_COMM_WORLD_SIZE") || getenv("PMI_SIZE") || getenv("PMIX_RANK");
+}
+
+/*
+ * Every rank computes its share of the runs, then rank 0 gathers the records (index + R_LEN
+ * doubles each) and places them by index. static: run i on rank i mod size; dynamic: chunks of
+ * `chunk` runs taken from a counter on rank 0 (MPI_Fetch_and_op) until none is left.
+ */
+static int mpi_runs(sweep *sw, int rank, int size, int dynamic, long chunk)
+{
+    long total = sw->nruns, mine = 0, cap = 0;
+    long *idx = NULL;
+    if (!dynamic) {
+        cap = total / size + 1;
+        idx = malloc((size_t)cap * sizeof *idx);
+        if (!idx) return -1;
+        for (long i = rank; i < total; i += size) idx[mine++] = i;
+        run_range(sw, 0, mine, idx);
+    } else {
+        MPI_Win win;
+        long *next = NULL;
+        MPI_Win_allocate(rank == 0 ? (MPI_Aint)sizeof(long) : 0, sizeof(long), MPI_INFO_NULL, MPI_COMM_WORLD,
+                         &next, &win);
+        if (rank == 0) *next = 0;
+        MPI_Barrier(MPI_COMM_WORLD);
+        for (;;) {
+            long start, inc = chunk;
+            MPI_Win_lock(MPI_LOCK_SHARED, 0, 0, win);
+            MPI_Fetch_and_op(&inc, &start, MPI_LONG, 0, 0, MPI_SUM, win);
+            MPI_Win_unlock(0, win);
+            if (start >= total || cli_signal_received()) break;
+            long end = start + chunk < total ? start + chunk : total;
+            if (mine + (end - start) > cap) {
+                cap = 2 * cap + (end - start) + 64;
+                long *t = realloc(idx, (size_t)cap * sizeof *idx);
+                if (!t) {
+                    free(idx);
+                    MPI_Win_free(&win);
+                    return -1;
+                }
+                idx = t;
+            }
+            for (long i = start; i < end; i++) idx[mine++] = i;
+            run_range(sw, mine - (end - start), mine, idx);
+        }
+        MPI_Barrier(MPI_COMM_WORLD);
+        MPI_Win_free(&win);
+    }
+    /* pack (index, record) and gather on rank 0 */
+    int w = R_LEN + 1;
+    double *pack = malloc((size_t)(mine ? mine : 1) * (size_t)w * sizeof *pack);
+    if (!pack) {
+        free(idx);
+        return -1;
+    }
+    for (long j = 0; j < mine; j++) {
+        pack[j * w] = (double)idx[j];
+        memcpy(pack + j * w + 1, sw->rec + idx[j] * R_LEN, R_LEN * sizeof *pack);
+    }
+    int cnt = (int)(mine * w), *counts = NULL, *displs = NULL;
+    double *all = NULL;
+    if (rank == 0) {
+        counts = malloc((size_t)size * sizeof *counts);
+        displs = malloc((size_t)size * sizeof *displs);
+        all = malloc((size_t)total * (size_t)w * sizeof *all);
+    }
+    MPI_Gather(&cnt, 1, MPI_INT, counts, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    if (rank == 0)
+        for (int r = 0, off = 0; r < size; r++) displs[r] = off, off += counts[r];
+    MPI_Gatherv(pack, cnt, MPI_DOUBLE, all, counts, displs, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    if (rank == 0)
+        for (long j = 0; j < total; j++) {
+            long i = (long)all[j * w];
+            memcpy(sw->rec + i * R_LEN, all + j * w + 1, R_LEN * sizeof *all);
+        }
+    free(all);
+    free(counts);
+    free(displs);
+    free(pack);
+    free(idx);
+    return 0;
+}
+#endif
+
+/* ---------------------------------------------------------------- the command */
+
+static void sweep_free(sweep *sw)
+{
+    free(sw->text);
+    free(sw->sets);
+    if (sw->list) {
+        for (long r = 0; r < sw->nruns; r++) {
+            for (int j = 0; sw->list[r] && j < sw->nkeys; j++) free(sw->list[r][j]);
+            free(sw->list[r]);
+        }
+        free(sw->list);
+    }
+    free(sw->rec);
+}
+
+static char *read_file(const char *path, size_t *len)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    size_t cap = 4096, n = 0;
+    char *b = malloc(cap);
+    while (b) {
+        size_t got = fread(b + n, 1, cap - n, f);
+        n += got;
+        if (n < cap) break;
+        char *t = realloc(b, cap *= 2);
+        if (!t) {
+            free(b);
+            b = NULL;
+        }
+        b = t;
+    }
+    fclose(f);
+    if (b) *len = n;
+    return b;
+}
+
+int cli_cmd_sweep(int argc, char **argv)
+{
+    sweep sw;
+    memset(&sw, 0, sizeof sw);
+    sw.megno = 1;
+    const char *out_path = NULL, *list_path = NULL;
+    int dynamic = 1, status = CLI_USAGE, rank = 0, size = 1, mpi = 0, stats = 0;
+    long chunk = 16;
+    void *libs[16];
+    int nlibs = 0;
+    dth_registry *reg = NULL;
+    cli_out o;
+    memset(&o, 0, sizeof o);
+    o.fd = -1;
+    sw.sets = calloc((size_t)argc, sizeof *sw.sets);
+    if (!sw.sets) {
+        cli_error("out of memory");
+        return CLI_FAIL;
+    }
+    /* ---- the command line */
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
+            usage_sweep(stdout);
+            free(sw.sets);
+            return CLI_OK;
+        } else if (!strcmp(a, "--no-megno")) {
+            sw.megno = 0;
+        } else if (!strcmp(a, "--stats")) {
+            stats = 1;
+        } else if (!strcmp(a, "-s") || !strcmp(a, "-o") || !strcmp(a, "--vary") || !strcmp(a, "--list") ||
+                   !strcmp(a, "--trajectories") || !strcmp(a, "--model-lib") || !strcmp(a, "--schedule") ||
+                   !strcmp(a, "--chunk")) {
+            if (i + 1 >= argc) {
+                cli_error("option %s needs an argument (try dth sweep --help)", a);
+                goto done;
+            }
+            const char *v = argv[++i];
+            if (!strcmp(a, "-s")) {
+                sw.sets[sw.nsets++] = v;
+            } else if (!strcmp(a, "-o")) {
+                out_path = strcmp(v, "-") ? v : NULL;
+            } else if (!strcmp(a, "--vary")) {
+                if (sw.nkeys >= SWEEP_MAX_KEYS) {
+                    cli_error("at most %d --vary keys", SWEEP_MAX_KEYS);
+                    goto done;
+                }
+                if (parse_vary(v, &sw.keys[sw.nkeys])) goto done;
+                sw.nkeys++;
+            } else if (!strcmp(a, "--list")) {
+                list_path = v;
+            } else if (!strcmp(a, "--trajectories")) {
+                if (!v[0]) {
+                    cli_error("--trajectories: the prefix is empty");
+                    goto done;
+                }
+                sw.traj = v;
+            } else if (!strcmp(a, "--schedule")) {
+                if (strcmp(v, "static") && strcmp(v, "dynamic")) {
+                    cli_error("--schedule: '%s' is not static or dynamic", v);
+                    goto done;
+                }
+                dynamic = !strcmp(v, "dynamic");
+            } else if (!strcmp(a, "--chunk")) {
+                char *e;
+                errno = 0;
+                chunk = strtol(v, &e, 10);
+                if (errno || e == v || *e || chunk < 1) {
+                    cli_error("--chunk: '%s' is not a positive integer", v);
+                    goto done;
+                }
+            } else { /* --model-lib FILE:SYMBOL */
+                const char *colon = strrchr(v, ':');
+                if (!colon || colon == v || !colon[1] || nlibs >= 16) {
+                    cli_error("--model-lib: '%s' is not FILE.so:SYMBOL%s", v, nlibs >= 16 ? " (at most 16)" : "");
+                    goto done;
+                }
+            }
+        } else if (a[0] == '-' && a[1]) {
+            cli_error("unknown option '%s' (try dth sweep --help)", a);
+            goto done;
+        } else if (sw.scene_path) {
+            cli_error("more than one scene file ('%s' and '%s')", sw.scene_path, a);
+            goto done;
+        } else {
+            sw.scene_path = a;
+        }
+    }
+    if (!sw.scene_path) {
+        cli_error("no scene file (usage: dth sweep SCENE.ini --vary section.key=a:b:n ... | --list FILE)");
+        goto done;
+    }
+    if ((sw.nkeys > 0) == (list_path != NULL)) {
+        cli_error("give the runs by --vary (a grid) or by --list FILE, one of the two (try dth sweep --help)");
+        goto done;
+    }
+    if (list_path) {
+        sw.is_list = 1;
+        if (read_list(&sw, list_path)) goto done;
+    } else {
+        sw.nruns = 1;
+        for (int j = 0; j < sw.nkeys; j++) {
+            if (sw.nruns > SWEEP_MAX_RUNS / sw.keys[j].n) {
+                cli_error("the grid has more than %ld points", SWEEP_MAX_RUNS);
+                goto done;
+            }
+            sw.nruns *= sw.keys[j].n;
+        }
+    }
+    sw.text = read_file(sw.scene_path, &sw.textlen);
+    if (!sw.text) {
+        cli_error("cannot read '%s': %s", sw.scene_path, strerror(errno));
+        goto done;
+    }
+    /* ---- the registry: the built-in models and the loaded ones */
+    if (!(reg = cli_registry())) {
+        status = CLI_FAIL;
+        goto done;
+    }
+    for (int i = 1; i < argc; i++) {
+        if (strcmp(argv[i], "--model-lib")) {
+            if (!strcmp(argv[i], "-s") || !strcmp(argv[i], "-o") || !strcmp(argv[i], "--vary") ||
+                !strcmp(argv[i], "--list") || !strcmp(argv[i], "--trajectories") || !strcmp(argv[i], "--schedule") ||
+                !strcmp(argv[i], "--chunk"))
+                i++;
+            continue;
+        }
+        const char *v = argv[++i], *colon = strrchr(v, ':');
+        char file[4096];
+        snprintf(file, sizeof file, "%.*s", (int)(colon - v), v);
+        void *h = dlopen(file, RTLD_NOW | RTLD_LOCAL);
+        if (!h) {
+            cli_error("--model-lib: cannot load '%s': %s", file, dlerror());
+            goto done;
+        }
+        libs[nlibs++] = h;
+        const dth_model_type *t = dlsym(h, colon + 1);
+        if (!t || !t->name) {
+            cli_error("--model-lib: '%s' has no model table '%s'", file, colon + 1);
+            goto done;
+        }
+        if (dth_registry_add_model(reg, t)) {
+            cli_error("--model-lib: cannot register model '%s' from '%s' (a duplicate name?)", t->name, file);
+            goto done;
+        }
+    }
+    sw.reg = reg;
+    sw.traj_width = 1;
+    for (long m = sw.nruns - 1; m >= 10; m /= 10) sw.traj_width++;
+    sw.rec = calloc((size_t)sw.nruns * R_LEN, sizeof *sw.rec);
+    if (!sw.rec) {
+        cli_error("out of memory (%ld runs)", sw.nruns);
+        status = CLI_FAIL;
+        goto done;
+    }
+
+    /* ---- run 0 serially first: its scene must set up (a message for a bad key), its model pass the
+     * derivative check, and its invariants name the summary's columns */
+    {
+        char err[1024];
+        dth_scene *scene = NULL;
+        dth_run_setup rs;
+        memset(&rs, 0, sizeof rs);
+        int rc = run_setup(&sw, 0, NULL, &scene, &rs, err, sizeof err);
+        if (rc) {
+            cli_error("%s", err);
+            status = rc == DTH_ENOMEM ? CLI_FAIL : CLI_USAGE;
+            dth_scene_free(scene);
+            goto done;
+        }
+        sw.ninv = (int)dth_model_n_invariants(rs.model);
+        if (sw.ninv > SWEEP_MAX_INV) sw.ninv = SWEEP_MAX_INV;
+        for (int j = 0; j < sw.ninv; j++)
+            snprintf(sw.inv_names[j], sizeof sw.inv_names[j], "%s", dth_model_invariant_name(rs.model, (size_t)j));
+        if (strcmp(rs.method, "dth")) sw.megno = 0;
+        double *y = calloc(2 * rs.n + 1, sizeof *y);
+        dth_model_check_report rep;
+        rep.pass = 1;
+        if (y && rs.n <= 200) {
+            memcpy(y, rs.q0, rs.n * sizeof *y);
+            y[rs.n] = rs.t0;
+            memcpy(y + rs.n + 1, rs.p0, rs.n * sizeof *y);
+            if (dth_model_check(rs.model, y, &rep) != DTH_OK) rep.pass = 1;
+        }
+        free(y);
+        if (!rep.pass)
+            cli_error("%s: model '%s' fails its derivative check at run 0's initial state: %s", sw.scene_path,
+                      dth_model_get_type(rs.model)->name, rep.message);
+        dth_run_setup_clear(&rs);
+        dth_scene_free(scene);
+        if (!rep.pass) goto done;
+    }
+
+#ifdef DTH_HAVE_MPI
+    if (under_mpi()) {
+        int prov;
+        MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &prov);
+        MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+        MPI_Comm_size(MPI_COMM_WORLD, &size);
+        mpi = 1;
+    }
+#endif
+    /* the summary's file is opened before the work (rank 0), so an unwritable one fails at once */
+    int open_ok = 1;
+    if (rank == 0 && out_path) {
+        cli_make_parents(out_path);
+        open_ok = cli_out_open(&o, out_path) == 0;
+    }
+#ifdef DTH_HAVE_MPI
+    if (mpi) MPI_Bcast(&open_ok, 1, MPI_INT, 0, MPI_COMM_WORLD);
+#endif
+    if (!open_ok) goto fin;
+    if (sw.traj) cli_make_parents(sw.traj);
+    cli_catch_signals();
+#ifdef DTH_HAVE_MPI
+    if (mpi) MPI_Barrier(MPI_COMM_WORLD);
+#endif
+    double t_start = cli_now();
+    if (!mpi) {
+        run_range(&sw, 0, sw.nruns, NULL);
+    }
+#ifdef DTH_HAVE_MPI
+    else if (mpi_runs(&sw, rank, size, dynamic, chunk)) {
+        cli_error("out of memory (rank %d)", rank);
+        status = CLI_FAIL;
+        goto fin;
+    }
+#else
+    (void)dynamic;
+    (void)chunk;
+#endif
+    double t_work = cli_now() - t_start;
+    int sig = cli_signal_received();
+    if (sig) {
+        cli_error("interrupted (no summary written)");
+        status = 128 + sig;
+        goto fin;
+    }
+    status = CLI_OK;
+    if (rank == 0) {
+        if (!out_path && cli_out_open(&o, NULL)) {
+            status = CLI_FAIL;
+            goto fin;
+        }
+        if (write_summary(&sw, &o) || cli_out_finish(&o)) {
+            cli_error("cannot write '%s': %s", out_path ? out_path : "standard output", strerror(o.err));
+            status = CLI_FAIL;
+            goto fin;
+        }
+        /* runs that could not be set up or failed hard: the first one's message */
+        long bad = -1, hard = 0, stopped = 0;
+        for (long i = 0; i < sw.nruns; i++) {
+            const double *r = sw.rec + i * R_LEN;
+            if (r[R_SETUP] != 0 && bad < 0) bad = i;
+            if (r[R_SETUP] == 0 && r[R_STATUS] < 0) hard++;
+            if (r[R_SETUP] == 0 && r[R_STATUS] > 0) stopped++;
+        }
+        if (bad >= 0) {
+            char err[1024] = "";
+            dth_scene *scene = NULL;
+            dth_run_setup rs;
+            memset(&rs, 0, sizeof rs);
+            if (run_setup(&sw, bad, NULL, &scene, &rs, err, sizeof err) == DTH_OK)
+                snprintf(err, sizeof err, "%s", dth_strerror((int)sw.rec[bad * R_LEN + R_STATUS]));
+            cli_error("run %ld could not start: %s", bad, err);
+            dth_run_setup_clear(&rs);
+            dth_scene_free(scene);
+            status = CLI_USAGE;
+        }
+        if (stopped) cli_error("note: %ld of %ld trajectories stopped early (their status column)", stopped, sw.nruns);
+        if (stats) {
+            double mx = 0, sum = 0;
+            for (long i = 0; i < sw.nruns; i++) {
+                double m = sw.rec[i * R_LEN + R_MEM];
+                mx = fmax(mx, m);
+                sum += m;
+            }
+            int threads = 1;
+#ifdef _OPENMP
+            threads = omp_get_max_threads();
+#endif
+            fprintf(stderr, "dth sweep: %ld runs in %.3f s: %.1f runs/s (%d thread%s x %d rank%s, %s); library heap of "
+                    "one run: peak %.0f bytes (largest), %.0f (mean); summary record %zu bytes per run\n",
+                    sw.nruns, t_work, (double)sw.nruns / fmax(t_work, 1e-9), threads, threads == 1 ? "" : "s", size,
+                    size == 1 ? "" : "s", sw.megno ? "MEGNO on" : "MEGNO off", mx, sum / (double)sw.nruns,
+                    (size_t)R_LEN * sizeof(double));
+        }
+        if (hard) {
+            cli_error("%ld of %ld runs failed with a hard error (their status column)", hard, sw.nruns);
+            status = CLI_FAIL;
+        }
+    }
+fin:
+#ifdef DTH_HAVE_MPI
+    if (mpi) {
+        int st = status;
+        MPI_Bcast(&st, 1, MPI_INT, 0, MPI_COMM_WORLD);
+        status = st;
+        MPI_Finalize();
+    }
+#endif
+done:
+    if (o.buf) cli_out_abort(&o);
+    sweep_free(&sw);
+    dth_registry_free(reg);
+    for (int i = 0; i < nlibs; i++) dlclose(libs[i]);
+    return status;
+}

@@ -1,0 +1,1084 @@
+# SPDX-License-Identifier: MIT
+"""Scenes, runs through the library's driver dth_run, roots, checkpoints and user models (the
+Python face of lib/include/dth/*.h; see docs/python.md)."""
+import json
+import math
+import numbers
+
+import numpy as np
+
+from ._ffi import ffi, lib
+
+__all__ = ["DthError", "OutsideDomain", "Scene", "Simulation", "Result", "Events", "Roots", "Map", "Model",
+           "CModel", "load_model", "run", "roots", "map", "models", "strerror", "status_name"]
+
+_ERRLEN = 1024
+_STOP = {0: "running", 1: "end", 2: "event", 3: "callback", 4: "failed"}
+_KIND = {0: "vertex", 1: "midpoint", 2: "time", 3: "end", 4: "event"}
+DTH_EMODEL = -4
+
+# Exceptions raised inside callbacks that C called: re-raised once control is back in Python.
+_pending = []
+
+
+def strerror(status):
+    """The library's message for a status code."""
+    return ffi.string(lib().dth_strerror(status)).decode()
+
+
+def status_name(status):
+    """The symbolic name of a status code, e.g. "DTH_ENOCONV"."""
+    return ffi.string(lib().dth_status_name(status)).decode()
+
+
+class DthError(Exception):
+    """A hard error of the library (negative status) or bad input (scene, overrides, arguments)."""
+
+    def __init__(self, status, message=None):
+        self.status = status
+        self.name = status_name(status)
+        super().__init__(message or strerror(status))
+
+
+class OutsideDomain(Exception):
+    """Raise this in a Python model's callbacks where the point is outside the model's domain
+    (the step then fails with DTH_EDOMAIN and the regularizer or the caller may react)."""
+
+
+def _raise_pending():
+    if _pending:
+        exc = _pending[0]
+        del _pending[:]
+        raise exc
+
+
+def _onerror(exc_type, exc, tb):
+    if not _pending:
+        _pending.append(exc.with_traceback(tb) if exc is not None else exc_type())
+
+
+def _err(buf):
+    return ffi.string(buf).decode(errors="replace")
+
+
+# ---------------------------------------------------------------- scenes
+
+def _fmt(v):
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, numbers.Integral):
+        return str(int(v))
+    if isinstance(v, numbers.Real):
+        return repr(float(v))  # the shortest text that reads back as the same double
+    if isinstance(v, str):
+        return v
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return ", ".join(_fmt(x) for x in np.asarray(v, dtype=object).ravel())
+    raise TypeError("dth: cannot write %r as a scene value" % (v,))
+
+
+def _ini_lines(key, text):
+    """key = text, split at commas over continuation lines (the reader's lines are short)."""
+    lines, cur = [], "%s = " % key
+    for i, item in enumerate(text.split(",")):
+        piece = item if i == 0 else "," + item
+        if len(cur) + len(piece) > 150 and cur.strip():
+            lines.append(cur.rstrip(",") + ",")
+            cur = "    " + item.strip()
+        else:
+            cur += piece
+    lines.append(cur)
+    # continuation lines carry more comma-separated items: each line but the last ends its item
+    return [ln[:-1] if ln.endswith(",") else ln for ln in lines]
+
+
+def _ini_from_dict(d):
+    out = []
+    for sec, keys in d.items():
+        if not isinstance(keys, dict):
+            raise TypeError("dth: scene section %r must be a dict of keys" % (sec,))
+        out.append("[%s]" % sec)
+        for k, v in keys.items():
+            out.extend(_ini_lines(k, _fmt(v)))
+    return "\n".join(out) + "\n"
+
+
+class Scene:
+    """A scene: an INI file, INI text or a dict {section: {key: value}}, plus overrides.
+
+        Scene("scenes/pendulum.ini", {"integrator.h": 0.01})
+        Scene({"model": {"name": "pendulum"}, "initial": {"q": 1, "p": 0},
+               "integrator": {"h": 0.05, "t_end": 20}})
+
+    Values in dicts and overrides may be numbers (written with repr: the same double), bools
+    (yes/no), strings or sequences (comma-separated lists). Nothing is read until a run needs it,
+    and then messages name the file and line (or the override) like dth run's.
+    """
+
+    def __init__(self, source=None, set=None):
+        self.path = None
+        self.text = None
+        self.name = "<dict>"
+        self.overrides = []
+        if isinstance(source, Scene):
+            self.path, self.text, self.name = source.path, source.text, source.name
+            self.overrides = list(source.overrides)
+        elif isinstance(source, dict):
+            self.text = _ini_from_dict(source)
+        elif isinstance(source, str) and ("\n" in source or source.lstrip().startswith("[")):
+            self.text, self.name = source, "<text>"
+        elif isinstance(source, str) or hasattr(source, "__fspath__"):
+            self.path = str(source)
+            self.name = self.path
+        elif source is not None:
+            raise TypeError("dth: a scene is a path, INI text, a dict or a Scene")
+        if set:
+            for k, v in (set.items() if isinstance(set, dict) else set):
+                self.set(k, v)
+
+    def set(self, key, value):
+        """Override section.key (applied after the file, in order, like dth run -s)."""
+        if "." not in key:
+            raise ValueError("dth: an override names section.key, not %r" % key)
+        self.overrides.append("%s=%s" % (key, _fmt(value)))
+        return self
+
+    def __setitem__(self, key, value):
+        self.set(key, value)
+
+    def _load(self):
+        """A new C scene (caller frees it) with the source and the overrides applied."""
+        L = lib()
+        sp = ffi.new("dth_scene **")
+        rc = L.dth_scene_new(ffi.NULL, sp)
+        if rc:
+            raise DthError(rc)
+        s = sp[0]
+        err = ffi.new("char[]", _ERRLEN)
+        try:
+            if self.path is not None:
+                rc = L.dth_scene_load(s, self.path.encode(), err, _ERRLEN)
+            elif self.text is not None:
+                t = self.text.encode()
+                rc = L.dth_scene_load_mem(s, self.name.encode(), t, len(t), err, _ERRLEN)
+            if rc:
+                raise DthError(rc, _err(err))
+            for o in self.overrides:
+                rc = L.dth_scene_set(s, o.encode(), err, _ERRLEN)
+                if rc:
+                    raise DthError(rc, _err(err))
+        except BaseException:
+            L.dth_scene_free(s)
+            raise
+        return s
+
+    def get(self, key):
+        """The value of section.key after the overrides (text), or None."""
+        sec, _, k = key.partition(".")
+        s = self._load()
+        try:
+            v = lib().dth_scene_get(s, sec.encode(), k.encode())
+            return None if v == ffi.NULL else ffi.string(v).decode()
+        finally:
+            lib().dth_scene_free(s)
+
+    def ini(self):
+        """The scene as INI text: every key after the overrides."""
+        s = self._load()
+        try:
+            return _scene_text(s, None)
+        finally:
+            lib().dth_scene_free(s)
+
+
+def _scene_text(s, has_t_end):
+    """INI text of a C scene, grouped by section; of steps and t_end only the one in force."""
+    L = lib()
+    secs = {}
+    p = [ffi.new("char **") for _ in range(4)]
+    for i in range(L.dth_scene_count(s)):
+        L.dth_scene_entry(s, i, p[0], p[1], p[2], p[3])
+        sec, key, val = (ffi.string(x[0]).decode() for x in p[:3])
+        if sec == "integrator" and has_t_end is not None and key == ("steps" if has_t_end else "t_end"):
+            continue
+        secs.setdefault(sec, []).append((key, val))
+    out = []
+    for sec, kv in secs.items():
+        out.append("[%s]" % sec)
+        for k, v in kv:
+            out.extend(_ini_lines(k, v))
+    return "\n".join(out) + "\n"
+
+
+# ---------------------------------------------------------------- user models
+
+class Model:
+    """Base class of a model written in Python (slow: every evaluation is a Python call; for
+    prototyping). H_phys(q, t, p) with y = (q_1..q_n, t, p_1..p_n):
+
+        class HenonHeiles(dth.Model):
+            name = "henon-heiles-py"
+            params = {"lambda": 1.0}       # name -> default (None: required)
+            n = 2                          # degrees of freedom (None: from the scene's q)
+            separable = True
+            def H(self, q, t, p): ...      # a float
+            def grad(self, q, t, p): ...   # 2n+1 values: dH/dq, dH/dt, dH/dp
+            def hess(self, q, t, p): ...   # (2n+1, 2n+1) over y
+
+    Optional: invariant_names = ("L",) with invariants(self, q, t, p) (a sequence of floats).
+    Parameters reach the instance as self.params (floats where the text is a number). Raise
+    dth.OutsideDomain where the point is outside the model's domain. Pass the class to a run:
+    dth.run(scene, models=[HenonHeiles]).
+    """
+
+    name = None
+    doc = "a model written in Python"
+    params = {}
+    param_docs = {}
+    n = None
+    autonomous = True
+    separable = False
+    invariant_names = ()
+
+    def __init__(self, params):
+        self.params = params
+
+    def H(self, q, t, p):
+        raise NotImplementedError
+
+    def grad(self, q, t, p):
+        raise NotImplementedError
+
+    def hess(self, q, t, p):
+        raise NotImplementedError
+
+    def invariants(self, q, t, p):
+        return ()
+
+
+def _number(text):
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+class _PyModelType:
+    """The C table (dth_model_type) of a Python Model class, with cffi callbacks."""
+
+    _cache = {}
+
+    @classmethod
+    def of(cls, mc):
+        t = cls._cache.get(mc)
+        if t is None:
+            t = cls._cache[mc] = cls(mc)
+        return t
+
+    def __init__(self, mc):
+        if not mc.name:
+            raise ValueError("dth: a Model subclass needs a name")
+        self.cls = mc
+        self._keep = []
+        self._live = {}
+
+        def cstr(s):
+            b = ffi.new("char[]", s.encode())
+            self._keep.append(b)
+            return b
+
+        specs = list(mc.params.items())
+        self.spec = ffi.new("dth_param_spec[]", max(len(specs), 1))
+        for i, (k, d) in enumerate(specs):
+            self.spec[i].key = cstr(k)
+            setattr(self.spec[i], "def", ffi.NULL if d is None else cstr(_fmt(d)))
+            self.spec[i].doc = cstr(mc.param_docs.get(k, ""))
+        self.inames = [cstr(s) for s in mc.invariant_names]
+        t = self.table = ffi.new("dth_model_type *")
+        t.name = cstr(mc.name)
+        t.doc = cstr(mc.doc or "")
+        t.params = self.spec
+        t.n_params = len(specs)
+        cb = self._callbacks()
+        t.create, t.destroy, t.eval = cb["create"], cb["destroy"], cb["eval"]
+        if mc.invariant_names:
+            t.n_invariants, t.invariant_name, t.invariants = cb["n_inv"], cb["inv_name"], cb["inv"]
+        self._keep.append(cb)
+
+    def _callbacks(self):
+        mc, live, spec_keys = self.cls, self._live, list(self.cls.params)
+        ninv = len(mc.invariant_names)
+
+        @ffi.callback("int(const dth_model_args *, void **, dth_model_info *)", error=DTH_EMODEL, onerror=_onerror)
+        def create(args, selfp, info):
+            params = {}
+            for k in spec_keys:
+                v = lib().dth_args_get(args, k.encode())
+                if v != ffi.NULL:
+                    params[k] = _number(ffi.string(v).decode())
+                elif mc.params[k] is not None:
+                    params[k] = mc.params[k]
+                else:
+                    return _args_error(args, "parameter '%s' is required" % k)
+            try:
+                inst = mc(params)
+            except (ValueError, TypeError) as e:
+                return _args_error(args, str(e))
+            n = inst.n if inst.n is not None else args.n_hint
+            if not n or n < 1:
+                return _args_error(args, "model '%s': give n or the initial q" % mc.name)
+            if args.n_hint and args.n_hint != n:
+                return _args_error(args, "model '%s' has %d degrees of freedom" % (mc.name, n))
+            inst.n = int(n)
+            h = ffi.new_handle(inst)
+            live[int(ffi.cast("uintptr_t", h))] = h
+            selfp[0] = h
+            info.n = inst.n
+            info.autonomous = 1 if inst.autonomous else 0
+            info.separable = 1 if inst.separable else 0
+            info.hess_kind = 0
+            info.bandwidth = 0
+            info.K = 0
+            return 0
+
+        @ffi.callback("void(void *, const dth_allocator *)", onerror=_onerror)
+        def destroy(selfp, alloc):
+            if selfp != ffi.NULL:
+                live.pop(int(ffi.cast("uintptr_t", selfp)), None)
+
+        def split(selfp, y):
+            inst = ffi.from_handle(selfp)
+            n = inst.n
+            yv = np.frombuffer(ffi.buffer(y, 8 * (2 * n + 1)), dtype=np.float64)
+            return inst, n, yv[:n], yv[n], yv[n + 1:]
+
+        @ffi.callback("int(const void *, const double *, unsigned, double *, double *, double *)",
+                      error=DTH_EMODEL, onerror=_onerror)
+        def eval_(selfp, y, what, H, grad, hess):
+            inst, n, q, t, p = split(selfp, y)
+            m = 2 * n + 1
+            try:
+                if what & 1:
+                    H[0] = float(inst.H(q, t, p))
+                if what & 2:
+                    g = np.ascontiguousarray(inst.grad(q, t, p), dtype=np.float64)
+                    if g.shape != (m,):
+                        raise ValueError("%s.grad returned shape %s, not (%d,)" % (mc.__name__, g.shape, m))
+                    ffi.memmove(grad, g, 8 * m)
+                if what & 4:
+                    h = np.ascontiguousarray(inst.hess(q, t, p), dtype=np.float64)
+                    if h.shape != (m, m):
+                        raise ValueError("%s.hess returned shape %s, not (%d, %d)" % (mc.__name__, h.shape, m, m))
+                    ffi.memmove(hess, h, 8 * m * m)
+            except OutsideDomain:
+                return 1
+            return 0
+
+        @ffi.callback("size_t(const void *)", error=0, onerror=_onerror)
+        def n_inv(selfp):
+            return ninv
+
+        @ffi.callback("const char *(const void *, size_t)", onerror=_onerror)
+        def inv_name(selfp, i):
+            return self.inames[i] if i < ninv else ffi.NULL
+
+        @ffi.callback("int(const void *, const double *, double *)", error=DTH_EMODEL, onerror=_onerror)
+        def inv(selfp, y, out):
+            inst, n, q, t, p = split(selfp, y)
+            try:
+                v = np.ascontiguousarray(inst.invariants(q, t, p), dtype=np.float64)
+            except OutsideDomain:
+                return 1
+            if v.shape != (ninv,):
+                raise ValueError("%s.invariants returned shape %s, not (%d,)" % (mc.__name__, v.shape, ninv))
+            ffi.memmove(out, v, 8 * ninv)
+            return 0
+
+        return {"create": create, "destroy": destroy, "eval": eval_, "n_inv": n_inv, "inv_name": inv_name,
+                "inv": inv}
+
+
+def _args_error(args, msg):
+    if args.err != ffi.NULL and args.errlen > 0:
+        b = msg.encode()[: args.errlen - 1] + b"\0"
+        ffi.memmove(args.err, b, len(b))
+    return -1  # DTH_EINVAL
+
+
+class CModel:
+    """A model type compiled in C: a shared object exporting a `const dth_model_type` table.
+
+        hh = dth.load_model("build/docs/examples/henon_heiles.so", "example_henon_heiles")
+        dth.run("docs/examples/henon-heiles.ini", models=[hh])
+    """
+
+    def __init__(self, path, symbol):
+        import ctypes
+        self.path, self.symbol = path, symbol
+        lib()  # libdth first, so the shared object's references to it resolve to this copy
+        self._so = ctypes.CDLL(path)
+        try:
+            addr = ctypes.addressof(ctypes.c_char.in_dll(self._so, symbol))
+        except ValueError:
+            raise DthError(-7, "%s: no symbol '%s'" % (path, symbol)) from None
+        self.table = ffi.cast("const dth_model_type *", addr)
+        self.name = ffi.string(self.table.name).decode()
+
+
+def load_model(path, symbol):
+    """Load a C model type (a `const dth_model_type` named `symbol`) from the shared object `path`."""
+    return CModel(path, symbol)
+
+
+def _table(m):
+    if isinstance(m, CModel):
+        return m.table
+    if isinstance(m, type) and issubclass(m, Model):
+        return _PyModelType.of(m).table
+    raise TypeError("dth: models are dth.Model subclasses or dth.load_model(...) results, not %r" % (m,))
+
+
+class _Registry:
+    def __init__(self, models=()):
+        L = lib()
+        rp = ffi.new("dth_registry **")
+        rc = L.dth_registry_new(ffi.NULL, rp)
+        if rc:
+            raise DthError(rc)
+        self.ptr = rp[0]
+        self.models = list(models)
+        rc = L.dth_registry_add_builtin(self.ptr)
+        for m in self.models:
+            if not rc:
+                rc = L.dth_registry_add_model(self.ptr, _table(m))
+        if rc:
+            self.close()
+            raise DthError(rc, "cannot register the models (a duplicate name?)")
+
+    def close(self):
+        if self.ptr is not None:
+            lib().dth_registry_free(self.ptr)
+            self.ptr = None
+
+    __del__ = close
+
+
+def models(models=()):
+    """The registered model types (built-in, plus `models`): a list of dicts with name, doc and
+    params [(key, default or None, doc)]."""
+    reg = _Registry(models)
+    L = lib()
+    out = []
+    try:
+        for i in range(L.dth_registry_model_count(reg.ptr)):
+            t = L.dth_registry_model_at(reg.ptr, i)
+            s = lambda c: None if c == ffi.NULL else ffi.string(c).decode()  # noqa: E731
+            ps = [(s(t.params[j].key), s(getattr(t.params[j], "def")), s(t.params[j].doc)) for j in range(t.n_params)]
+            out.append({"name": s(t.name), "doc": s(t.doc), "params": ps})
+    finally:
+        reg.close()
+    return out
+
+
+# ---------------------------------------------------------------- results
+
+class Events:
+    """Located events ([events] of the scene): arrays i, which (index into names), name,
+    direction (+1 / -1), k (the step), t, q (m, n), p, wp, H, E, z (m, 2n+2)."""
+
+    def __init__(self, n, rows, names):
+        self.names = list(names)
+        z = np.array([r[4] for r in rows], dtype=np.float64).reshape(len(rows), 2 * n + 2)
+        self.i = np.array([r[0] for r in rows], dtype=np.int64)
+        self.which = np.array([r[1] for r in rows], dtype=np.int64)
+        self.direction = np.array([r[2] for r in rows], dtype=np.int64)
+        self.k = np.array([r[3] for r in rows], dtype=np.int64)
+        self.E = np.array([r[5] for r in rows], dtype=np.float64)
+        self.name = [self.names[w] for w in self.which]
+        self.z = z
+        self.t, self.q, self.p, self.wp = z[:, n], z[:, :n], z[:, n + 1:2 * n + 1], z[:, -1]
+        self.H = self.wp + self.E
+
+    def __len__(self):
+        return len(self.t)
+
+
+class Result:
+    """What a run gives, as numpy arrays over its samples (rows as dth run writes them):
+    k, t, lam (the step), q (m, n), p (m, n), wp, H (= wp + H_phys), E (= H_phys, the energy),
+    z (m, 2n+2), kind (vertex, midpoint, time, end), invariants (m, ninv) with invariant_names
+    (and inv: a dict name -> column); iters, branch, ordinary (1: an ordinary DTH step, 0: a
+    regularizer's); with diagnostics: psi, dpsi, region (names).
+    events: an Events. status (0 or a positive status: the trajectory could not go on),
+    status_name, message, stop ("end", "event", "failed"), steps (vertex index at the end),
+    t_stop, crossings, regularized, max_ratio; megno, lyapunov, megno_span, megno_t_stop where
+    asked for.
+    """
+
+    def __repr__(self):
+        return "<dth.Result %d samples, t %.6g .. %.6g, stop %s, status %s>" % (
+            len(self.t), self.t[0] if len(self.t) else math.nan, self.t[-1] if len(self.t) else math.nan,
+            self.stop, self.status_name)
+
+
+class _Collect:
+    """The sample and event callbacks of one dth_run call: rows as Python lists."""
+
+    def __init__(self, rs, diagnostics):
+        self.rs = rs
+        self.model = rs.model
+        self.n = rs.n
+        self.N = 2 * rs.n + 2
+        self.diag = diagnostics
+        L = lib()
+        self.ninv = L.dth_model_n_invariants(self.model)
+        self.inv_names = [ffi.string(L.dth_model_invariant_name(self.model, i)).decode() for i in range(self.ninv)]
+        self.inv = ffi.new("double[]", max(self.ninv, 1))
+        self.work = ffi.new("double[]", max(L.dth_model_work_size(self.model), 1))
+        self.H = ffi.new("double *")
+        self.d = ffi.new("dth_diag *")
+        self.rows, self.evs = [], []
+
+    def energy(self, z):
+        rc = lib().dth_model_eval(self.model, z, 1, self.H, ffi.NULL, ffi.NULL)
+        return self.H[0] if rc == 0 else math.nan
+
+    def sample(self, s):
+        L, N = lib(), self.N
+        z = s.z
+        k = s.index if s.kind == 2 or (s.kind == 3 and self.rs.dt > 0) else s.k
+        lam = getattr(s.step, "lambda")
+        row = [k, s.kind, lam, ffi.unpack(z, N), self.energy(z), s.step.iters, int(s.step.branch), s.step.flags]
+        if self.ninv:
+            if L.dth_model_invariants(self.model, z, self.inv) == 0:
+                row.append(ffi.unpack(self.inv, self.ninv))
+            else:
+                row.append([math.nan] * self.ninv)
+        if self.diag:
+            # K and the root for the local K estimate as dth run's diagnostics take them
+            lam_root, K = 0.0, self.rs.opt.K
+            if s.kind == 0:
+                lam_root = s.lambda_out
+            elif s.za == ffi.NULL:
+                lam_root = -lam
+            elif s.kind != 1:
+                if L.dth_diagnose(self.model, s.za, lam, K, self.d, self.work) == 0:
+                    K = self.d.K
+                else:
+                    K = 0.0
+            if L.dth_diagnose(self.model, z, lam_root, K, self.d, self.work) == 0:
+                row.append((self.d.psi, self.d.dpsi, int(self.d.region)))
+            else:
+                row.append((math.nan, math.nan, 0))
+        self.rows.append(row)
+        return 0
+
+    def event(self, s):
+        self.evs.append((s.index, s.event, s.direction, s.k, ffi.unpack(s.z, self.N), self.energy(s.z)))
+        return 0
+
+    def result(self, names):
+        n, N, rows = self.n, self.N, self.rows
+        r = Result()
+        m = len(rows)
+        r.k = np.array([x[0] for x in rows], dtype=np.int64)
+        r.kind = [_KIND[x[1]] for x in rows]
+        r.lam = np.array([x[2] for x in rows], dtype=np.float64)
+        r.z = np.array([x[3] for x in rows], dtype=np.float64).reshape(m, N)
+        r.E = np.array([x[4] for x in rows], dtype=np.float64)
+        r.iters = np.array([x[5] for x in rows], dtype=np.int64)
+        r.branch_code = np.array([x[6] for x in rows], dtype=np.int64)
+        r.branch = [ffi.string(lib().dth_branch_name(b)).decode() for b in r.branch_code]
+        r.t, r.q, r.p, r.wp = r.z[:, n], r.z[:, :n], r.z[:, n + 1:2 * n + 1], r.z[:, N - 1]
+        r.H = r.wp + r.E
+        # 1: the step is an ordinary (symplectic) DTH step, 0: a regularizer's (dth run's column ordinary)
+        r.ordinary = np.array([0 if x[7] & 1 else 1 for x in rows], dtype=np.int64)
+        r.invariant_names = list(self.inv_names)
+        c = 8
+        if self.ninv:
+            r.invariants = np.array([x[c] for x in rows], dtype=np.float64).reshape(m, self.ninv)
+            c += 1
+        else:
+            r.invariants = np.zeros((m, 0))
+        r.inv = {nm: r.invariants[:, i] for i, nm in enumerate(self.inv_names)}
+        if self.diag:
+            r.psi = np.array([x[c][0] for x in rows], dtype=np.float64)
+            r.dpsi = np.array([x[c][1] for x in rows], dtype=np.float64)
+            r.region = [ffi.string(lib().dth_region_name(x[c][2])).decode() for x in rows]
+        r.events = Events(n, self.evs, names)
+        return r
+
+
+# ---------------------------------------------------------------- runs
+
+class _Megno:
+    """dth_megno (chaos.h) over the legs of a run."""
+
+    def __init__(self, it, delta0):
+        L = lib()
+        self.it = it
+        gp = ffi.new("dth_megno **")
+        d = ffi.NULL if delta0 is None else ffi.new("double[]", [float(x) for x in delta0])
+        rc = L.dth_megno_new(it, d, ffi.NULL, gp)
+        if rc:
+            raise DthError(rc, "cannot follow a deviation vector (delta0 of 2n+2 values, not all zero)")
+        self.g = gp[0]
+
+    def update(self):
+        rc = lib().dth_megno_update(self.g, self.it)
+        if rc:
+            raise DthError(rc, "MEGNO: %s" % strerror(rc))
+
+    def result(self):
+        r = ffi.new("dth_megno_result *")
+        lib().dth_megno_get(self.g, r)
+        return r.megno, r.lyapunov, r.span, r.t_stop
+
+    def close(self):
+        if self.g is not None:
+            lib().dth_megno_free(self.g)
+            self.g = None
+
+    __del__ = close
+
+
+_POINTS = {"vertices": 0, "midpoints": 1, "times": 2}
+
+
+class Simulation:
+    """One trajectory of a scene, run in legs: each run() continues where the last one ended
+    (the library's run driver keeps its whole state in a dth_run_state), checkpoint() saves it,
+    Simulation.resume() continues from a checkpoint bit for bit.
+
+        sim = dth.Simulation("scenes/pendulum.ini")
+        a = sim.run(t_end=10)
+        blob = sim.checkpoint()            # bytes (or a file: sim.checkpoint("p.ckpt"))
+        b = sim.run(t_end=20)
+        c = dth.Simulation.resume(blob).run(t_end=20)    # c's samples are b's, bit for bit
+    """
+
+    def __init__(self, scene, set=None, models=(), check_model=True, _restore=None):
+        L = lib()
+        self.scene = Scene(scene, set)
+        self._reg = _Registry(models)
+        self._rs = ffi.new("dth_run_setup *")
+        self._it = ffi.NULL
+        self._fx = ffi.NULL
+        self._megno = None
+        self._st = ffi.new("dth_run_state *")
+        err = ffi.new("char[]", _ERRLEN)
+        s = self.scene._load()
+        try:
+            rc = L.dth_scene_setup(s, self._reg.ptr, self._rs, err, _ERRLEN)
+            _raise_pending()
+            if rc:
+                raise DthError(rc, _err(err))
+            self._text = _scene_text(s, bool(self._rs.has_t_end))
+        finally:
+            L.dth_scene_free(s)
+        rs = self._rs
+        self.n = rs.n
+        self.method = ffi.string(rs.method).decode()
+        self.event_names = [ffi.string(rs.event_names[i]).decode() for i in range(rs.nevents)]
+        self.model_name = ffi.string(L.dth_model_get_type(rs.model).name).decode()
+        if check_model and _restore is None and rs.n <= 200:
+            y = ffi.new("double[]", 2 * rs.n + 1)
+            ffi.memmove(y, rs.q0, 8 * rs.n)
+            y[rs.n] = rs.t0
+            ffi.memmove(y + rs.n + 1, rs.p0, 8 * rs.n)
+            rep = ffi.new("dth_model_check_report *")
+            rc = L.dth_model_check(rs.model, y, rep)
+            _raise_pending()
+            if rc == 0 and not getattr(rep, "pass"):
+                self.close()
+                raise DthError(-1, "%s: model '%s' fails its derivative check at the initial state: %s "
+                               "(check_model=False runs it anyway)" % (self.scene.name, self.model_name,
+                                                                      ffi.string(rep.message).decode()))
+        if self.method == "dth":
+            ip = ffi.new("dth_integrator **")
+            rc = L.dth_integrator_new(rs.model, ffi.addressof(rs, "opt"), ip)
+            if rc:
+                self.close()
+                raise DthError(rc, "cannot create the integrator")
+            self._it = ip[0]
+            if _restore is not None:
+                buf, st = _restore
+                rc = L.dth_checkpoint_restore(self._it, buf, len(buf), err, _ERRLEN)
+                _raise_pending()
+                if rc:
+                    self.close()
+                    raise DthError(rc, _err(err))
+                ffi.memmove(self._st, st, ffi.sizeof("dth_run_state"))
+            else:
+                rc = L.dth_integrator_start(self._it, rs.q0, rs.p0, rs.t0)
+                _raise_pending()
+                if rc:
+                    msg = ffi.string(L.dth_integrator_errmsg(self._it)).decode()
+                    self.close()
+                    raise DthError(rc, "%s: cannot start at the initial state: %s (%s)" % (
+                        self.scene.name, strerror(rc), msg))
+        else:
+            if _restore is not None:
+                raise DthError(-8, "checkpoints hold DTH runs only")
+            why = ffi.new("char[]", 256)
+            rc = L.dth_fixed_check(rs.model, rs.method, why, 256)
+            if rc:
+                self.close()
+                raise DthError(rc, "method '%s': %s" % (self.method, _err(why)))
+            fp = ffi.new("dth_fixed **")
+            rc = L.dth_fixed_new(rs.model, rs.method, rs.opt.h, ffi.NULL, fp)
+            if not rc:
+                self._fx = fp[0]
+                rc = L.dth_fixed_start(self._fx, rs.q0, rs.p0, rs.t0)
+            _raise_pending()
+            if rc:
+                self.close()
+                raise DthError(rc, "%s: cannot start at the initial state: %s" % (self.scene.name, strerror(rc)))
+
+    def close(self):
+        """Free the C objects (also done when the object is collected)."""
+        L = lib()
+        if getattr(self, "_megno", None) is not None:
+            self._megno.close()
+            self._megno = None
+        if getattr(self, "_it", ffi.NULL) != ffi.NULL:
+            L.dth_integrator_free(self._it)
+            self._it = ffi.NULL
+        if getattr(self, "_fx", ffi.NULL) != ffi.NULL:
+            L.dth_fixed_free(self._fx)
+            self._fx = ffi.NULL
+        if getattr(self, "_rs", None) is not None:
+            L.dth_run_setup_clear(self._rs)
+            self._rs = None
+        if getattr(self, "_reg", None) is not None:
+            self._reg.close()
+
+    __del__ = close
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *a):
+        self.close()
+
+    @property
+    def vertex(self):
+        """The current vertex z_k (q, t, p, wp) as a numpy array (DTH), or the state (q, t, p, wp)."""
+        N = 2 * self.n + 2
+        if self._it != ffi.NULL:
+            return np.array(ffi.unpack(lib().dth_integrator_vertex(self._it), N))
+        y = ffi.unpack(lib().dth_fixed_state(self._fx), N - 1)
+        return np.array(y + [self._st.wp_fixed])
+
+    @property
+    def steps(self):
+        """Vertex index k (steps from the start)."""
+        return self._st.k
+
+    def run(self, t_end=None, steps=None, points=None, every=None, dt=None, times=None, diagnostics=None,
+            megno=False, progress=None):
+        """Integrate to t_end (or to the vertex index `steps`) from where the last call ended, with the
+        scene's output settings unless given: points ("vertices", "midpoints", "times" with dt or
+        times), every, diagnostics. megno=True (or an initial deviation vector of 2n+2 values) also
+        follows a deviation vector through the tangent maps (chaos.h: r.megno, r.lyapunov over
+        r.megno_span; they end at the first regularized step, r.megno_t_stop; DTH only); the
+        indicator continues over consecutive legs that all ask for it. progress: a callable(state)
+        called every step, returning True to stop. Returns a Result holding this leg's samples
+        and events."""
+        L = lib()
+        rs = self._rs
+        if rs is None:
+            raise DthError(-1, "the simulation is closed")
+        cfg = ffi.new("dth_run_config *")
+        L.dth_run_config_default(cfg)
+        cfg.has_t_end, cfg.t_end, cfg.steps = rs.has_t_end, rs.t_end, rs.steps
+        if t_end is not None and steps is not None:
+            raise ValueError("dth: give t_end or steps, not both")
+        if t_end is not None:
+            cfg.has_t_end, cfg.t_end = 1, float(t_end)
+        if steps is not None:
+            cfg.has_t_end, cfg.steps = 0, int(steps)
+        cfg.t0 = rs.t0
+        cfg.points, cfg.every, cfg.dt = rs.points, rs.every, rs.dt
+        if dt is not None:
+            cfg.points, cfg.dt = 2, float(dt)
+        tbuf = None
+        if times is not None:
+            tbuf = ffi.new("double[]", [float(x) for x in times])
+            cfg.points, cfg.times, cfg.ntimes = 2, tbuf, len(tbuf)
+        if points is not None:
+            if points not in _POINTS:
+                raise ValueError("dth: points is one of %s" % ", ".join(_POINTS))
+            cfg.points = _POINTS[points]
+        if every is not None:
+            cfg.every = int(every)
+        cfg.events, cfg.nevents = rs.events, rs.nevents
+        col = _Collect(rs, bool(rs.diagnostics) if diagnostics is None else bool(diagnostics))
+
+        @ffi.callback("int(void *, const dth_sample *)", error=-1, onerror=_onerror)
+        def on_sample(user, s):
+            return col.sample(s)
+
+        @ffi.callback("int(void *, const dth_sample *)", error=-1, onerror=_onerror)
+        def on_event(user, s):
+            return col.event(s)
+
+        cfg.sample, cfg.on_event = on_sample, on_event
+        meg = None
+        if megno is not False and megno is not None:
+            if self._it == ffi.NULL:
+                raise DthError(-8, "MEGNO needs the DTH tangent map (method = dth)")
+            if self._megno is None or megno is not True:  # start (or restart with a given vector)
+                if self._megno is not None:
+                    self._megno.close()
+                self._megno = _Megno(self._it, None if megno is True else megno)
+            meg = self._megno
+        elif self._megno is not None:  # a leg without it: the indicator cannot continue
+            self._megno.close()
+            self._megno = None
+        if meg is not None or progress is not None:
+            @ffi.callback("int(void *, const dth_run_state *)", error=-1, onerror=_onerror)
+            def on_progress(user, st):
+                if meg is not None:
+                    meg.update()
+                if progress is not None and progress(st):
+                    return 10  # DTH_ESTOPPED
+                return 0
+            cfg.progress, cfg.progress_every = on_progress, 1
+        st = self._st
+        if self._it != ffi.NULL:
+            rc = L.dth_run(self._it, cfg, st)
+        else:
+            rc = L.dth_run_fixed(self._fx, cfg, st)
+        _raise_pending()
+        if meg is not None:
+            meg.update()  # the last step (no progress call follows it)
+        if rc < 0:
+            raise DthError(rc, "%s at k=%d, t=%.17g" % (strerror(rc), st.k, st.t))
+        r = col.result(self.event_names)
+        r.status = rc
+        r.status_name = status_name(rc)
+        msg = ""
+        if rc > 0:
+            msg = ffi.string(L.dth_integrator_errmsg(self._it) if self._it != ffi.NULL
+                             else L.dth_fixed_errmsg(self._fx)).decode()
+        r.message = msg
+        r.stop = _STOP.get(st.stop, str(st.stop))
+        r.steps, r.t_stop = st.k, st.t_stop
+        r.crossings, r.regularized, r.max_ratio = st.crossings, st.regularized, st.max_ratio
+        if meg is not None:
+            r.megno, r.lyapunov, r.megno_span, r.megno_t_stop = meg.result()
+            meg.close()
+        return r
+
+    # ---- checkpoints (checkpoint.h: the public save/restore API only)
+
+    def checkpoint(self, path=None):
+        """The integrator's checkpoint (dth_checkpoint_save) with two blobs: "scene" (the scene as
+        INI text, as dth run stores it) and "python" (the run driver's state and the package's
+        format version). Returns the bytes; with `path`, also writes them crash-safely."""
+        L = lib()
+        if self._it == ffi.NULL:
+            raise DthError(-8, "checkpoints hold DTH runs only")
+        scene = self._text.encode()
+        meta = json.dumps({"version": 1, "scene_name": self.scene.name}).encode()
+        st = bytes(ffi.buffer(self._st))
+        b = ffi.new("dth_blob[3]")
+        keep = [ffi.new("char[]", x) for x in (b"scene", b"python", b"python-run-state")]
+        datas = [ffi.from_buffer(x) if x else ffi.NULL for x in (scene, meta, st)]
+        for i, (nm, d, x) in enumerate(zip(keep, datas, (scene, meta, st))):
+            b[i].name, b[i].data, b[i].size = nm, d, len(x)
+        ln = ffi.new("size_t *")
+        rc = L.dth_checkpoint_save(self._it, b, 3, ffi.NULL, 0, ln)
+        buf = ffi.new("char[]", ln[0])
+        rc = L.dth_checkpoint_save(self._it, b, 3, buf, ln[0], ln)
+        if rc:
+            raise DthError(rc, "cannot save the checkpoint")
+        data = bytes(ffi.buffer(buf, ln[0]))
+        if path is not None:
+            import os
+            tmp = "%s.tmp" % path
+            with open(tmp, "wb") as f:
+                f.write(data)
+                f.flush()
+                os.fsync(f.fileno())
+            os.replace(tmp, path)
+        return data
+
+    @classmethod
+    def resume(cls, source, models=(), set=None):
+        """A Simulation continued from a checkpoint (bytes, or a file written by checkpoint()).
+        User models must be given again (the checkpoint names its model type). `set` overrides
+        scene keys that do not change the trajectory's state (e.g. output.every)."""
+        L = lib()
+        data = source if isinstance(source, (bytes, bytearray)) else open(source, "rb").read()
+        err = ffi.new("char[]", _ERRLEN)
+        rc = L.dth_checkpoint_verify(data, len(data), err, _ERRLEN)
+        if rc:
+            raise DthError(rc, _err(err))
+        p, sz = ffi.new("void **"), ffi.new("size_t *")
+
+        def blob(name):
+            rc = L.dth_checkpoint_blob(data, len(data), name.encode(), p, sz)
+            if rc:
+                raise DthError(rc, "the checkpoint has no '%s' blob (not written by dth.Simulation?)" % name)
+            return bytes(ffi.buffer(p[0], sz[0])) if sz[0] else b""
+
+        text = blob("scene").decode()
+        meta = json.loads(blob("python").decode())
+        st = blob("python-run-state")
+        if meta.get("version") != 1 or len(st) != ffi.sizeof("dth_run_state"):
+            raise DthError(-6, "the checkpoint's run state is of another version of the package")
+        sc = Scene(text, set)
+        sc.name = meta.get("scene_name", "<checkpoint>")
+        return cls(sc, models=models, _restore=(data, st))
+
+
+def run(scene, set=None, models=(), check_model=True, **kw):
+    """Run a scene (a path, INI text, a dict or a Scene) from its start through the library's
+    driver dth_run and return a Result. `set`: overrides {"section.key": value}; `models`: user
+    model types (dth.Model subclasses, dth.load_model results). Keywords of Simulation.run:
+    t_end, steps, points, every, dt, times, diagnostics, megno, progress."""
+    with Simulation(scene, set=set, models=models, check_model=check_model) as sim:
+        return sim.run(**kw)
+
+
+# ---------------------------------------------------------------- roots
+
+class Roots:
+    """Every real root of the step constraint at a vertex, classified (dth_find_roots): arrays
+    lam, s, residual, slope, flags; cls (names: minus, plus, ghost, double, zero); the vertex's
+    H, psi, dpsi, K, region; the range scanned lo, hi; truncated."""
+
+    def __repr__(self):
+        return "<dth.Roots %d roots at region %s: %s>" % (
+            len(self.lam), self.region, ", ".join("%s %.6g" % (c, x) for c, x in zip(self.cls, self.lam)))
+
+
+def roots(scene, set=None, models=(), L=None, z=None):
+    """Classify the roots of the step at the scene's initial state taken as a vertex (as dth roots
+    does: wp = -H_phys + psi h^2/8), or at the extended vertex z (2n+2 values), in [-L, L]
+    (default 16 |h|)."""
+    lb = lib()
+    sc = Scene(scene, set)
+    with Simulation(sc.set("integrator.start", "vertex"), models=models, check_model=False) as sim:
+        rs = sim._rs
+        if z is None:
+            zz = ffi.new("double[]", ffi.unpack(lb.dth_integrator_vertex(sim._it), 2 * rs.n + 2))
+        else:
+            zz = ffi.new("double[]", [float(x) for x in z])
+            if len(zz) != 2 * rs.n + 2:
+                raise ValueError("dth: z has %d values, not 2n+2 = %d" % (len(zz), 2 * rs.n + 2))
+        ro = ffi.new("dth_root_options *")
+        lb.dth_root_options_default(ro)
+        ro.K = rs.opt.K
+        rfp = ffi.new("dth_rootfinder **")
+        rc = lb.dth_rootfinder_new(rs.model, ro, ffi.NULL, rfp)
+        if rc:
+            raise DthError(rc)
+        out = ffi.new("dth_root_set *")
+        try:
+            rc = lb.dth_find_roots(rfp[0], zz, float(L) if L else 16 * abs(rs.opt.h), out)
+            _raise_pending()
+        finally:
+            lb.dth_rootfinder_free(rfp[0])
+        if rc:
+            raise DthError(rc, "root search failed at the vertex: %s" % strerror(rc))
+        r = Roots()
+        c = out.count
+        rt = [out.root[i] for i in range(c)]
+        r.lam = np.array([getattr(x, "lambda") for x in rt])
+        r.s = np.array([x.s for x in rt])
+        r.residual = np.array([x.residual for x in rt])
+        r.slope = np.array([x.slope for x in rt])
+        r.flags = np.array([x.flags for x in rt], dtype=np.int64)
+        r.cls = [ffi.string(lb.dth_root_class_name(ffi.addressof(out.root[i]))).decode() for i in range(c)]
+        v = out.vertex
+        r.H, r.psi, r.dpsi, r.K = v.H, v.psi, v.dpsi, v.K
+        r.region = ffi.string(lb.dth_region_name(v.region)).decode()
+        r.lo, r.hi, r.truncated = out.lo, out.hi, bool(out.truncated)
+        r.z = np.array(ffi.unpack(zz, 2 * rs.n + 2))
+        return r
+
+
+# ---------------------------------------------------------------- map
+
+class Map:
+    """A phase-plane well-posedness map (as dth map writes it): arrays over the grid (nq, np) of
+    psi, dpsi, region (names; "" where the root search failed), nroots, lambda_minus, lambda_plus,
+    lambda_ghost (NaN: no such root), status; and the axes q, p."""
+
+    def __repr__(self):
+        return "<dth.Map %d x %d>" % self.psi.shape
+
+
+def map(scene, q, p, set=None, models=(), dof=1, L=None):  # noqa: A001  (the CLI's name)
+    """psi, [psi, H], the region and the classified roots at every point (q_i, p_i) of a grid taken as
+    a vertex, the other degrees of freedom at the scene's initial values (dth map, cli/cmd_map.c):
+    q = (a, b, n) and p = (c, d, m) are the axes, dof the degree of freedom mapped (1-based). Each
+    point's offset is a vertex start's, wp = -H_phys + psi h^2/8. Roots in [-L, L], default 16 |h|."""
+    lb = lib()
+    with Simulation(scene, set=set, models=models, check_model=False) as sim:
+        rs = sim._rs
+        n = rs.n
+        if not 1 <= dof <= n:
+            raise ValueError("dth: dof %d: the model has %d degrees of freedom" % (dof, n))
+        axis = lambda a, b, k: np.array([a] if k == 1 else  # noqa: E731  (symmetric in a and b, as dth map)
+                                        [((k - 1 - i) * a + i * b) / (k - 1) for i in range(k)], dtype=np.float64)
+        qs, ps = axis(float(q[0]), float(q[1]), int(q[2])), axis(float(p[0]), float(p[1]), int(p[2]))
+        h = rs.opt.h
+        LL = float(L) if L else 16 * abs(h)
+        ro = ffi.new("dth_root_options *")
+        lb.dth_root_options_default(ro)
+        ro.K = rs.opt.K
+        rfp = ffi.new("dth_rootfinder **")
+        rc = lb.dth_rootfinder_new(rs.model, ro, ffi.NULL, rfp)
+        if rc:
+            raise DthError(rc)
+        z = ffi.new("double[]", 2 * n + 2)
+        work = ffi.new("double[]", lb.dth_model_work_size(rs.model) + 1)
+        H, psi, dpsi = ffi.new("double *"), ffi.new("double *"), ffi.new("double *")
+        out = ffi.new("dth_root_set *")
+        shape = (len(qs), len(ps))
+        m = Map()
+        m.q, m.p = qs, ps
+        m.psi, m.dpsi = np.full(shape, np.nan), np.full(shape, np.nan)
+        m.lambda_minus, m.lambda_plus, m.lambda_ghost = (np.full(shape, np.nan) for _ in range(3))
+        m.nroots = np.zeros(shape, dtype=np.int64)
+        m.status = np.zeros(shape, dtype=np.int64)
+        m.region = [["" for _ in ps] for _ in qs]
+        try:
+            for i, qv in enumerate(qs):
+                for j, pv in enumerate(ps):
+                    ffi.memmove(z, rs.q0, 8 * n)
+                    z[n] = rs.t0
+                    ffi.memmove(z + n + 1, rs.p0, 8 * n)
+                    z[dof - 1], z[n + dof] = qv, pv
+                    psi[0] = dpsi[0] = math.nan
+                    rc = lb.dth_model_eval(rs.model, z, 1, H, ffi.NULL, ffi.NULL)
+                    if not rc:
+                        rc = lb.dth_model_psi(rs.model, z, psi, dpsi, work)
+                    m.psi[i, j], m.dpsi[i, j] = psi[0], dpsi[0]
+                    if not rc:
+                        z[2 * n + 1] = -H[0] + psi[0] * h * h / 8
+                        rc = lb.dth_find_roots(rfp[0], z, LL, out)
+                    _raise_pending()
+                    m.status[i, j] = rc
+                    if rc:
+                        continue
+                    v = out.vertex
+                    m.psi[i, j], m.dpsi[i, j] = v.psi, v.dpsi
+                    m.region[i][j] = ffi.string(lb.dth_region_name(v.region)).decode()
+                    m.nroots[i, j] = out.count
+                    for k in range(out.count):
+                        r = out.root[k]
+                        lam = getattr(r, "lambda")
+                        if r.cls == 1:
+                            m.lambda_minus[i, j] = lam
+                        elif r.cls == 2:
+                            m.lambda_plus[i, j] = lam
+                        elif r.cls == 3 and not abs(lam) >= abs(m.lambda_ghost[i, j]):
+                            m.lambda_ghost[i, j] = lam
+        finally:
+            lb.dth_rootfinder_free(rfp[0])
+        return m
