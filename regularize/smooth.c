@@ -42,7 +42,7 @@ typedef struct smooth {
 } smooth;
 
 static const dth_param_spec params[] = {
-    {"invariant", "", "the step law's constant K in l^6 (psi^4 + (psi' l)^4)^(1/2) = K (> 0); default: the first step's, so the law continues the ordinary steps"},
+    {"invariant", "", "the step law's constant K in l^6 (psi^4 + (psi' l)^4)^(1/2) = K (> 0); default: from the first step offered (the second of a midpoint start), so the law continues the ordinary steps"},
     {"inner", "1", "law steps where |psi/psi'| <= inner law steps from the crossing, at the midpoint (> 0)"},
     {"outer", "3.2", "ordinary DTH steps where |psi/psi'| >= outer law steps from the crossing, at both vertices (> inner)"},
 };

@@ -296,6 +296,108 @@ static void test_region_two_fold(void)
     dth_model_free(m);
 }
 
+/* The step law, computed independently of regularize/smooth.c: the root l of
+ * l^6 sqrt(psi^4 + (psi' l)^4) = K, by bisection on log l. */
+static double law_step(double K, double psi, double dpsi)
+{
+    double lo = -60, hi = 20;
+    for (int k = 0; k < 200; k++) {
+        double mid = 0.5 * (lo + hi), l = exp(mid);
+        double f = pow(l, 6) * sqrt(pow(psi, 4) + pow(dpsi * l, 4)) - K;
+        if (f > 0) hi = mid;
+        else lo = mid;
+    }
+    return exp(0.5 * (lo + hi));
+}
+
+/*
+ * The options do what `dth regularizers` says: where the midpoint is within `inner` law steps of the
+ * crossing (x = |psi/psi'| / l <= inner) and the step starts there too, the step is the law's,
+ * l^6 psi_e^2 = K, with K from the first step it is offered (the second step of a midpoint start: the
+ * exact first step bypasses the hook; its midpoint taken as the vertices' average) or `invariant`;
+ * a wider `outer` widens the bands.
+ */
+static void test_options(void)
+{
+    dth_model *m = model(&dth_model_pendulum, 1);
+    double q0 = 0, p0 = 2.2, h = 0.05, work[64];
+    CU_ASSERT_FATAL(dth_model_work_size(m) <= 64);
+    /* K0 about that of the first step (midpoint (q0, p0), step h): the scale of `invariant` below */
+    double y0[4] = {q0, 0, p0, -(0.5 * p0 * p0 - 1)}, psi0, dpsi0;
+    CU_ASSERT_FATAL(dth_model_psi(m, y0, &psi0, &dpsi0, work) == DTH_OK);
+    double K0 = pow(h, 6) * sqrt(pow(psi0, 4) + pow(dpsi0 * h, 4));
+    char kbuf[64];
+    snprintf(kbuf, sizeof kbuf, "%.17g", 64 * K0);
+    struct {
+        dth_kv kv[2];
+        size_t n;
+        double K;
+    } cfg[] = {{{{"outer", "3.2"}}, 1, K0}, {{{"invariant", kbuf}}, 1, 64 * K0}};
+    double mean_law[2] = {0, 0};
+    for (int c = 0; c < 2; c++) {
+        char err[256];
+        dth_regularizer *r = NULL;
+        CU_ASSERT_FATAL(dth_regularizer_new(&dth_reg_smooth, cfg[c].kv, cfg[c].n, m, NULL, &r, err, sizeof err) == DTH_OK);
+        dth_integrator *it = start(m, r, h, &q0, &p0);
+        double zprev[4], worst = 0, sum = 0, K = cfg[c].K;
+        long nlaw = 0, k = 0;
+        memcpy(zprev, dth_integrator_vertex(it), sizeof zprev);
+        while (dth_integrator_vertex(it)[1] < 40) {
+            dth_step_info inf;
+            CU_ASSERT_FATAL(dth_integrator_step(it, &inf) == DTH_OK);
+            if (++k == 2 && cfg[c].n && !strcmp(cfg[c].kv[0].key, "outer")) {
+                /* the default K: from the second step, at the average of its vertices */
+                double ym[4], ps, dps;
+                for (int j = 0; j < 4; j++) ym[j] = 0.5 * (zprev[j] + dth_integrator_vertex(it)[j]);
+                CU_ASSERT_FATAL(dth_model_psi(m, ym, &ps, &dps, work) == DTH_OK);
+                K = pow(inf.lambda, 6) * sqrt(pow(ps, 4) + pow(dps * inf.lambda, 4));
+            }
+            const double *zb = dth_integrator_midpoint(it);
+            double psi, dpsi, pa, da;
+            CU_ASSERT_FATAL(dth_model_psi(m, zb, &psi, &dpsi, work) == DTH_OK);
+            CU_ASSERT_FATAL(dth_model_psi(m, zprev, &pa, &da, work) == DTH_OK);
+            double l = law_step(K, psi, dpsi), la = law_step(K, pa, da);
+            if ((inf.flags & DTH_STEP_REGULARIZED) && fabs(psi / dpsi) <= 0.99 * l && fabs(pa / da) <= 0.99 * la) {
+                worst = fmax(worst, fabs(inf.lambda - l) / l);
+                sum += l;
+                nlaw++;
+            }
+            memcpy(zprev, dth_integrator_vertex(it), sizeof zprev);
+        }
+        CU_ASSERT(nlaw >= 10);
+        CU_ASSERT(worst <= 1e-9);
+        mean_law[c] = sum / (double)nlaw;
+        printf("\n    K = %s: %ld law steps, |lambda - l| / l <= %.1e", c ? "64 K0" : "K0", nlaw, worst);
+        dth_integrator_free(it);
+        dth_regularizer_free(r);
+    }
+    /* K^(1/6): 64 K0 gives law steps about twice as long */
+    CU_ASSERT(mean_law[1] / mean_law[0] > 1.6 && mean_law[1] / mean_law[0] < 2.5);
+    /* outer: the bands' share of the steps grows with it */
+    double share[2];
+    const char *outer[2] = {"3.2", "5"};
+    for (int c = 0; c < 2; c++) {
+        char err[256];
+        dth_kv kv = {"outer", outer[c]};
+        dth_regularizer *r = NULL;
+        CU_ASSERT_FATAL(dth_regularizer_new(&dth_reg_smooth, &kv, 1, m, NULL, &r, err, sizeof err) == DTH_OK);
+        dth_integrator *it = start(m, r, h, &q0, &p0);
+        long steps = 0, reg = 0;
+        while (dth_integrator_vertex(it)[1] < 40) {
+            dth_step_info inf;
+            CU_ASSERT_FATAL(dth_integrator_step(it, &inf) == DTH_OK);
+            steps++;
+            reg += (inf.flags & DTH_STEP_REGULARIZED) != 0;
+        }
+        share[c] = (double)reg / (double)steps;
+        dth_integrator_free(it);
+        dth_regularizer_free(r);
+    }
+    printf("\n    outer = 3.2: %.3f of the steps in bands, outer = 5: %.3f", share[0], share[1]);
+    CU_ASSERT(share[1] > 1.3 * share[0]);
+    dth_model_free(m);
+}
+
 /* Parameters: each bad value is refused with a message naming the key. */
 static void test_params(void)
 {
@@ -332,6 +434,7 @@ static CU_TestInfo tests[] = {
     {"branch_check = 0: no ghost root taken", test_branch_check_off},
     {"Kepler e = 0.9: crossings, L exact", test_kepler},
     {"region II fold (psi > 0): a stretched 3-D ring", test_region_two_fold},
+    {"options: the law in the core, invariant, outer", test_options},
     {"parameters", test_params},
     CU_TEST_INFO_NULL,
 };
