@@ -54,7 +54,9 @@ typedef struct dth__newton_track {
 } dth__newton_track;
 /** A Newton problem. */
 typedef struct dth__newton_ops {
-    /** Residual F at x; with jac != 0 also assemble and factor the Jacobian there. */
+    /** Residual F at x; with jac != 0 also assemble and factor the Jacobian there. jac == 0 is
+     *  the chord step's residual, which may be a finishing form of the equations (the DTH step's
+     *  compensated constraint). */
     int (*eval)(void *ctx, const double *x, double *F, int jac);
     /** b = J^-1 b in place, with the factors of the last eval(jac = 1). */
     int (*solve)(void *ctx, double *b);
@@ -63,11 +65,14 @@ typedef struct dth__newton_ops {
      *  return ends the solve with that status. */
     int (*judge)(void *ctx, const double *x, const double *dx, const double *F, dth__newton_track *tr, int *verdict);
 } dth__newton_ops;
+/** After chord step number `chords` (dx: its correction): nonzero asks for one more (newton.h). */
+typedef int (*dth__newton_again)(void *ctx, const double *x, const double *dx, int chords);
 /** Verdict from the relative correction r: DONE (r <= tol), CHORD (the quadratic rate predicts
  *  the next correction below eps), STALLED (r >= r_prev / 2), DIVERGED (not finite) or MORE. */
 int dth__newton_rate(double r, double r_prev, int iter, double tol);
 /** Iterate from x (m unknowns) until the judge says done (then DTH_OK), a callback fails (its
- *  status) or max_iter passes (DTH_ENOCONV). F and dx are m doubles of workspace. */
+ *  status) or max_iter passes (DTH_ENOCONV); a CHORD verdict finishes with one chord step. F and dx
+ *  are m doubles of workspace. (newton.h: the loop itself, with an optional `again` test.) */
 int dth__newton_run(const dth__newton_ops *ops, void *ctx, int m, int max_iter, double *x, double *F,
                     double *dx, dth__newton_track *tr);
 
