@@ -16,6 +16,20 @@ unsigned long long dth__model_quad_mask(const dth_model *m);
 int dth__model_accepts_key(const dth_model_type *t, const char *key);
 /** u = J grad H over y = (q, t, p): (dH/dp, 1, -dH/dq). */
 void dth__flow_y(size_t n, const double *grad, double *u);
+/**
+ * The one index map of J H_zz: d u_j / d z_l over z = (q, t, p, wp), u = J grad H, from the Hessian of
+ * H_phys over y = (q, t, p) (d x d row-major, d = 2n + 1): q rows read H's p rows, p rows minus H's q
+ * rows, the wp row minus H's t row; the t row and the wp column are zero.
+ */
+static inline double dth__dudz(size_t n, const double *hess, size_t j, size_t l)
+{
+    size_t d = 2 * n + 1;
+    if (l >= d) return 0;
+    if (j < n) return hess[(n + 1 + j) * d + l];
+    if (j >= n + 1 && j < d) return -hess[(j - n - 1) * d + l];
+    if (j == d) return -hess[n * d + l];
+    return 0;
+}
 struct dth_regularizer;
 /** Bytes of state a regularizer instance carries (0: stateless or NULL). */
 size_t dth__reg_state_size(const struct dth_regularizer *r);
@@ -102,6 +116,8 @@ void dth__band_free(dth__band *b, const dth_allocator *al);
 /** Assemble and factor the step Jacobian at midpoint zb (gradient `grad` over y there) and lam.
  *  @return DTH_OK, DTH_ESINGULAR, DTH_ELAPACK, or the model's status. */
 int dth__band_factor(dth__band *b, const dth_model *m, const double *zb, const double *grad, double lam);
+/** Tests: on != 0 makes the Schur complement's Cholesky always LAPACK's dpbtrf (never written out). */
+void dth__band_lapack_only(dth__band *b, int on);
 /** How the last factorization solved B: 1 Schur complement by Cholesky, 2 by LU, 3 banded LU of B. */
 int dth__band_mode(const dth__band *b);
 /** Solve the factored system in place; x (length 2n+1) is in the integrator's unknown order

@@ -96,7 +96,8 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     size_t nd = 0;
     /* one block of doubles, carved below */
     size_t sizes[] = {N, N, N, N, N, N, N, N, N, N, d, (size_t)dense * d * d, N, d, (size_t)dense * m * m, m, m, m,
-                      dth_model_work_size(model), (size_t)dense * m * N, 2 * d, N};
+                      dth_model_work_size(model), (size_t)dense * m * N,
+                      dth_model_get_type(model)->hdiff ? 0 : 2 * d, N}; /* hwork: dth__model_hdiff's rule only */
     for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) nd += sizes[i];
     it->block = dth_calloc(al, nd, sizeof(double));
     it->piv = dth_calloc(al, 2 * m, sizeof(int));
@@ -109,7 +110,7 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
                         &it->zb, &it->grad, &it->hess, &it->u, &it->ybar, &it->A, &it->F, &it->x, &it->dx,
                         &it->work, &it->B, &it->hwork, &it->zblo};
     for (size_t i = 0; i < sizeof slots / sizeof slots[0]; i++) {
-        *slots[i] = p;
+        *slots[i] = sizes[i] ? p : NULL;
         p += sizes[i];
     }
     if (!dense) {
@@ -386,18 +387,6 @@ AI void midpoint_n(const dth_integrator *it, const size_t nc, const double *x, d
     for (int a = 0; a < m - 1; a++) zb[a] = it->z[a] + (it->zlo[a] + x[a]);
 }
 
-/* d u_j / d z_l over the Hessian of H_phys (rows of J H_zz; the wp column is zero). */
-static double dudz(const dth_integrator *it, size_t j, size_t l)
-{
-    size_t n = it->n, d = it->d, N = it->N;
-    const double *Hy = it->hess;
-    if (l >= d) return 0;
-    if (j < n) return Hy[(n + 1 + j) * d + l];
-    if (j >= n + 1 && j < d) return -Hy[(j - n - 1) * d + l];
-    if (j == N - 1) return -Hy[n * d + l];
-    return 0;
-}
-
 /*
  * Residual F and, if A != NULL, the Jacobian A (column-major m x m) at the unknowns x, given
  * grad and hess of H_phys at the midpoint zb. F_a = d_j - (lambda/2) u_j(zbar); F_last = H(zbar).
@@ -405,7 +394,7 @@ static double dudz(const dth_integrator *it, size_t j, size_t l)
 AI void assemble_n(const dth_integrator *it, const size_t nc, const double *x, const double *zb, double Hphys, double *F,
                    double *A)
 {
-    size_t n = nc ? nc : it->n, d = 2 * n + 1, N = 2 * n + 2;
+    size_t n = nc ? nc : it->n, N = 2 * n + 2;
     int m = nc ? (int)(2 * nc + 1) : it->m;
     const double *g = it->grad, *Hy = it->hess;
     double lam = x[m - 1], hl = 0.5 * lam;
@@ -419,12 +408,11 @@ AI void assemble_n(const dth_integrator *it, const size_t nc, const double *x, c
         }
         if (!A) return;
         for (size_t i = 0; i < n; i++) {
-            const double *hp = Hy + (n + 1 + i) * d, *hq = Hy + i * d;
             for (size_t k = 0; k < n; k++) {
-                A[i + k * mm] = -hl * hp[k];               /* dF_qi / d d_qk */
-                A[i + (n + k) * mm] = -hl * hp[n + 1 + k]; /* dF_qi / d d_pk */
-                A[n + i + k * mm] = hl * hq[k];
-                A[n + i + (n + k) * mm] = hl * hq[n + 1 + k];
+                A[i + k * mm] = -hl * dth__dudz(n, Hy, i, k);                     /* dF_qi / d d_qk */
+                A[i + (n + k) * mm] = -hl * dth__dudz(n, Hy, i, n + 1 + k);        /* dF_qi / d d_pk */
+                A[n + i + k * mm] = -hl * dth__dudz(n, Hy, n + 1 + i, k);
+                A[n + i + (n + k) * mm] = -hl * dth__dudz(n, Hy, n + 1 + i, n + 1 + k);
             }
             A[i + i * mm] += 1.0;
             A[n + i + (n + i) * mm] += 1.0;
@@ -442,7 +430,7 @@ AI void assemble_n(const dth_integrator *it, const size_t nc, const double *x, c
         size_t j = (size_t)it->act[a];
         F[a] = x[a] - hl * u[j];
         if (!A) continue;
-        for (int b = 0; b < m - 1; b++) A[a + b * m] = (a == b ? 1.0 : 0.0) - hl * dudz(it, j, (size_t)it->act[b]);
+        for (int b = 0; b < m - 1; b++) A[a + b * m] = (a == b ? 1.0 : 0.0) - hl * dth__dudz(it->n, it->hess, j, (size_t)it->act[b]);
         A[a + (m - 1) * m] = -0.5 * u[j];
         A[(m - 1) + a * m] = (j == N - 1) ? 1.0 : g[j];
     }
@@ -1043,7 +1031,7 @@ int dth_integrator_tangent(dth_integrator *it, double *M)
     /* B = dF/dz_k (m x N, column-major): rows of -(lambda/2) J H_zz, last row grad H. */
     double *B = it->B;
     for (size_t l = 0; l < N; l++) {
-        for (int a = 0; a < m - 1; a++) B[(size_t)a + l * (size_t)m] = 0.5 * lam * dudz(it, (size_t)it->act[a], l);
+        for (int a = 0; a < m - 1; a++) B[(size_t)a + l * (size_t)m] = 0.5 * lam * dth__dudz(n, it->hess, (size_t)it->act[a], l);
         B[(size_t)(m - 1) + l * (size_t)m] = l == N - 1 ? -1.0 : -it->grad[l];
     }
     /* X = -A^{-1} B: derivatives of the unknowns (d, lambda) with respect to z_k (B holds -B). */

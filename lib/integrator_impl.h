@@ -48,7 +48,7 @@ struct dth_integrator {
     double *dprev;    /* offset zbar - z_{k-1} of the last step (predictor) */
     double *dprev2, *dprev3; /* the two offsets before it (quadratic predictor) */
     double *dnew;     /* scratch for the next offset (the four buffers rotate) */
-    double *hwork;    /* 2(2n+1) doubles for dth__model_hdiff */
+    double *hwork;    /* 2(2n+1) doubles for dth__model_hdiff (models without their own hdiff) */
     double *zblo;     /* low part of the midpoint of the compensated solution (it->zb + it->zblo) */
     double lam;       /* last step (0 if none) */
     double lam2, lam3; /* the steps before it */

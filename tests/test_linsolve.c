@@ -88,6 +88,9 @@ static const dth_model_type mass_type = {.name = "mass", .doc = "non-diagonal ma
 
 /* ---- the comparison ---- */
 
+/* Nonzero: banded integrators factor the Schur complement with LAPACK's dpbtrf, not the written-out LDL^T. */
+static int band_lapack;
+
 static dth_integrator *make(const dth_model *m, double h, dth_linsolve ls, const double *q, const double *p)
 {
     dth_options o;
@@ -97,6 +100,7 @@ static dth_integrator *make(const dth_model *m, double h, dth_linsolve ls, const
     o.branch_check = 0; /* the same root from both: the paths are what is compared */
     dth_integrator *it = NULL;
     CU_ASSERT_EQUAL_FATAL(dth_integrator_new(m, &o, &it), DTH_OK);
+    if (it->band) dth__band_lapack_only(it->band, band_lapack);
     CU_ASSERT_EQUAL_FATAL(dth_integrator_start(it, q, p, 0.0), DTH_OK);
     return it;
 }
@@ -146,8 +150,10 @@ static double compare(const dth_model *m, double h, dth_linsolve ls, const doubl
             tworst /= mm;
         }
     }
-    printf("\n    %-8s n = %zu, %s vs dense: largest difference %.2f x the conditioning bound, tangent maps %.1e", 
-           dth_model_get_type(m)->name, n, dth_linsolve_name(ls), worst, tworst);
+    printf("\n    %-8s n = %zu, %s%s vs dense: largest difference %.2f x the conditioning bound, tangent maps %.1e",
+           dth_model_get_type(m)->name, n, dth_linsolve_name(ls),
+           oth->band ? (dth__band_mode(oth->band) == 1 ? (band_lapack ? " (Schur, dpbtrf)" : " (Schur, LDL^T)") : " (LU)") : "",
+           worst, tworst);
     CU_ASSERT(worst <= 4);
     CU_ASSERT(tworst <= 1e-11);
     dth_integrator_free(ref);
@@ -238,30 +244,44 @@ static void test_small(void)
     dth_model_free(f);
 }
 
-/* A 2-D chain; `compress` scales the initial spacing (1: at rest length). */
-static void chain(size_t Np, double compress, double spring_k, dth_linsolve ls, double h, int steps)
+/* A chain in `dim` = 2 or 3 dimensions; `compress` scales the initial spacing (1: at rest length). */
+static void chain_dim(size_t dim, size_t Np, double compress, double spring_k, dth_linsolve ls, double h, int steps)
 {
-    char size[32], kk[32];
+    char size[32], kk[32], dd[8];
     snprintf(size, sizeof size, "%zu", Np);
     snprintf(kk, sizeof kk, "%g", spring_k);
-    dth_kv kv[] = {{"preset", "chain"}, {"size", size}, {"dim", "2"}, {"L", "1"}, {"k", kk}};
-    dth_model *m = model(&dth_model_coupled, kv, 5, 2 * Np);
-    size_t n = 2 * Np;
+    snprintf(dd, sizeof dd, "%zu", dim);
+    dth_kv kv[] = {{"preset", "chain"}, {"size", size}, {"dim", dd}, {"L", "1"}, {"k", kk}};
+    dth_model *m = model(&dth_model_coupled, kv, 5, dim * Np);
+    size_t n = dim * Np;
     double *q = calloc(n, sizeof *q), *p = calloc(n, sizeof *p);
     for (size_t i = 0; i < Np; i++) {
-        q[2 * i] = compress * (double)i;
-        q[2 * i + 1] = 0.05 * sin(3.0 * (double)i);
-        p[2 * i] = 0.1 * cos(2.0 * (double)i);
-        p[2 * i + 1] = 0.2 * sin(1.0 + (double)i);
+        q[dim * i] = compress * (double)i;
+        q[dim * i + 1] = 0.05 * sin(3.0 * (double)i);
+        p[dim * i] = 0.1 * cos(2.0 * (double)i);
+        p[dim * i + 1] = 0.2 * sin(1.0 + (double)i);
+        if (dim == 3) {
+            q[dim * i + 2] = 0.04 * cos(5.0 * (double)i);
+            p[dim * i + 2] = 0.15 * sin(2.0 + (double)i);
+        }
     }
     compare(m, h, ls, q, p, steps);
     free(q), free(p);
     dth_model_free(m);
 }
 
+static void chain(size_t Np, double compress, double spring_k, dth_linsolve ls, double h, int steps)
+{
+    chain_dim(2, Np, compress, spring_k, ls, h, steps);
+}
+
 static void test_banded(void)
 {
-    chain(10, 1.0, 1.0, DTH_LINSOLVE_BANDED, 0.05, 100);
+    chain(10, 1.0, 1.0, DTH_LINSOLVE_BANDED, 0.05, 100); /* the written-out LDL^T of K (half-bandwidth 3) */
+    band_lapack = 1;
+    chain(10, 1.0, 1.0, DTH_LINSOLVE_BANDED, 0.05, 100); /* LAPACK's dpbtrf */
+    band_lapack = 0;
+    chain_dim(3, 8, 1.0, 1.0, DTH_LINSOLVE_BANDED, 0.05, 100); /* half-bandwidth 5: the LDL^T's general loops */
     chain(10, 1.0, 1.0, DTH_LINSOLVE_BANDED_LU, 0.05, 100);
     chain(10, 1.0, 1.0, DTH_LINSOLVE_SMALL, 0.05, 30); /* the written-out LU at m = 41 */
 }
