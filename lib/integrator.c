@@ -51,6 +51,7 @@ dth_region dth_region_of(double psi, double dpsi, double K)
     return dpsi * dpsi <= 24 * K * fabs(psi) ? DTH_REGION_I : DTH_REGION_II;
 }
 
+static const struct dth__linsolver *linsolver_of(dth_linsolve kind);
 static void seterr(dth_integrator *it, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 static void seterr(dth_integrator *it, const char *fmt, ...)
 {
@@ -87,6 +88,7 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     it->opt = *opt;
     it->alloc = al;
     it->kind = kind;
+    it->ls = linsolver_of(kind);
     it->n = n;
     it->N = 2 * n + 2;
     it->d = 2 * n + 1;
@@ -514,11 +516,43 @@ AI void block_scales_n(dth_integrator *it, const size_t nc, const double *zb, do
 
 /* ---- the step as a Newton problem (newton.c) ---- */
 
-/* Factor the step Jacobian assembled at it->zb with the integrator's linear solver. */
-static int step_factor(dth_integrator *it, double lam)
+/*
+ * The linear-solver table: the path that factors and solves the step's bordered system (paper,
+ * Theorem "DTH Equations") and gives its tangent map. Dense (kinds dense, small, small-lu): the
+ * Jacobian assembled from the dense Hessian, LU by LAPACK or written out (dth__lu_*); the small
+ * path's instances for n = 1..3 (SMALL_OPS below) inline the same LU or their Schur complement.
+ * Banded (banded, banded-lu): banded.c, which evaluates the model's banded Hessian itself.
+ */
+struct dth__linsolver {
+    unsigned hess; /* DTH_EVAL_HESS: the Newton loop evaluates the dense Hessian and assembles it->A */
+    int (*factor)(dth_integrator *it, double lam); /* at it->zb (gradient in it->grad) */
+    int (*solve)(dth_integrator *it, double *b);   /* b = J^-1 b with the last factors */
+    int (*tangent)(dth_integrator *it, double *M); /* the last step's tangent map (refactors) */
+};
+
+static int dense_factor(dth_integrator *it, double lam)
 {
-    if (it->band) return dth__band_factor(it->band, it->model, it->zb, it->grad, lam);
+    (void)lam;
     return dth__lu_factor(it->kind, it->m, it->A, it->piv);
+}
+static int dense_solve(dth_integrator *it, double *b) { return dth__lu_solve(it->kind, it->m, it->A, it->piv, 1, b); }
+static int dense_tangent(dth_integrator *it, double *M);
+static int band_factor(dth_integrator *it, double lam)
+{
+    return dth__band_factor(it->band, it->model, it->zb, it->grad, lam);
+}
+static int band_solve(dth_integrator *it, double *b) { return dth__band_solve(it->band, b); }
+static int band_tangent(dth_integrator *it, double *M)
+{
+    return dth__band_tangent(it->band, it->model, it->zbar, it->lam, M);
+}
+
+static const struct dth__linsolver dense_ls = {DTH_EVAL_HESS, dense_factor, dense_solve, dense_tangent};
+static const struct dth__linsolver band_ls = {0, band_factor, band_solve, band_tangent};
+
+static const struct dth__linsolver *linsolver_of(dth_linsolve kind)
+{
+    return kind == DTH_LINSOLVE_BANDED || kind == DTH_LINSOLVE_BANDED_LU ? &band_ls : &dense_ls;
 }
 
 /*
@@ -631,7 +665,7 @@ AI int eval_n(dth_integrator *it, const size_t nc, const double *x, double *F, i
     midpoint_n(it, nc, x, it->zb);
     /* the model's outputs are not swept for NaN/Inf here (the Hessian alone is (2n+1)^2): a
      * non-finite value shows in the correction, and step_judge finds out why */
-    unsigned what = DTH_EVAL_H | DTH_EVAL_GRAD | (jac && !it->band ? DTH_EVAL_HESS : 0u);
+    unsigned what = DTH_EVAL_H | DTH_EVAL_GRAD | (jac ? it->ls->hess : 0u);
     int rc = it->meval(it->mself, it->zb, what, &it->Hphys, it->grad, it->hess);
     if (rc) {
         rc = rc > 0 ? DTH_EDOMAIN : DTH_EMODEL;
@@ -639,14 +673,14 @@ AI int eval_n(dth_integrator *it, const size_t nc, const double *x, double *F, i
         return rc;
     }
     int schur = nc && jac && it->small_schur; /* try the Schur complement first: A is not assembled */
-    assemble_n(it, nc, x, it->zb, it->Hphys, F, jac && !it->band && !schur ? it->A : NULL);
+    assemble_n(it, nc, x, it->zb, it->Hphys, F, jac && it->ls->hess && !schur ? it->A : NULL);
     if (!jac) return it->opt.compensate ? compensated_n(it, nc, x, F) : DTH_OK;
     if (schur) {
         it->ss.on = !schur_factor_n(it, nc, x[m - 1]);
         if (it->ss.on) return DTH_OK;
         assemble_n(it, nc, x, it->zb, it->Hphys, F, it->A); /* it does not apply here: LU */
     }
-    rc = nc ? lu_factor_m((int)(2 * nc + 1), it->A, it->piv) : step_factor(it, x[m - 1]);
+    rc = nc ? lu_factor_m((int)(2 * nc + 1), it->A, it->piv) : it->ls->factor(it, x[m - 1]);
     if (rc == DTH_ESINGULAR || rc == DTH_ELAPACK)
         seterr(it, "bordered Jacobian is singular at iteration %d (lambda = %.17g)", it->nt.iter, x[m - 1]);
     else if (rc)
@@ -659,8 +693,7 @@ static int step_eval(void *ctx, const double *x, double *F, int jac) { return ev
 static int step_solve(void *ctx, double *b)
 {
     dth_integrator *it = ctx;
-    if (it->band) return dth__band_solve(it->band, b);
-    return dth__lu_solve(it->kind, it->m, it->A, it->piv, 1, b);
+    return it->ls->solve(it, b);
 }
 
 /* The relative correction of an autonomous step: the q block, the p block (never zero:
@@ -689,9 +722,9 @@ static int judge_slow(dth_integrator *it, int v, const double *x, const double *
     const double *bs = it->bs;
     if (v == DTH__NT_DIVERGED || !isfinite(x[m - 1])) {
         /* a non-finite model output (not swept in step_eval) is the model's domain, not Newton's */
-        int rc = dth_model_eval(it->model, it->zb, DTH_EVAL_H | DTH_EVAL_GRAD | (it->band ? 0u : DTH_EVAL_HESS),
-                                &it->Hphys, it->grad, it->hess);
-        if (!rc && it->band) rc = dth__model_hess_band(it->model, it->zb, it->work);
+        int rc = dth_model_eval(it->model, it->zb, DTH_EVAL_H | DTH_EVAL_GRAD | it->ls->hess, &it->Hphys, it->grad,
+                                it->hess);
+        if (!rc && !it->ls->hess) rc = dth__model_hess_band(it->model, it->zb, it->work);
         if (rc) {
             seterr(it, "model evaluation failed at a trial midpoint (iteration %d): %s", tr->iter, dth_strerror(rc));
             return rc;
@@ -1015,7 +1048,12 @@ int dth_integrator_tangent(dth_integrator *it, double *M)
 {
     if (!it || !M) return DTH_EINVAL;
     if (!it->fact_valid) return DTH_EINVAL; /* no step yet, or a regularizer's step */
-    if (it->band) return dth__band_tangent(it->band, it->model, it->zbar, it->lam, M);
+    return it->ls->tangent(it, M);
+}
+
+/* The dense paths' tangent map: the bordered Jacobian at the converged midpoint, refactored. */
+static int dense_tangent(dth_integrator *it, double *M)
+{
     size_t n = it->n, N = it->N;
     int m = it->m;
     double lam = it->lam;

@@ -34,6 +34,7 @@ struct dth_integrator {
     int m;            /* Newton unknowns: active components of d, then lambda */
     int *act;         /* z-index of each active unknown (m-1 of them) */
     dth_linsolve kind; /* the linear solver in use (never AUTO) */
+    const struct dth__linsolver *ls; /* its entry in the linear-solver table (integrator.c) */
     int nsmall;       /* n (1..3) where the step takes the small path (autonomous, written out), else 0 */
     int small_schur;  /* the small path may use its Schur complement (separable model, not small-lu) */
     dth__small_schur ss;
