@@ -514,7 +514,7 @@ AI void block_scales_n(dth_integrator *it, const size_t nc, const double *zb, do
     it->ibp = 1 / bs[2];
 }
 
-/* ---- the step as a Newton problem (newton.c) ---- */
+/* ---- the step as a Newton problem (newton.h) ---- */
 
 /*
  * The linear-solver table: the path that factors and solves the step's bordered system (paper,
@@ -556,7 +556,7 @@ static const struct dth__linsolver *linsolver_of(dth_linsolve kind)
 }
 
 /*
- * The compensated finish of a step, as the residual of its chord steps (newton.c): the constraint
+ * The compensated finish of a step, as the residual of its chord steps (newton.h): the constraint
  * row from the carried vertex offset, E = rho_k + (H(zbar) - H(z_k)), the difference from the
  * model's hdiff: its error scales with the step instead of with the energy's size. The direct value
  * wp + H_phys(zbar) (in F on entry) carries eps S, S = |wp| + |H_phys| + sum |dH/dy_j y_j|, and
@@ -777,7 +777,7 @@ AI int judge_n(dth_integrator *it, const size_t nc, const double *x, const doubl
         int rc = judge_slow(it, v, x, dx, F, tr, &v);
         if (rc) return rc;
     }
-    /* converged: a compensated step still finishes with its chord step (compensated_constraint) */
+    /* converged: a compensated step still finishes with its chord step (compensated_n) */
     *verdict = v == DTH__NT_DONE && it->opt.compensate ? DTH__NT_CHORD : v;
     return DTH_OK;
 }

@@ -89,8 +89,10 @@ typedef struct dth__solution {
 
 /**
  * Newton on the bordered system from the current vertex, seeded with lambda0 and the offset
- * d0 (length 2n+2). On success it->x holds (d, lambda) and it->zb the midpoint; the factors of
- * the last iteration are in it->A / it->piv. Does not change the vertex.
+ * d0 (length 2n+2), finished by chord steps on the compensated constraint (opt.compensate). On
+ * success it->x holds (d, lambda), it->zb the midpoint and it->zblo its low part; the factors of
+ * the last iteration stay with the linear solver (it->A / it->piv, it->ss, or the band). Does not
+ * change the vertex.
  */
 int dth__newton(dth_integrator *it, double lam0, const double *d0, dth__solution *sol);
 

@@ -22,7 +22,8 @@ static inline __attribute__((always_inline)) int lu_factor_core(const int m, dou
             if (v > best) best = v, p = i;
         }
         piv[k] = p + 1;
-        if (!(best > 0)) { /* NaN: the solve shows it */
+        if (!(best > 0)) { /* NaN: the solve shows it (the remaining pivots are set, so it stays in bounds) */
+            for (int j = k + 1; j < m; j++) piv[j] = j + 1;
             if (dinv)
                 for (int j = k; j < m; j++) dinv[j] = best;
             return best == 0 ? DTH_ESINGULAR : DTH_OK;
