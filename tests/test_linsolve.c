@@ -312,6 +312,27 @@ static void test_schur_indefinite(void)
     dth_model_free(m);
 }
 
+/* A NaN pivot: the written-out LU reports success and its solve gives NaN, within bounds (the
+ * pivots after the NaN column are set: they used to be left as the caller's zeros, and the solve read
+ * x[-1]; found by fuzz_integrator). */
+static void test_nan_pivot(void)
+{
+    for (int m = 1; m <= 8; m++) {
+        double *a = calloc((size_t)(m * m), sizeof *a), *b = calloc((size_t)m, sizeof *b);
+        int *piv = calloc((size_t)m, sizeof *piv); /* zeros, as a fresh integrator's */
+        for (int i = 0; i < m; i++) {
+            a[i + i * m] = 1.0 + i;
+            b[i] = 1.0;
+        }
+        a[0] = NAN;
+        CU_ASSERT_EQUAL(dth__lu_factor(DTH_LINSOLVE_SMALL, m, a, piv), DTH_OK);
+        for (int i = 0; i < m; i++) CU_ASSERT(piv[i] >= 1 && piv[i] <= m);
+        CU_ASSERT_EQUAL(dth__lu_solve(DTH_LINSOLVE_SMALL, m, a, piv, 1, b), DTH_OK);
+        CU_ASSERT(isnan(b[0]));
+        free(a), free(b), free(piv);
+    }
+}
+
 /* Forcing a path the model cannot use is refused up front. */
 static void test_refusals(void)
 {
@@ -335,6 +356,7 @@ static CU_TestInfo tests[] = {
     {"banded paths against dense (chain)", test_banded},
     {"Schur complement not positive definite: LU fallback", test_schur_indefinite},
     {"paths a model cannot use are refused", test_refusals},
+    {"a NaN pivot stays within bounds", test_nan_pivot},
     CU_TEST_INFO_NULL,
 };
 
