@@ -5,7 +5,9 @@
  * (linsolve = banded, the default) next to the banded LU of the whole step matrix (banded-lu, the
  * path before the Schur complement) in the same run, their repeats interleaved, N = 10 .. 10^5, with
  * the bytes the model and integrator allocate per particle; then the dense solve (N <= 200).
- * Usage: OPENBLAS_NUM_THREADS=1 bench_chain [max_dense_N [max_N]]   (defaults 200, 100000; median of 5)
+ * Usage: OPENBLAS_NUM_THREADS=1 bench_chain [max_dense_N [max_N]]   (defaults 200, 100000; median of 5), or
+ *        bench_chain --only LINSOLVE N steps   (one untimed run of N particles with that solver: for
+ *        instruction counts under callgrind; scripts/bench-instr.sh)
  */
 #include <math.h>
 #include <stdio.h>
@@ -138,6 +140,17 @@ static void run(size_t N, const char *structure, const dth_linsolve *ls, int nls
 
 int main(int argc, char **argv)
 {
+    if (argc > 4 && !strcmp(argv[1], "--only")) {
+        dth_linsolve ls;
+        for (ls = DTH_LINSOLVE_AUTO; dth_linsolve_name(ls); ls++)
+            if (!strcmp(argv[2], dth_linsolve_name(ls))) break;
+        chain c;
+        double us, iters, bytes;
+        if (!dth_linsolve_name(ls) || chain_new((size_t)atol(argv[3]), "auto", &c)) return 2;
+        int rc = run_once(&c, ls, atol(argv[4]), &us, &iters, &bytes);
+        chain_free(&c);
+        return rc;
+    }
     size_t max_dense = argc > 1 ? (size_t)atol(argv[1]) : 200, max_n = argc > 2 ? (size_t)atol(argv[2]) : 100000;
     const size_t Ns[] = {10, 100, 1000, 10000, 100000};
     const size_t Nd[] = {10, 20, 50, 100, 200};

@@ -11,7 +11,10 @@
  *   - Kepler e = 0.6 (h = 0.01): library step, floor with the analytic 2x2 Schur complement;
  *   - throughput of independent pendulum integrations in 1 and 2 threads.
  * The floors are checked to take the library's steps (lambda to round-off) before they are timed.
- * Usage: bench_floor [steps]   (default 200000; median of 9 interleaved repeats). The process
+ * Usage: bench_floor [steps]   (default 200000; median of 9 interleaved repeats), or
+ *        bench_floor --only VARIANT steps   (one untimed run of pend-lib, pend-lib-nocomp, pend-floor,
+ *        kep-lib, kep-floor, rk4imp or verlet: for instruction counts under callgrind, where wall
+ *        clock on a shared machine is too noisy; scripts/bench-instr.sh). The process
  * re-executes itself with OPENBLAS_NUM_THREADS=1 unless that is set (OpenBLAS's idle worker
  * threads otherwise compete with the second application thread on a 2-core machine).
  */
@@ -600,7 +603,8 @@ int main(int argc, char **argv)
         setenv("OPENBLAS_NUM_THREADS", "1", 1);
         execv("/proc/self/exe", argv);
     }
-    long steps = argc > 1 ? atol(argv[1]) : 200000;
+    const char *only = argc > 2 && !strcmp(argv[1], "--only") ? argv[2] : NULL;
+    long steps = only ? (argc > 3 ? atol(argv[3]) : 20000) : argc > 1 ? atol(argv[1]) : 200000;
     if (steps < 100) return 2;
     char err[256];
     if (dth_model_new(&dth_model_pendulum, NULL, 0, 1, NULL, &pen_model, err, sizeof err) ||
@@ -610,6 +614,19 @@ int main(int argc, char **argv)
     }
     const double e = 0.6, kq[2] = {1 - e, 0}, kp[2] = {0, sqrt((1 + e) / (1 - e))};
     double pq = 1.0, pp = 0.0;
+    if (only) {
+        if (!strcmp(only, "pend-lib")) time_lib(pen_model, 0.05, &pq, &pp, steps, NULL);
+        else if (!strcmp(only, "pend-lib-nocomp")) time_lib_opt(pen_model, 0.05, 0, &pq, &pp, steps, NULL);
+        else if (!strcmp(only, "pend-floor")) time_pend_floor(steps);
+        else if (!strcmp(only, "kep-lib")) time_lib(kep_model, 0.01, kq, kp, steps, NULL);
+        else if (!strcmp(only, "kep-floor")) time_kep_floor(kq, kp, steps);
+        else if (!strcmp(only, "rk4imp")) time_gsl(steps);
+        else if (!strcmp(only, "verlet")) time_verlet(steps);
+        else return 2;
+        dth_model_free(pen_model);
+        dth_model_free(kep_model);
+        return 0;
+    }
     double ap1 = NAN, ak1 = NAN, ap = pend_agree(20000, &ap1), ak = kep_agree(kq, kp, 20000, &ak1);
     double tl[REPEATS], tf[REPEATS], tg[REPEATS], tv[REPEATS], tkl[REPEATS], tkf[REPEATS], tc[REPEATS], it_p = 0, it_k = 0;
     for (int r = 0; r < REPEATS; r++) {
