@@ -9,7 +9,7 @@ bd=${1:-build}
 g=${2:-150}
 dth="$bd/cli/dth"
 [ -x "$dth" ] || { echo "no $dth (build first)" >&2; exit 2; }
-if ! ldd "$dth" | grep -q gomp; then
+if ! ldd "$dth" | grep gomp >/dev/null; then # (grep -q would close the pipe early: pipefail)
   echo "$dth is built without OpenMP: dth map runs in one thread" >&2
   exit 2
 fi
