@@ -3,9 +3,11 @@
  * Benchmark (not a test): cost per DTH step (paper, Theorem "DTH Equations") of a nonlinear 2-D
  * chain of N particles (coupled model, L = 1): the banded solve through the Schur complement
  * (linsolve = banded, the default) next to the banded LU of the whole step matrix (banded-lu, the
- * path before the Schur complement) in the same run, N = 10 .. 10^5, with the bytes the model and
- * integrator allocate per particle; then the dense solve (N <= 200).
- * Usage: OPENBLAS_NUM_THREADS=1 bench_chain [max_dense_N [max_N]]   (defaults 200, 100000; median of 3)
+ * path before the Schur complement) in the same run, their repeats interleaved, N = 10 .. 10^5, with
+ * the bytes the model and integrator allocate per particle; then the dense solve (N <= 200).
+ * Usage: OPENBLAS_NUM_THREADS=1 bench_chain [max_dense_N [max_N]]   (defaults 200, 100000; median of 5), or
+ *        bench_chain --only LINSOLVE N steps   (one untimed run of N particles with that solver: for
+ *        instruction counts under callgrind; scripts/bench-instr.sh)
  */
 #include <math.h>
 #include <stdio.h>
@@ -15,7 +17,7 @@
 #include "dth/dth.h"
 #include "bench_common.h"
 
-enum { REPEATS = 3 };
+enum { REPEATS = 5 };
 
 /* Counting allocator: bytes the model and the integrator hold (a header keeps each block's size). */
 static size_t live, peak;
@@ -39,79 +41,116 @@ static void count_free(void *ctx, void *ptr)
 }
 static const dth_allocator counting = {count_alloc, count_free, NULL};
 
-typedef struct result {
-    double us_step, iters; /* median microseconds per step, Newton iterations per step */
-    double bytes;          /* peak bytes held by the model and integrator */
-    int ok;
-} result;
+/* An N-particle chain (structure "auto" = banded, or "dense") and its start, reproducible. */
+typedef struct chain {
+    dth_model *m;
+    double *q, *p;
+} chain;
 
-/* Time `steps` steps of an N-particle chain (structure "auto" = banded, or "dense") with a solver. */
-static result run(size_t N, const char *structure, dth_linsolve ls, long steps)
+static int chain_new(size_t N, const char *structure, chain *c)
 {
-    result res = {0, 0, 0, 0};
-    live = peak = 0;
     char size[32];
     snprintf(size, sizeof size, "%zu", N);
     dth_kv kv[] = {{"preset", "chain"}, {"size", size}, {"dim", "2"}, {"L", "1"}, {"k", "1"}, {"structure", structure}};
-    dth_model *m;
     char err[256];
-    if (dth_model_new(&dth_model_coupled, kv, 6, 0, &counting, &m, err, sizeof err)) {
+    if (dth_model_new(&dth_model_coupled, kv, 6, 0, &counting, &c->m, err, sizeof err)) {
         fprintf(stderr, "%s\n", err);
-        return res;
+        return 1;
     }
     size_t n = 2 * N;
-    double *q = calloc(n, sizeof *q), *p = calloc(n, sizeof *p);
+    c->q = calloc(n, sizeof *c->q), c->p = calloc(n, sizeof *c->p);
     unsigned long s = 12345;
     for (size_t i = 0; i < n; i++) {
         s = s * 6364136223846793005UL + 1442695040888963407UL;
         double r1 = (double)(s >> 11) / 9007199254740992.0 - 0.5;
         s = s * 6364136223846793005UL + 1442695040888963407UL;
         double r2 = (double)(s >> 11) / 9007199254740992.0 - 0.5;
-        q[i] = (i % 2 == 0 ? (double)(i / 2) : 0.0) + 0.1 * r1;
-        p[i] = 0.3 * r2;
+        c->q[i] = (i % 2 == 0 ? (double)(i / 2) : 0.0) + 0.1 * r1;
+        c->p[i] = 0.3 * r2;
     }
+    return 0;
+}
+
+static void chain_free(chain *c)
+{
+    dth_model_free(c->m);
+    free(c->q);
+    free(c->p);
+}
+
+/* One timed run of `steps` steps with a linear solver: microseconds per step into *us, Newton
+ * iterations into *iters, peak bytes (model and integrator) into *bytes; 0 on success. */
+static int run_once(const chain *c, dth_linsolve ls, long steps, double *us, double *iters, double *bytes)
+{
     dth_options o;
     dth_options_default(&o);
     o.h = 0.05;
     o.linsolve = ls;
     o.alloc = &counting;
-    double t[REPEATS];
-    long iters = 0;
-    res.ok = 1;
-    for (int r = 0; r < REPEATS && res.ok; r++) {
-        dth_integrator *it;
-        if (dth_integrator_new(m, &o, &it) || dth_integrator_start(it, q, p, 0.0)) {
-            res.ok = 0;
-            break;
+    peak = live; /* the model's bytes */
+    dth_integrator *it;
+    if (dth_integrator_new(c->m, &o, &it) || dth_integrator_start(it, c->q, c->p, 0.0)) return 1;
+    dth_integrator_step(it, NULL); /* the exact first step of a midpoint start */
+    long nit = 0;
+    double t0 = bench_now();
+    for (long k = 0; k < steps; k++) {
+        dth_step_info si;
+        int rc = dth_integrator_step(it, &si);
+        if (rc) {
+            fprintf(stderr, "step %ld (%s): %s\n", k, dth_linsolve_name(ls), dth_strerror(rc));
+            dth_integrator_free(it);
+            return 1;
         }
-        dth_integrator_step(it, NULL); /* the exact first step of a midpoint start */
-        iters = 0;
-        double t0 = bench_now();
-        for (long k = 0; k < steps; k++) {
-            dth_step_info si;
-            int rc = dth_integrator_step(it, &si);
-            if (rc) {
-                fprintf(stderr, "N=%zu %s: step %ld: %s\n", N, structure, k, dth_strerror(rc));
-                res.ok = 0;
-                break;
-            }
-            iters += si.iters;
-        }
-        t[r] = (bench_now() - t0) / (double)steps * 1e6;
-        dth_integrator_free(it);
+        nit += si.iters;
     }
-    qsort(t, REPEATS, sizeof t[0], bench_cmp_double);
-    res.us_step = t[REPEATS / 2];
-    res.iters = (double)iters / (double)steps;
-    res.bytes = (double)peak;
-    free(q);
-    free(p);
-    dth_model_free(m);
-    return res;
+    *us = (bench_now() - t0) / (double)steps * 1e6;
+    *iters = (double)nit / (double)steps;
+    *bytes = (double)peak; /* the model's and the integrator's at their peak */
+    dth_integrator_free(it);
+    return 0;
+}
+
+typedef struct result {
+    double us_step, iters; /* median microseconds per step, Newton iterations per step */
+    double bytes;          /* peak bytes held by the model and integrator */
+    int ok;
+} result;
+
+/* Time solvers ls[0 .. nls-1] on one chain, their repeats interleaved (medians). */
+static void run(size_t N, const char *structure, const dth_linsolve *ls, int nls, long steps, result *res)
+{
+    chain c;
+    for (int k = 0; k < nls; k++) res[k] = (result){0, 0, 0, 0};
+    live = peak = 0;
+    if (chain_new(N, structure, &c)) return;
+    double t[2][REPEATS];
+    for (int r = 0; r < REPEATS; r++)
+        for (int k = 0; k < nls; k++)
+            if (run_once(&c, ls[k], steps, &t[k][r], &res[k].iters, &res[k].bytes)) {
+                chain_free(&c);
+                return;
+            }
+    for (int k = 0; k < nls; k++) {
+        qsort(t[k], REPEATS, sizeof t[k][0], bench_cmp_double);
+        res[k].us_step = t[k][REPEATS / 2];
+        res[k].ok = 1;
+    }
+    chain_free(&c);
 }
 
 int main(int argc, char **argv)
 {
+    if (argc > 4 && !strcmp(argv[1], "--only")) {
+        dth_linsolve ls;
+        for (ls = DTH_LINSOLVE_AUTO; dth_linsolve_name(ls); ls++)
+            if (!strcmp(argv[2], dth_linsolve_name(ls))) break;
+        chain c;
+        double us, iters, bytes;
+        if (!dth_linsolve_name(ls) || chain_new((size_t)atol(argv[3]), "auto", &c)) return 2;
+        int rc = run_once(&c, ls, atol(argv[4]), &us, &iters, &bytes);
+        chain_free(&c);
+        return rc;
+    }
     size_t max_dense = argc > 1 ? (size_t)atol(argv[1]) : 200, max_n = argc > 2 ? (size_t)atol(argv[2]) : 100000;
     const size_t Ns[] = {10, 100, 1000, 10000, 100000};
     const size_t Nd[] = {10, 20, 50, 100, 200};
@@ -123,14 +162,16 @@ int main(int argc, char **argv)
     for (size_t i = 0; i < sizeof Ns / sizeof Ns[0] && Ns[i] <= max_n; i++) {
         long steps = (long)(20000 / Ns[i]);
         if (steps < 5) steps = 5;
-        result r = run(Ns[i], "auto", DTH_LINSOLVE_BANDED, steps);
+        const dth_linsolve both[2] = {DTH_LINSOLVE_BANDED, DTH_LINSOLVE_BANDED_LU};
+        result rr[2];
+        run(Ns[i], "auto", both, Ns[i] <= 10000 ? 2 : 1, steps, rr);
+        result r = rr[0], l = rr[1];
         if (!r.ok) return 1;
         printf("banded    %6zu %7zu %7ld %9.1f %11.2f %8.2f %15.0f", Ns[i], 2 * Ns[i], steps, r.us_step, r.iters,
                r.us_step / r.iters, r.bytes / (double)Ns[i]);
         if (prev > 0) printf("  %.2f (N x%.0f)", r.us_step / prev, (double)Ns[i] / (double)prevN);
         printf("\n");
         if (Ns[i] <= 10000) {
-            result l = run(Ns[i], "auto", DTH_LINSOLVE_BANDED_LU, steps);
             if (!l.ok) return 1;
             printf("banded-lu %6zu %7zu %7ld %9.1f %11.2f %8.2f %15.0f  banded/banded-lu %.2f\n", Ns[i], 2 * Ns[i], steps,
                    l.us_step, l.iters, l.us_step / l.iters, l.bytes / (double)Ns[i], r.us_step / l.us_step);
@@ -142,7 +183,9 @@ int main(int argc, char **argv)
     prev = 0;
     for (size_t i = 0; i < sizeof Nd / sizeof Nd[0] && Nd[i] <= max_dense; i++) {
         long steps = Nd[i] <= 50 ? 200 : Nd[i] <= 100 ? 20 : 5;
-        result r = run(Nd[i], "dense", DTH_LINSOLVE_AUTO, steps);
+        const dth_linsolve dense = DTH_LINSOLVE_AUTO;
+        result r;
+        run(Nd[i], "dense", &dense, 1, steps, &r);
         if (!r.ok) return 1;
         printf("dense     %6zu %7zu %7ld %9.1f %11.2f %8.2f %15.0f", Nd[i], 2 * Nd[i], steps, r.us_step, r.iters,
                r.us_step / r.iters, r.bytes / (double)Nd[i]);

@@ -14,11 +14,15 @@
  * B itself is solved one of two ways:
  *  - separable H = T(p) + V(q) with diagonal T'' (springs, particles): eliminating dp leaves
  *        K x_q = T''^-1 r_q + (lambda/2) r_p,   K = T''^-1 + (lambda^2/4) V'',   x_p = r_p - (lambda/2) V'' x_q,
- *    K symmetric with half the unknowns and half the bandwidth: banded Cholesky (LAPACK dpbtrf),
- *    or banded LU (dgbtrf) of K where it is not positive definite (V'' indefinite, large lambda);
+ *    K symmetric with half the unknowns and half the bandwidth: banded Cholesky, written out here
+ *    (as U^T D U, no square roots) for half-bandwidths up to DTH__BAND_OWN_KQ (at a chain's 3 a
+ *    LAPACK call costs more than its arithmetic: the unblocked dpbtf2 makes BLAS calls per column,
+ *    each under OpenBLAS's buffer lock), else LAPACK dpbtrf; banded LU (dgbtrf) of K where it is not positive definite (V'' indefinite,
+ *    large lambda);
  *  - otherwise banded LU of B (dgbtrf, half-bandwidth w + 1), allocated at the first such step.
  */
 #include <limits.h>
+#include <stddef.h>
 #include <lapacke.h>
 #include <math.h>
 #include <string.h>
@@ -38,6 +42,8 @@ struct dth__band {
     double *tinv, *vx;
     int *kpiv;         /* n pivots (LU of K) */
     int mode;          /* of the last factorization: SCHUR_CHOL, SCHUR_LU or GENERAL */
+    int own;           /* SCHUR_CHOL: 1 if the written-out LDL^T made it (band_ldl's storage) */
+    int lapack_only;   /* never the written-out Cholesky (dth__band_lapack_only, for tests) */
     double *g, *y2;    /* border row g and B^{-1} c (interleaved) */
     double *r, *grad;  /* scratch: right-hand side (nn); gradient over y (2n+1), then nn+1 */
     double s;          /* Schur complement -g^T B^{-1} c */
@@ -132,6 +138,91 @@ static int schur_applies(dth__band *b)
     return 1;
 }
 
+/* Half-bandwidths of K up to which the Cholesky is written out (no LAPACK call). */
+#define DTH__BAND_OWN_KQ 16
+
+void dth__band_lapack_only(dth__band *b, int on) { b->lapack_only = on; }
+
+/*
+ * K = U^T D U (U unit upper triangular, the square-root-free Cholesky) in dpbtrf's upper band storage:
+ * U(i, j) at ab[kq + i - j + j ld] (ld = kq + 1), the diagonal slot holding 1 / D(j) (the solves
+ * multiply). The kernels take kc: the half-bandwidth when it is a compile-time constant (the loops
+ * unroll; the first kq columns take the general form), else 0.
+ */
+#define BI static inline __attribute__((always_inline))
+
+/* Column j with its len = min(j, kq) entries above the diagonal; t: D U(., j) (len doubles). */
+BI int ldl_column(double *ab, size_t kq, size_t j, const size_t len, double *t)
+{
+    size_t ld = kq + 1;
+    double *cj = ab + j * ld + (kq - len); /* cj[a] = U(j - len + a, j), cj[len] the diagonal */
+    double dd = cj[len];
+    for (size_t a = 0; a < len; a++) {
+        const double *ci = ab + (j - len + a) * ld + kq; /* ci[c - a] = U(j - len + c, j - len + a), ci[0] = 1/D */
+        double acc = cj[a];
+        for (size_t c = 0; c < a; c++) acc -= ci[(ptrdiff_t)c - (ptrdiff_t)a] * t[c];
+        t[a] = acc;
+        cj[a] = acc * ci[0];
+        dd -= acc * cj[a];
+    }
+    if (!(dd > 0)) return 1;
+    cj[len] = 1 / dd;
+    return 0;
+}
+
+/* Returns 0, or j + 1 if the leading minor of order j + 1 is not positive definite (as dpbtrf's
+ * info). t: kq doubles of scratch. */
+BI int ldl_factor_k(size_t n, const size_t kc, size_t kq, double *ab, double *t)
+{
+    if (kc) kq = kc;
+    for (size_t j = 0; j < n; j++)
+        if (kc && j >= kc ? ldl_column(ab, kq, j, kc, t) : ldl_column(ab, kq, j, j < kq ? j : kq, t)) return (int)j + 1;
+    return 0;
+}
+
+/* x = K^-1 x: U^T y = x, y = D^-1 y, then U x = y. */
+BI void ldl_solve_k(size_t n, const size_t kc, size_t kq, const double *ab, double *x)
+{
+    if (kc) kq = kc;
+    size_t ld = kq + 1;
+    for (size_t j = 0; j < n; j++) {
+        size_t len = kc && j >= kc ? kc : j < kq ? j : kq;
+        const double *cj = ab + j * ld + (kq - len), *xj = x + (j - len);
+        double acc = x[j];
+        for (size_t a = 0; a < len; a++) acc -= cj[a] * xj[a];
+        x[j] = acc;
+    }
+    for (size_t j = 0; j < n; j++) x[j] *= ab[kq + j * ld];
+    for (size_t j = n; j-- > 0;) {
+        size_t len = kc && j >= kc ? kc : j < kq ? j : kq;
+        const double *cj = ab + j * ld + (kq - len);
+        double *xk = x + (j - len), v = x[j];
+        for (size_t a = 0; a < len; a++) xk[a] -= cj[a] * v;
+    }
+}
+
+static int band_ldl(size_t n, size_t kq, double *ab, double *t)
+{
+    switch (kq) {
+    case 1: return ldl_factor_k(n, 1, 1, ab, t);
+    case 2: return ldl_factor_k(n, 2, 2, ab, t);
+    case 3: return ldl_factor_k(n, 3, 3, ab, t);
+    case 4: return ldl_factor_k(n, 4, 4, ab, t);
+    default: return ldl_factor_k(n, 0, kq, ab, t);
+    }
+}
+
+static void band_ldl_solve(size_t n, size_t kq, const double *ab, double *x)
+{
+    switch (kq) {
+    case 1: ldl_solve_k(n, 1, 1, ab, x); break;
+    case 2: ldl_solve_k(n, 2, 2, ab, x); break;
+    case 3: ldl_solve_k(n, 3, 3, ab, x); break;
+    case 4: ldl_solve_k(n, 4, 4, ab, x); break;
+    default: ldl_solve_k(n, 0, kq, ab, x);
+    }
+}
+
 /* K = T''^-1 + (lambda^2/4) V'' (q order), factored: Cholesky, else LU. */
 static int schur_factor(dth__band *b, double lam)
 {
@@ -147,7 +238,9 @@ static int schur_factor(dth__band *b, double lam)
             b->kab[kq + i - j + j * ld] = v;
         }
     }
-    lapack_int info = LAPACKE_dpbtrf_work(LAPACK_COL_MAJOR, 'U', (lapack_int)n, (lapack_int)kq, b->kab, (lapack_int)ld);
+    b->own = kq <= DTH__BAND_OWN_KQ && !b->lapack_only;
+    lapack_int info = b->own ? band_ldl(n, kq, b->kab, b->vx)
+                             : LAPACKE_dpbtrf_work(LAPACK_COL_MAJOR, 'U', (lapack_int)n, (lapack_int)kq, b->kab, (lapack_int)ld);
     if (info < 0) return DTH_ELAPACK;
     if (info == 0) {
         b->mode = SCHUR_CHOL;
@@ -209,7 +302,10 @@ static int b_solve(dth__band *b, double *x)
     size_t n = b->n, w = b->w, bw = b->bw, kq = (size_t)b->kq;
     double *rq = b->vx, hl = 0.5 * b->lam;
     for (size_t i = 0; i < n; i++) rq[i] = b->tinv[i] * x[2 * i] + hl * x[2 * i + 1];
-    if (b->mode == SCHUR_CHOL)
+    if (b->mode == SCHUR_CHOL && b->own) {
+        band_ldl_solve(n, kq, b->kab, rq);
+        info = 0;
+    } else if (b->mode == SCHUR_CHOL)
         info = LAPACKE_dpbtrs_work(LAPACK_COL_MAJOR, 'U', (lapack_int)n, (lapack_int)kq, 1, b->kab, (lapack_int)(kq + 1), rq,
                                    (lapack_int)n);
     else

@@ -143,15 +143,7 @@ static void flow_z(size_t n, const double *grad, double *u)
 }
 
 /* d u_j / d z_l from the Hessian of H_phys (rows of J H_zz; the wp column is zero). */
-static double dudz(const dth_rootfinder *rf, int j, size_t l)
-{
-    size_t n = rf->n, d = rf->d, N = rf->N;
-    if (l >= d) return 0;
-    if (j < (int)n) return rf->hess[(n + 1 + (size_t)j) * d + l];
-    if (j >= (int)n + 1 && j < (int)d) return -rf->hess[((size_t)j - n - 1) * d + l];
-    if (j == (int)N - 1) return -rf->hess[n * d + l];
-    return 0;
-}
+static double dudz(const dth_rootfinder *rf, int j, size_t l) { return dth__dudz(rf->n, rf->hess, (size_t)j, l); }
 
 /*
  * H, psi, psi' at the vertex with one evaluation (psi' from the model's third derivative, else by

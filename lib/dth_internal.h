@@ -21,6 +21,20 @@ unsigned long long dth__model_quad_mask(const dth_model *m);
 int dth__model_accepts_key(const dth_model_type *t, const char *key);
 /** u = J grad H over y = (q, t, p): (dH/dp, 1, -dH/dq). */
 void dth__flow_y(size_t n, const double *grad, double *u);
+/**
+ * The one index map of J H_zz: d u_j / d z_l over z = (q, t, p, wp), u = J grad H, from the Hessian of
+ * H_phys over y = (q, t, p) (d x d row-major, d = 2n + 1): q rows read H's p rows, p rows minus H's q
+ * rows, the wp row minus H's t row; the t row and the wp column are zero.
+ */
+static inline double dth__dudz(size_t n, const double *hess, size_t j, size_t l)
+{
+    size_t d = 2 * n + 1;
+    if (l >= d) return 0;
+    if (j < n) return hess[(n + 1 + j) * d + l];
+    if (j >= n + 1 && j < d) return -hess[(j - n - 1) * d + l];
+    if (j == d) return -hess[n * d + l];
+    return 0;
+}
 struct dth_regularizer;
 /** Bytes of state a regularizer instance carries (0: stateless or NULL). */
 size_t dth__reg_state_size(const struct dth_regularizer *r);
@@ -59,7 +73,9 @@ typedef struct dth__newton_track {
 } dth__newton_track;
 /** A Newton problem. */
 typedef struct dth__newton_ops {
-    /** Residual F at x; with jac != 0 also assemble and factor the Jacobian there. */
+    /** Residual F at x; with jac != 0 also assemble and factor the Jacobian there. jac == 0 is
+     *  the chord step's residual, which may be a finishing form of the equations (the DTH step's
+     *  compensated constraint). */
     int (*eval)(void *ctx, const double *x, double *F, int jac);
     /** b = J^-1 b in place, with the factors of the last eval(jac = 1). */
     int (*solve)(void *ctx, double *b);
@@ -68,11 +84,14 @@ typedef struct dth__newton_ops {
      *  return ends the solve with that status. */
     int (*judge)(void *ctx, const double *x, const double *dx, const double *F, dth__newton_track *tr, int *verdict);
 } dth__newton_ops;
+/** After chord step number `chords` (dx: its correction): nonzero asks for one more (newton.h). */
+typedef int (*dth__newton_again)(void *ctx, const double *x, const double *dx, int chords);
 /** Verdict from the relative correction r: DONE (r <= tol), CHORD (the quadratic rate predicts
  *  the next correction below eps), STALLED (r >= r_prev / 2), DIVERGED (not finite) or MORE. */
 int dth__newton_rate(double r, double r_prev, int iter, double tol);
 /** Iterate from x (m unknowns) until the judge says done (then DTH_OK), a callback fails (its
- *  status) or max_iter passes (DTH_ENOCONV). F and dx are m doubles of workspace. */
+ *  status) or max_iter passes (DTH_ENOCONV); a CHORD verdict finishes with one chord step. F and dx
+ *  are m doubles of workspace. (newton.h: the loop itself, with an optional `again` test.) */
 int dth__newton_run(const dth__newton_ops *ops, void *ctx, int m, int max_iter, double *x, double *F,
                     double *dx, dth__newton_track *tr);
 
@@ -102,6 +121,8 @@ void dth__band_free(dth__band *b, const dth_allocator *al);
 /** Assemble and factor the step Jacobian at midpoint zb (gradient `grad` over y there) and lam.
  *  @return DTH_OK, DTH_ESINGULAR, DTH_ELAPACK, or the model's status. */
 int dth__band_factor(dth__band *b, const dth_model *m, const double *zb, const double *grad, double lam);
+/** Tests: on != 0 makes the Schur complement's Cholesky always LAPACK's dpbtrf (never written out). */
+void dth__band_lapack_only(dth__band *b, int on);
 /** How the last factorization solved B: 1 Schur complement by Cholesky, 2 by LU, 3 banded LU of B. */
 int dth__band_mode(const dth__band *b);
 /** Solve the factored system in place; x (length 2n+1) is in the integrator's unknown order

@@ -10,6 +10,7 @@
 #include "dth_internal.h"
 #include "integrator_impl.h"
 #include "lu_small.h"
+#include "newton.h"
 
 void dth_options_default(dth_options *o)
 {
@@ -50,6 +51,7 @@ dth_region dth_region_of(double psi, double dpsi, double K)
     return dpsi * dpsi <= 24 * K * fabs(psi) ? DTH_REGION_I : DTH_REGION_II;
 }
 
+static const struct dth__linsolver *linsolver_of(dth_linsolve kind);
 static void seterr(dth_integrator *it, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 static void seterr(dth_integrator *it, const char *fmt, ...)
 {
@@ -86,6 +88,7 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     it->opt = *opt;
     it->alloc = al;
     it->kind = kind;
+    it->ls = linsolver_of(kind);
     it->n = n;
     it->N = 2 * n + 2;
     it->d = 2 * n + 1;
@@ -95,7 +98,8 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     size_t nd = 0;
     /* one block of doubles, carved below */
     size_t sizes[] = {N, N, N, N, N, N, N, N, N, N, d, (size_t)dense * d * d, N, d, (size_t)dense * m * m, m, m, m,
-                      dth_model_work_size(model), (size_t)dense * m * N, 2 * d, N};
+                      dth_model_work_size(model), (size_t)dense * m * N,
+                      dth_model_get_type(model)->hdiff ? 0 : 2 * d, N}; /* hwork: dth__model_hdiff's rule only */
     for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) nd += sizes[i];
     it->block = dth_calloc(al, nd, sizeof(double));
     it->piv = dth_calloc(al, 2 * m, sizeof(int));
@@ -108,7 +112,7 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
                         &it->zb, &it->grad, &it->hess, &it->u, &it->ybar, &it->A, &it->F, &it->x, &it->dx,
                         &it->work, &it->B, &it->hwork, &it->zblo};
     for (size_t i = 0; i < sizeof slots / sizeof slots[0]; i++) {
-        *slots[i] = p;
+        *slots[i] = sizes[i] ? p : NULL;
         p += sizes[i];
     }
     if (!dense) {
@@ -120,6 +124,11 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
         }
     }
     it->act = it->piv + m;
+    it->nsmall = auton && dense && dth__lu_small(kind, it->m) && n <= 3 ? (int)n : 0;
+    it->small_schur = it->nsmall && kind != DTH_LINSOLVE_SMALL_LU && dth_model_get_info(model)->separable;
+    it->meval = dth_model_get_type(model)->eval;
+    it->mhdiff = dth_model_get_type(model)->hdiff;
+    it->mself = dth__model_self(model);
     /* unknowns: the z-components that Newton solves for, then lambda */
     int a = 0;
     for (size_t j = 0; j < N; j++) {
@@ -202,32 +211,50 @@ static int rho_direct(dth_integrator *it)
 
 int dth__integrator_rho_reset(dth_integrator *it) { return it->opt.compensate ? rho_direct(it) : DTH_OK; }
 
+/* Inline kernels take nc: the number of degrees of freedom when it is a compile-time constant
+ * (the small path instantiates them for n = 1, 2, 3, so their loops unroll; nc > 0 implies an
+ * autonomous model), else 0 (it->n). */
+#define AI static inline __attribute__((always_inline))
+
 /*
  * H(z + zlo) - H(zb + zblo) without cancellation, both points double-double (zblo may be NULL):
  * the wp difference, the model's hdiff over y between the high parts, and the low parts through
  * the gradient at the midpoint (grad: over y at zb). The midpoint's low part matters: a double
  * midpoint moves in steps of eps |zbar|, which changes H by eps S, the noise this avoids.
  */
-static int rho_from_mid(dth_integrator *it, const double *zb, const double *zblo, const double *grad, const double *z,
-                        const double *zlo, double *rho)
+AI int rho_from_mid_n(dth_integrator *it, const size_t nc, const double *zb, const double *zblo, const double *grad,
+                     const double *z, const double *zlo, double *rho)
 {
-    size_t N = it->N, d = it->d;
+    size_t d = nc ? 2 * nc + 1 : it->d, N = d + 1;
     double dh;
-    int rc = dth__model_hdiff(it->model, z, zb, it->hwork, &dh);
-    if (rc) return rc;
+    int rc;
+    if (it->mhdiff) { /* dth__model_hdiff without the call */
+        rc = it->mhdiff(it->mself, z, zb, &dh);
+        if (rc) return rc > 0 ? DTH_EDOMAIN : DTH_EMODEL;
+        if (!isfinite(dh)) return DTH_EDOMAIN;
+    } else {
+        rc = dth__model_hdiff(it->model, z, zb, it->hwork, &dh);
+        if (rc) return rc;
+    }
     double lo = 0;
     for (size_t j = 0; j < d; j++) lo += grad[j] * (zlo[j] - (zblo ? zblo[j] : 0));
     *rho = ((z[N - 1] - zb[N - 1]) + (zlo[N - 1] - (zblo ? zblo[N - 1] : 0))) + (dh + lo);
     return DTH_OK;
 }
 
+static int rho_from_mid(dth_integrator *it, const double *zb, const double *zblo, const double *grad, const double *z,
+                        const double *zlo, double *rho)
+{
+    return rho_from_mid_n(it, 0, zb, zblo, grad, z, zlo, rho);
+}
+
 /* The low part of the midpoint of the unknowns x: zb + zblo = z + zlo + d exactly (to the rounding
  * of zlo + d, far below eps |zbar|). */
-static void midpoint_lo(const dth_integrator *it, const double *x, double *zblo)
+AI void midpoint_lo_n(const dth_integrator *it, const size_t nc, const double *x, double *zblo)
 {
-    size_t n = it->n, N = it->N;
-    int m = it->m;
-    if (it->auton) {
+    size_t n = nc ? nc : it->n, N = 2 * n + 2;
+    int m = nc ? (int)(2 * nc + 1) : it->m;
+    if (nc || it->auton) {
         for (size_t i = 0; i < n; i++) {
             two_sum(it->st.z[i], it->st.zlo[i] + x[i], &zblo[i]);
             two_sum(it->st.z[n + 1 + i], it->st.zlo[n + 1 + i] + x[n + i], &zblo[n + 1 + i]);
@@ -436,10 +463,6 @@ void dth_integrator_reverse(dth_integrator *it)
     }
 }
 
-/* Inline kernels take nc: the number of degrees of freedom when it is a compile-time constant
- * (the small path instantiates them for n = 1, 2, 3, so their loops unroll), else 0 (it->n). */
-#define AI static inline __attribute__((always_inline))
-
 /* zbar = (z + zlo) + d for the unknowns x; passive t, wp in closed form (autonomous). */
 AI void midpoint_n(const dth_integrator *it, const size_t nc, const double *x, double *zb)
 {
@@ -458,20 +481,6 @@ AI void midpoint_n(const dth_integrator *it, const size_t nc, const double *x, d
     for (int a = 0; a < m - 1; a++) zb[a] = it->st.z[a] + (it->st.zlo[a] + x[a]);
 }
 
-static void midpoint_from_x(const dth_integrator *it, const double *x, double *zb) { midpoint_n(it, 0, x, zb); }
-
-/* d u_j / d z_l over the Hessian of H_phys (rows of J H_zz; the wp column is zero). */
-static double dudz(const dth_integrator *it, size_t j, size_t l)
-{
-    size_t n = it->n, d = it->d, N = it->N;
-    const double *Hy = it->hess;
-    if (l >= d) return 0;
-    if (j < n) return Hy[(n + 1 + j) * d + l];
-    if (j >= n + 1 && j < d) return -Hy[(j - n - 1) * d + l];
-    if (j == N - 1) return -Hy[n * d + l];
-    return 0;
-}
-
 /*
  * Residual F and, if A != NULL, the Jacobian A (column-major m x m) at the unknowns x, given
  * grad and hess of H_phys at the midpoint zb. F_a = d_j - (lambda/2) u_j(zbar); F_last = H(zbar).
@@ -479,7 +488,7 @@ static double dudz(const dth_integrator *it, size_t j, size_t l)
 AI void assemble_n(const dth_integrator *it, const size_t nc, const double *x, const double *zb, double Hphys, double *F,
                    double *A)
 {
-    size_t n = nc ? nc : it->n, d = 2 * n + 1, N = 2 * n + 2;
+    size_t n = nc ? nc : it->n, N = 2 * n + 2;
     int m = nc ? (int)(2 * nc + 1) : it->m;
     const double *g = it->grad, *Hy = it->hess;
     double lam = x[m - 1], hl = 0.5 * lam;
@@ -493,12 +502,11 @@ AI void assemble_n(const dth_integrator *it, const size_t nc, const double *x, c
         }
         if (!A) return;
         for (size_t i = 0; i < n; i++) {
-            const double *hp = Hy + (n + 1 + i) * d, *hq = Hy + i * d;
             for (size_t k = 0; k < n; k++) {
-                A[i + k * mm] = -hl * hp[k];               /* dF_qi / d d_qk */
-                A[i + (n + k) * mm] = -hl * hp[n + 1 + k]; /* dF_qi / d d_pk */
-                A[n + i + k * mm] = hl * hq[k];
-                A[n + i + (n + k) * mm] = hl * hq[n + 1 + k];
+                A[i + k * mm] = -hl * dth__dudz(n, Hy, i, k);                     /* dF_qi / d d_qk */
+                A[i + (n + k) * mm] = -hl * dth__dudz(n, Hy, i, n + 1 + k);        /* dF_qi / d d_pk */
+                A[n + i + k * mm] = -hl * dth__dudz(n, Hy, n + 1 + i, k);
+                A[n + i + (n + k) * mm] = -hl * dth__dudz(n, Hy, n + 1 + i, n + 1 + k);
             }
             A[i + i * mm] += 1.0;
             A[n + i + (n + i) * mm] += 1.0;
@@ -516,7 +524,7 @@ AI void assemble_n(const dth_integrator *it, const size_t nc, const double *x, c
         size_t j = (size_t)it->act[a];
         F[a] = x[a] - hl * u[j];
         if (!A) continue;
-        for (int b = 0; b < m - 1; b++) A[a + b * m] = (a == b ? 1.0 : 0.0) - hl * dudz(it, j, (size_t)it->act[b]);
+        for (int b = 0; b < m - 1; b++) A[a + b * m] = (a == b ? 1.0 : 0.0) - hl * dth__dudz(it->n, it->hess, j, (size_t)it->act[b]);
         A[a + (m - 1) * m] = -0.5 * u[j];
         A[(m - 1) + a * m] = (j == N - 1) ? 1.0 : g[j];
     }
@@ -529,12 +537,15 @@ static void assemble(const dth_integrator *it, const double *x, const double *zb
 }
 
 /* Scale of the terms of H at the midpoint, for round-off judgements. */
-static double h_scale(const dth_integrator *it, const double *zb, double Hphys)
+AI double h_scale_n(const dth_integrator *it, const size_t nc, const double *zb, double Hphys)
 {
-    double s = fabs(zb[it->N - 1]) + fabs(Hphys);
-    for (size_t j = 0; j < it->d; j++) s += fabs(it->grad[j] * zb[j]);
+    size_t d = nc ? 2 * nc + 1 : it->d;
+    double s = fabs(zb[d]) + fabs(Hphys);
+    for (size_t j = 0; j < d; j++) s += fabs(it->grad[j] * zb[j]);
     return s;
 }
+
+static double h_scale(const dth_integrator *it, const double *zb, double Hphys) { return h_scale_n(it, 0, zb, Hphys); }
 
 /* The cubic model of the constraint (Lemma g_taylor): root of H - psi l^2/8 - dpsi l^3/24 near
  * `target`, on its side of 0; `target` itself if the cubic has none there. */
@@ -569,7 +580,7 @@ static int block_of(const dth_integrator *it, int j)
  * component: a component that is itself round-off sized (a particle at rest) has no relative
  * precision to reach. An all-zero block falls back to the largest block scale.
  */
-static double block_max(const double *z, const double *zb, size_t lo, size_t hi)
+AI double block_max(const double *z, const double *zb, size_t lo, size_t hi)
 {
     double s = 0;
     for (size_t j = lo; j < hi; j++) {
@@ -579,44 +590,189 @@ static double block_max(const double *z, const double *zb, size_t lo, size_t hi)
     return s;
 }
 
-static void block_scales(const dth_integrator *it, const double *zb, double bs[4])
+AI void block_scales_n(dth_integrator *it, const size_t nc, const double *zb, double bs[4])
 {
-    size_t n = it->n;
+    size_t n = nc ? nc : it->n;
     double top = 0;
     bs[0] = block_max(it->st.z, zb, 0, n);
     bs[1] = block_max(it->st.z, zb, n, n + 1);
     bs[2] = block_max(it->st.z, zb, n + 1, 2 * n + 1);
     bs[3] = block_max(it->st.z, zb, 2 * n + 1, 2 * n + 2);
-    for (int b = 0; b < 4; b++) top = fmax(top, bs[b]);
+    for (int b = 0; b < 4; b++)
+        if (bs[b] > top) top = bs[b]; /* fmax without the call: top is never NaN */
     for (int b = 0; b < 4; b++)
         if (bs[b] == 0) bs[b] = top > 0 ? top : 1.0;
+    it->ibq = 1 / bs[0]; /* the judge multiplies (a division per iteration costs more than the rest) */
+    it->ibp = 1 / bs[2];
 }
 
-/* ---- the step as a Newton problem (newton.c) ---- */
+/* ---- the step as a Newton problem (newton.h) ---- */
 
-/* Factor the step Jacobian assembled at it->zb with the integrator's linear solver. */
-static int step_factor(dth_integrator *it, double lam)
+/*
+ * The linear-solver table: the path that factors and solves the step's bordered system (paper,
+ * Theorem "DTH Equations") and gives its tangent map. Dense (kinds dense, small, small-lu): the
+ * Jacobian assembled from the dense Hessian, LU by LAPACK or written out (dth__lu_*); the small
+ * path's instances for n = 1..3 (SMALL_OPS below) inline the same LU or their Schur complement.
+ * Banded (banded, banded-lu): banded.c, which evaluates the model's banded Hessian itself.
+ */
+struct dth__linsolver {
+    unsigned hess; /* DTH_EVAL_HESS: the Newton loop evaluates the dense Hessian and assembles it->A */
+    int (*factor)(dth_integrator *it, double lam); /* at it->zb (gradient in it->grad) */
+    int (*solve)(dth_integrator *it, double *b);   /* b = J^-1 b with the last factors */
+    int (*tangent)(dth_integrator *it, double *M); /* the last step's tangent map (refactors) */
+};
+
+static int dense_factor(dth_integrator *it, double lam)
 {
-    if (it->band) return dth__band_factor(it->band, it->model, it->zb, it->grad, lam);
+    (void)lam;
     return dth__lu_factor(it->kind, it->m, it->A, it->piv);
 }
+static int dense_solve(dth_integrator *it, double *b) { return dth__lu_solve(it->kind, it->m, it->A, it->piv, 1, b); }
+static int dense_tangent(dth_integrator *it, double *M);
+static int band_factor(dth_integrator *it, double lam)
+{
+    return dth__band_factor(it->band, it->model, it->zb, it->grad, lam);
+}
+static int band_solve(dth_integrator *it, double *b) { return dth__band_solve(it->band, b); }
+static int band_tangent(dth_integrator *it, double *M)
+{
+    return dth__band_tangent(it->band, it->model, it->st.zbar, it->st.lam, M);
+}
 
-/* nc > 0: the small path for an autonomous model with n = nc (its own inlined LU, no library call) */
+static const struct dth__linsolver dense_ls = {DTH_EVAL_HESS, dense_factor, dense_solve, dense_tangent};
+static const struct dth__linsolver band_ls = {0, band_factor, band_solve, band_tangent};
+
+static const struct dth__linsolver *linsolver_of(dth_linsolve kind)
+{
+    return kind == DTH_LINSOLVE_BANDED || kind == DTH_LINSOLVE_BANDED_LU ? &band_ls : &dense_ls;
+}
+
+/*
+ * The compensated finish of a step, as the residual of its chord steps (newton.h): the constraint
+ * row from the carried vertex offset, E = rho_k + (H(zbar) - H(z_k)), the difference from the
+ * model's hdiff: its error scales with the step instead of with the energy's size. The direct value
+ * wp + H_phys(zbar) (in F on entry) carries eps S, S = |wp| + |H_phys| + sum |dH/dy_j y_j|, and
+ * lambda is fixed by a second-order effect (paper, Lemma g_taylor), so that noise moves lambda by
+ * about 4 eps S / (|psi| lambda^2): the reason for the carried offset.
+ * The carried offset random-walks by about eps sum |dH/dy_j delta_j| per step; where it has drifted
+ * from the direct value by more than tau = 4 eps S, the step takes the direct value instead (and
+ * the next offset is measured from this midpoint again), so the midpoint energy stays within tau of
+ * exact. Both rules give the backward step the same equation at the same midpoint (the carried
+ * offset of z_(k+1) is measured from zbar), so the map stays time-reversible. it->zb, it->Hphys and
+ * it->grad belong to x.
+ */
+AI int compensated_n(dth_integrator *it, const size_t nc, const double *x, double *F)
+{
+    int m = nc ? (int)(2 * nc + 1) : it->m;
+    double dh;
+    midpoint_lo_n(it, nc, x, it->zblo);
+    int rc = rho_from_mid_n(it, nc, it->zb, it->zblo, it->grad, it->st.z, it->st.zlo, &dh); /* H(z_k) - H(zbar) */
+    if (rc) {
+        seterr(it, "model evaluation failed in the compensated constraint: %s", dth_strerror(rc));
+        return rc;
+    }
+    double ec = it->st.rho - dh, rd = F[m - 1], tau = 4 * DBL_EPSILON * h_scale_n(it, nc, it->zb, it->Hphys);
+    F[m - 1] = fabs(ec - rd) <= tau ? ec : rd;
+    return DTH_OK;
+}
+
+/*
+ * The small path's Schur complement (dth__small_schur) at the Hessian and gradient in it->hess /
+ * it->grad: 0 if it applies (q-p block zero, T'' diagonal and positive, K and the border regular),
+ * else 1 (the caller factors the whole bordered matrix). Eliminating d_p from B (d_q, d_p) = r gives
+ *     K w_q = r_q + (lambda/2) T'' r_p,   w_p = r_p - (lambda/2) V'' w_q,   K = I + (lambda^2/4) T'' V''
+ * (T'' times the symmetric T''^-1 + (lambda^2/4) V'' of banded.c: no division by T''). The border:
+ * y2 = B^-1 c = c + e with B e = c - B c = (lambda/4) (T'' g_q, V'' g_p), so that s = -g^T y2 = -g^T e
+ * (g^T c = 0 exactly, pair by pair) is computed without cancellation.
+ */
+AI int schur_factor_n(dth_integrator *it, const size_t n, double lam)
+{
+    dth__small_schur *S = &it->ss;
+    const size_t d = 2 * n + 1;
+    const double *Hy = it->hess, *g = it->grad;
+    for (size_t i = 0; i < n; i++) {
+        double tpp = Hy[(n + 1 + i) * d + n + 1 + i];
+        if (!(tpp > 0)) return 1;
+        for (size_t k = 0; k < n; k++)
+            if (Hy[i * d + n + 1 + k] != 0 || (k != i && Hy[(n + 1 + i) * d + n + 1 + k] != 0)) return 1;
+        S->t[i] = tpp;
+    }
+    double hl = 0.5 * lam, c = hl * hl, vg[3], eq[3];
+    S->hl = hl;
+    for (size_t i = 0; i < n; i++) {
+        S->g[i] = g[i];
+        S->g[n + i] = g[n + 1 + i];
+        for (size_t k = 0; k < n; k++) {
+            double v = Hy[i * d + k];
+            S->V[i * n + k] = v;
+            S->K[i + k * n] = (i == k ? 1.0 : 0.0) + c * (S->t[i] * v);
+        }
+    }
+    if (lu_factor_recip_m((int)n, S->K, S->piv, S->kinv) != DTH_OK) return 1;
+    for (size_t i = 0; i < n; i++) {
+        double a = 0;
+        for (size_t k = 0; k < n; k++) a += S->V[i * n + k] * S->g[n + k];
+        vg[i] = a;
+        eq[i] = S->t[i] * (0.5 * hl * S->g[i] + hl * (0.5 * hl * a));
+    }
+    lu_solve_recip_m((int)n, S->K, S->piv, S->kinv, eq);
+    double sc = 0;
+    for (size_t i = 0; i < n; i++) {
+        double ve = 0;
+        for (size_t k = 0; k < n; k++) ve += S->V[i * n + k] * eq[k];
+        double ep = 0.5 * hl * vg[i] - hl * ve;
+        S->y2[i] = -0.5 * S->g[n + i] + eq[i];
+        S->y2[n + i] = 0.5 * S->g[i] + ep;
+        sc -= S->g[i] * eq[i] + S->g[n + i] * ep;
+    }
+    S->sinv = 1 / sc;
+    return isfinite(sc) && sc != 0 ? 0 : 1;
+}
+
+/* b = J^-1 b with the Schur complement's factors. */
+AI void schur_solve_n(const dth_integrator *it, const size_t n, double *b)
+{
+    const dth__small_schur *S = &it->ss;
+    double wq[3], wp[3], gw = 0;
+    for (size_t i = 0; i < n; i++) wq[i] = b[i] + S->hl * (S->t[i] * b[n + i]);
+    lu_solve_recip_m((int)n, S->K, S->piv, S->kinv, wq);
+    for (size_t i = 0; i < n; i++) {
+        double vw = 0;
+        for (size_t k = 0; k < n; k++) vw += S->V[i * n + k] * wq[k];
+        wp[i] = b[n + i] - S->hl * vw;
+        gw += S->g[i] * wq[i] + S->g[n + i] * wp[i];
+    }
+    double al = (b[2 * n] - gw) * S->sinv;
+    for (size_t i = 0; i < n; i++) {
+        b[i] = wq[i] - S->y2[i] * al;
+        b[n + i] = wp[i] - S->y2[n + i] * al;
+    }
+    b[2 * n] = al;
+}
+
+/* nc > 0: the small path for an autonomous model with n = nc (written out, no library call) */
 AI int eval_n(dth_integrator *it, const size_t nc, const double *x, double *F, int jac)
 {
     int m = nc ? (int)(2 * nc + 1) : it->m;
     midpoint_n(it, nc, x, it->zb);
     /* the model's outputs are not swept for NaN/Inf here (the Hessian alone is (2n+1)^2): a
      * non-finite value shows in the correction, and step_judge finds out why */
-    unsigned what = DTH_EVAL_H | DTH_EVAL_GRAD | (jac && !it->band ? DTH_EVAL_HESS : 0u);
-    int rc = dth__model_eval_raw(it->model, it->zb, what, &it->Hphys, it->grad, it->hess);
+    unsigned what = DTH_EVAL_H | DTH_EVAL_GRAD | (jac ? it->ls->hess : 0u);
+    int rc = it->meval(it->mself, it->zb, what, &it->Hphys, it->grad, it->hess);
     if (rc) {
+        rc = rc > 0 ? DTH_EDOMAIN : DTH_EMODEL;
         seterr(it, "model evaluation failed at a trial midpoint (iteration %d): %s", it->nt.iter, dth_strerror(rc));
         return rc;
     }
-    assemble_n(it, nc, x, it->zb, it->Hphys, F, jac && !it->band ? it->A : NULL);
-    if (!jac) return DTH_OK;
-    rc = nc ? lu_factor_m((int)(2 * nc + 1), it->A, it->piv) : step_factor(it, x[m - 1]);
+    int schur = nc && jac && it->small_schur; /* try the Schur complement first: A is not assembled */
+    assemble_n(it, nc, x, it->zb, it->Hphys, F, jac && it->ls->hess && !schur ? it->A : NULL);
+    if (!jac) return it->opt.compensate ? compensated_n(it, nc, x, F) : DTH_OK;
+    if (schur) {
+        it->ss.on = !schur_factor_n(it, nc, x[m - 1]);
+        if (it->ss.on) return DTH_OK;
+        assemble_n(it, nc, x, it->zb, it->Hphys, F, it->A); /* it does not apply here: LU */
+    }
+    rc = nc ? lu_factor_m((int)(2 * nc + 1), it->A, it->piv) : it->ls->factor(it, x[m - 1]);
     if (rc == DTH_ESINGULAR || rc == DTH_ELAPACK)
         seterr(it, "bordered Jacobian is singular at iteration %d (lambda = %.17g)", it->nt.iter, x[m - 1]);
     else if (rc)
@@ -629,8 +785,7 @@ static int step_eval(void *ctx, const double *x, double *F, int jac) { return ev
 static int step_solve(void *ctx, double *b)
 {
     dth_integrator *it = ctx;
-    if (it->band) return dth__band_solve(it->band, b);
-    return dth__lu_solve(it->kind, it->m, it->A, it->piv, 1, b);
+    return it->ls->solve(it, b);
 }
 
 /* The relative correction of an autonomous step: the q block, the p block (never zero:
@@ -644,7 +799,7 @@ AI double correction_n(const dth_integrator *it, const size_t nc, const double *
         if (!(a <= cq)) cq = a;
         if (!(b <= cp)) cp = b;
     }
-    double l = fabs(x[2 * n]), rq = cq / it->bs[0], rp = cp / it->bs[2], rl = fabs(dx[2 * n]) / (l > 0 ? l : 1e-300);
+    double l = fabs(x[2 * n]), rq = cq * it->ibq, rp = cp * it->ibp, rl = fabs(dx[2 * n]) / (l > 0 ? l : 1e-300);
     double r = rq;
     if (!(rp <= r)) r = rp;
     if (!(rl <= r)) r = rl;
@@ -659,9 +814,9 @@ static int judge_slow(dth_integrator *it, int v, const double *x, const double *
     const double *bs = it->bs;
     if (v == DTH__NT_DIVERGED || !isfinite(x[m - 1])) {
         /* a non-finite model output (not swept in step_eval) is the model's domain, not Newton's */
-        int rc = dth_model_eval(it->model, it->zb, DTH_EVAL_H | DTH_EVAL_GRAD | (it->band ? 0u : DTH_EVAL_HESS),
-                                &it->Hphys, it->grad, it->hess);
-        if (!rc && it->band) rc = dth__model_hess_band(it->model, it->zb, it->work);
+        int rc = dth_model_eval(it->model, it->zb, DTH_EVAL_H | DTH_EVAL_GRAD | it->ls->hess, &it->Hphys, it->grad,
+                                it->hess);
+        if (!rc && !it->ls->hess) rc = dth__model_hess_band(it->model, it->zb, it->work);
         if (rc) {
             seterr(it, "model evaluation failed at a trial midpoint (iteration %d): %s", tr->iter, dth_strerror(rc));
             return rc;
@@ -709,9 +864,13 @@ AI int judge_n(dth_integrator *it, const size_t nc, const double *x, const doubl
         }
     }
     tr->r = r;
-    int v = dth__newton_rate(r, tr->r_prev, tr->iter, 4 * DBL_EPSILON);
-    if (v == DTH__NT_DIVERGED || v == DTH__NT_STALLED || !isfinite(x[m - 1])) return judge_slow(it, v, x, dx, F, tr, verdict);
-    *verdict = v;
+    int v = dth__newton_rate_inl(r, tr->r_prev, tr->iter, 4 * DBL_EPSILON);
+    if (v == DTH__NT_DIVERGED || v == DTH__NT_STALLED || !isfinite(x[m - 1])) {
+        int rc = judge_slow(it, v, x, dx, F, tr, &v);
+        if (rc) return rc;
+    }
+    /* converged: a compensated step still finishes with its chord step (compensated_n) */
+    *verdict = v == DTH__NT_DONE && it->opt.compensate ? DTH__NT_CHORD : v;
     return DTH_OK;
 }
 
@@ -720,142 +879,122 @@ static int step_judge(void *ctx, const double *x, const double *dx, const double
     return judge_n(ctx, 0, x, dx, F, tr, verdict);
 }
 
+/* One more compensated chord step where the last one moved lambda so far (a stalled Newton at tiny
+ * steps) that the chord's own second-order error dlambda^2 / lambda is above eps lambda; at most 3. */
+static int step_again(void *ctx, const double *x, const double *dx, int chords)
+{
+    const dth_integrator *it = ctx;
+    double dl = dx[it->m - 1], l = x[it->m - 1];
+    return it->opt.compensate && chords < 3 && dl * dl > DBL_EPSILON * (l * l); /* (dl / l)^2 > eps */
+}
+
 static const dth__newton_ops step_ops = {step_eval, step_solve, step_judge};
 
 /* The small path's instances for n = 1, 2, 3 (m = 3, 5, 7). */
 #define SMALL_OPS(N)                                                                                            \
-    static int eval_##N(void *c, const double *x, double *F, int jac) { return eval_n(c, N, x, F, jac); }         \
-    static int solve_##N(void *c, double *b)                                                                      \
+    AI int eval_##N(void *c, const double *x, double *F, int jac) { return eval_n(c, N, x, F, jac); }             \
+    AI int solve_##N(void *c, double *b)                                                                          \
     {                                                                                                             \
         dth_integrator *it = c;                                                                                   \
-        lu_solve_m(2 * N + 1, it->A, it->piv, b);                                                                  \
+        if (it->small_schur && it->ss.on) schur_solve_n(it, N, b);                                                \
+        else lu_solve_m(2 * N + 1, it->A, it->piv, b);                                                             \
         return DTH_OK;                                                                                            \
     }                                                                                                             \
-    static int judge_##N(void *c, const double *x, const double *dx, const double *F, dth__newton_track *tr, int *v) \
+    AI int judge_##N(void *c, const double *x, const double *dx, const double *F, dth__newton_track *tr, int *v)     \
     {                                                                                                             \
         return judge_n(c, N, x, dx, F, tr, v);                                                                    \
-    }
+    }                                                                                                             \
+    static const dth__newton_ops small_ops_##N = {eval_##N, solve_##N, judge_##N};
 SMALL_OPS(1)
 SMALL_OPS(2)
 SMALL_OPS(3)
-static const dth__newton_ops small_ops[3] = {{eval_1, solve_1, judge_1}, {eval_2, solve_2, judge_2}, {eval_3, solve_3, judge_3}};
-
-/* The Newton problem of this integrator's step. */
-static const dth__newton_ops *ops_of(const dth_integrator *it)
-{
-    if (it->auton && !it->band && dth__lu_small(it->kind, it->m) && it->n <= 3) return &small_ops[it->n - 1];
-    return &step_ops;
-}
 
 /*
- * The compensated finish of a converged step: one chord step (the factors at hand) on the
- * constraint evaluated from the carried vertex offset, E = rho_k + (H(zbar) - H(z_k)), the
- * difference from the model's hdiff: its error scales with the step instead of with the energy's
- * size. The direct value wp + H_phys(zbar) carries eps S, S = |wp| + |H_phys| + sum |dH/dy_j y_j|,
- * and lambda is fixed by a second-order effect (paper, Lemma g_taylor), so that noise moves lambda
- * by about 4 eps S / (|psi| lambda^2): the reason for the carried offset.
- * The carried offset random-walks by about eps sum |dH/dy_j delta_j| per step; where it has drifted
- * from the direct value by more than tau = 4 eps S, the step takes the direct value instead (and
- * the next offset is measured from this midpoint again), so the midpoint energy stays within tau of
- * exact. Both rules give the backward step the same equation at the same midpoint (the carried
- * offset of z_(k+1) is measured from zbar), so the map stays time-reversible. On entry it->zb,
- * it->Hphys and it->grad belong to x.
+ * Newton on the step from the seed (lam0, d0); nc > 0: the small path, whose driver (newton.h) and
+ * callbacks are inlined. After it: the accepted midpoint in it->zb, its direct energy residual, and
+ * its low part for the commit.
  */
-static int compensate(dth_integrator *it, double *x)
+AI int newton_n(dth_integrator *it, const size_t nc, const dth__newton_ops *ops, double lam0, const double *d0,
+                dth__solution *sol)
 {
-    size_t N = it->N;
-    int m = it->m;
-    double *zb = it->zb, *F = it->F, dh;
-    /* one chord step; a second (and third) where the first moved lambda so far (a stalled Newton at
-     * tiny steps) that the chord's own second-order error dlambda^2 / lambda is above eps lambda */
-    for (int pass = 0; pass < 3; pass++) {
-        if (pass) {
-            int rc = dth_model_eval(it->model, zb, DTH_EVAL_H | DTH_EVAL_GRAD, &it->Hphys, it->grad, NULL);
-            if (rc) {
-                seterr(it, "model evaluation failed at the converged midpoint");
-                return rc;
-            }
+    size_t n = nc ? nc : it->n, N = 2 * n + 2;
+    int m = nc ? (int)(2 * nc + 1) : it->m;
+    double *x = it->x, *zb = it->zb;
+    if (nc) {
+        for (size_t i = 0; i < n; i++) {
+            x[i] = d0[i];
+            x[n + i] = d0[n + 1 + i];
         }
-        assemble(it, x, zb, it->Hphys, F, NULL);
-        midpoint_lo(it, x, it->zblo);
-        int rc = rho_from_mid(it, zb, it->zblo, it->grad, it->st.z, it->st.zlo, &dh); /* H(z_k) - H(zbar) */
-        if (rc) {
-            seterr(it, "model evaluation failed in the compensated constraint: %s", dth_strerror(rc));
-            return rc;
-        }
-        double ec = it->st.rho - dh, rd = zb[N - 1] + it->Hphys, tau = 4 * DBL_EPSILON * h_scale(it, zb, it->Hphys);
-        F[m - 1] = fabs(ec - rd) <= tau ? ec : rd;
-        rc = ops_of(it)->solve(it, F);
-        if (rc) return rc;
-        for (int k = 0; k < m; k++) x[k] -= F[k];
-        midpoint_from_x(it, x, zb);
-        double rl = F[m - 1] / x[m - 1];
-        if (!(rl * rl > DBL_EPSILON)) break;
+    } else {
+        for (int a = 0; a < m - 1; a++) x[a] = d0[it->act[a]];
     }
-    midpoint_lo(it, x, it->zblo); /* for the next vertex's offset (commit) */
+    x[m - 1] = lam0;
+    sol->iters = 0;
+    sol->residual = NAN;
+    midpoint_n(it, nc, x, zb);
+    block_scales_n(it, nc, zb, it->bs);
+    int rc = dth__newton_iterate(ops, step_again, it, m, it->opt.max_iter, x, it->F, it->dx, &it->nt);
+    sol->iters = it->nt.iter;
+    if (rc == DTH_ENOCONV && it->nt.verdict == DTH__NT_MAXITER)
+        seterr(it, "Newton did not converge in %d iterations (last correction %.3g)", it->nt.iter, it->nt.r);
+    if (rc) return rc;
+    midpoint_n(it, nc, x, zb);
+    rc = it->meval(it->mself, zb, DTH_EVAL_H, &it->Hphys, NULL, NULL);
+    if (!rc && !isfinite(it->Hphys)) rc = 1;
+    if (rc) {
+        rc = rc > 0 ? DTH_EDOMAIN : DTH_EMODEL;
+        seterr(it, "model evaluation failed at the converged midpoint: %s", dth_strerror(rc));
+        return rc;
+    }
+    sol->residual = fabs(zb[N - 1] + it->Hphys);
+    if (it->opt.compensate) midpoint_lo_n(it, nc, x, it->zblo);
+    sol->lambda = x[m - 1];
     return DTH_OK;
 }
 
 int dth__newton(dth_integrator *it, double lam0, const double *d0, dth__solution *sol)
 {
-    size_t N = it->N;
-    int m = it->m;
-    double *x = it->x, *zb = it->zb;
-    for (int a = 0; a < m - 1; a++) x[a] = d0[it->act[a]];
-    x[m - 1] = lam0;
-    sol->iters = 0;
-    sol->residual = NAN;
-    midpoint_from_x(it, x, zb);
-    block_scales(it, zb, it->bs);
-    int rc = dth__newton_run(ops_of(it), it, m, it->opt.max_iter, x, it->F, it->dx, &it->nt);
-    sol->iters = it->nt.iter;
-    if (rc == DTH_ENOCONV && it->nt.verdict == DTH__NT_MAXITER)
-        seterr(it, "Newton did not converge in %d iterations (last correction %.3g)", it->nt.iter, it->nt.r);
-    if (rc) return rc;
-    /* the accepted midpoint and its energy residual (direct: wp + H_phys) */
-    midpoint_from_x(it, x, zb);
-    rc = dth_model_eval(it->model, zb, it->opt.compensate ? DTH_EVAL_H | DTH_EVAL_GRAD : DTH_EVAL_H, &it->Hphys,
-                        it->grad, NULL);
-    if (rc) {
-        seterr(it, "model evaluation failed at the converged midpoint");
-        return rc;
+    switch (it->nsmall) {
+    case 1: return newton_n(it, 1, &small_ops_1, lam0, d0, sol);
+    case 2: return newton_n(it, 2, &small_ops_2, lam0, d0, sol);
+    case 3: return newton_n(it, 3, &small_ops_3, lam0, d0, sol);
+    default: return newton_n(it, 0, &step_ops, lam0, d0, sol);
     }
-    sol->residual = fabs(zb[N - 1] + it->Hphys);
-    if (it->opt.compensate) {
-        rc = compensate(it, x);
-        if (rc) return rc;
-    }
-    sol->lambda = x[m - 1];
-    return DTH_OK;
 }
 
 /* Commit the solution in it->x / it->zb: new vertex z + 2 d in double-double. */
-static int commit(dth_integrator *it, double lam)
+AI int commit_n(dth_integrator *it, const size_t nc, double lam)
 {
-    size_t n = it->n, N = it->N;
-    int m = it->m;
+    size_t n = nc ? nc : it->n, N = 2 * n + 2;
+    int m = nc ? (int)(2 * nc + 1) : it->m;
     /* new vertex into scratch first (znew: the full offset d, then z + 2 d): a finite midpoint can
      * still give an overflowing vertex, and then the state stays untouched */
     double *zn = it->znew, *zl = it->znewlo;
-    if (it->auton) {
+    if (nc || it->auton) {
         /* autonomous: t advances by lambda/2, wp stays */
-        memcpy(zn, it->x, n * sizeof *zn);
+        for (size_t i = 0; i < n; i++) {
+            zn[i] = it->x[i];
+            zn[n + 1 + i] = it->x[n + i];
+        }
         zn[n] = 0.5 * lam;
-        memcpy(zn + n + 1, it->x + n, n * sizeof *zn);
         zn[N - 1] = 0;
     } else {
         for (int a = 0; a < m - 1; a++) zn[it->act[a]] = it->x[a];
     }
     double *d = it->dnew; /* scratch: becomes the newest history slot */
+    int finite = 1;
     for (size_t j = 0; j < N; j++) {
         d[j] = zn[j];
         zn[j] = two_sum(it->st.z[j], 2 * d[j] + it->st.zlo[j], &zl[j]);
-        if (!isfinite(zn[j])) {
-            seterr(it, "the new vertex overflows (component %zu)", j);
-            return DTH_EDOMAIN;
-        }
+        finite &= isfinite(zn[j]) != 0;
     }
-    if (it->auton) { /* wp carried bit for bit */
+    if (!finite) {
+        size_t j = 0;
+        while (isfinite(zn[j])) j++;
+        seterr(it, "the new vertex overflows (component %zu)", j);
+        return DTH_EDOMAIN;
+    }
+    if (nc || it->auton) { /* wp carried bit for bit */
         zn[N - 1] = it->st.z[N - 1];
         zl[N - 1] = it->st.zlo[N - 1];
     }
@@ -863,15 +1002,18 @@ static int commit(dth_integrator *it, double lam)
     if (it->opt.compensate) {
         /* the new vertex's offset measured from this step's midpoint (it->grad is there) */
         /* the exact first step of a midpoint start has its midpoint exact in double */
-        int rc = rho_from_mid(it, it->zb, it->st.pending_exact ? NULL : it->zblo, it->grad, zn, zl, &rho);
+        int rc = rho_from_mid_n(it, nc, it->zb, it->st.pending_exact ? NULL : it->zblo, it->grad, zn, zl, &rho);
         if (rc) {
             seterr(it, "model evaluation failed at the new vertex: %s", dth_strerror(rc));
             return rc;
         }
     }
     it->st.rho = rho;
-    memcpy(it->st.z, zn, N * sizeof *zn);
-    memcpy(it->st.zlo, zl, N * sizeof *zl);
+    for (size_t j = 0; j < N; j++) {
+        it->st.z[j] = zn[j];
+        it->st.zlo[j] = zl[j];
+        it->st.zbar[j] = it->zb[j];
+    }
     /* the predictor's history: the last three offsets and steps (the oldest slot is the next scratch) */
     it->dnew = it->st.dprev3;
     it->st.dprev3 = it->st.dprev2;
@@ -880,13 +1022,22 @@ static int commit(dth_integrator *it, double lam)
     it->st.lam3 = it->st.lam2;
     it->st.lam2 = it->st.lam;
     it->st.nhist = it->st.nhist < 3 ? it->st.nhist + 1 : 3;
-    memcpy(it->st.zbar, it->zb, N * sizeof *it->zb);
     it->st.fact_valid = 1; /* an ordinary step: a tangent map exists (a regularizer's step clears it) */
     it->st.lam = lam;
     it->st.have_prev = 1;
     it->st.have_mid = 1;
     it->st.steps++;
     return DTH_OK;
+}
+
+static int commit(dth_integrator *it, double lam)
+{
+    switch (it->nsmall) {
+    case 1: return commit_n(it, 1, lam);
+    case 2: return commit_n(it, 2, lam);
+    case 3: return commit_n(it, 3, lam);
+    default: return commit_n(it, 0, lam);
+    }
 }
 
 int dth__integrator_commit(dth_integrator *it, double lam) { return commit(it, lam); }
@@ -1045,7 +1196,12 @@ int dth_integrator_tangent(dth_integrator *it, double *M)
 {
     if (!it || !M) return DTH_EINVAL;
     if (!it->st.fact_valid) return DTH_EINVAL; /* no step yet, or a regularizer's step */
-    if (it->band) return dth__band_tangent(it->band, it->model, it->st.zbar, it->st.lam, M);
+    return it->ls->tangent(it, M);
+}
+
+/* The dense paths' tangent map: the bordered Jacobian at the converged midpoint, refactored. */
+static int dense_tangent(dth_integrator *it, double *M)
+{
     size_t n = it->n, N = it->N;
     int m = it->m;
     double lam = it->st.lam;
@@ -1061,7 +1217,7 @@ int dth_integrator_tangent(dth_integrator *it, double *M)
     /* B = dF/dz_k (m x N, column-major): rows of -(lambda/2) J H_zz, last row grad H. */
     double *B = it->B;
     for (size_t l = 0; l < N; l++) {
-        for (int a = 0; a < m - 1; a++) B[(size_t)a + l * (size_t)m] = 0.5 * lam * dudz(it, (size_t)it->act[a], l);
+        for (int a = 0; a < m - 1; a++) B[(size_t)a + l * (size_t)m] = 0.5 * lam * dth__dudz(n, it->hess, (size_t)it->act[a], l);
         B[(size_t)(m - 1) + l * (size_t)m] = l == N - 1 ? -1.0 : -it->grad[l];
     }
     /* X = -A^{-1} B: derivatives of the unknowns (d, lambda) with respect to z_k (B holds -B). */

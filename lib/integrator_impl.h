@@ -58,6 +58,23 @@ typedef struct dth__state {
 #define DTH__ISVEC_INT 0
 #define DTH__ISVEC_LONG 0
 enum { DTH__STATE_NVEC = 0 DTH__STATE_FIELDS(DTH__STATE_ISVEC) };
+/**
+ * The small path's Schur complement (linsolve small, autonomous separable H = T(p) + V(q) with
+ * diagonal positive T'', n <= 3): the bordered step matrix [[B, c], [g^T, 0]] with
+ * B = [[I, -(lambda/2) T''], [(lambda/2) V'', I]] is solved through K = I + (lambda^2/4) T'' V''
+ * (n x n; bench_floor's analytic 2 x 2 for Kepler), as banded.c does for chains.
+ */
+typedef struct dth__small_schur {
+    int on;            /* the last factorization is this one (else the LU in it->A / it->piv) */
+    int piv[3];        /* pivots of K */
+    double K[9];       /* LU factors of K (n x n, column-major), the reciprocals of its pivots */
+    double kinv[3];
+    double V[9];       /* V'' (n x n) at the factorization */
+    double t[3];       /* the diagonal of T'' */
+    double g[6];       /* the border row: grad H over (q, p) at the factorization */
+    double y2[6];      /* B^-1 c over (q, p) */
+    double sinv, hl;   /* 1 / the bordered Schur complement -g^T B^-1 c; lambda / 2 */
+} dth__small_schur;
 
 struct dth_integrator {
     const dth_model *model;
@@ -68,14 +85,24 @@ struct dth_integrator {
     int m;            /* Newton unknowns: active components of d, then lambda */
     int *act;         /* z-index of each active unknown (m-1 of them) */
     dth_linsolve kind; /* the linear solver in use (never AUTO) */
+    const struct dth__linsolver *ls; /* its entry in the linear-solver table (integrator.c) */
+    int nsmall;       /* n (1..3) where the step takes the small path (autonomous, written out), else 0 */
+    int small_schur;  /* the small path may use its Schur complement (separable model, not small-lu) */
+    dth__small_schur ss;
+    /* the model's eval callback and state, called directly in the Newton loop (which sees a
+     * non-finite output in its correction instead of sweeping for it) */
+    int (*meval)(const void *self, const double *y, unsigned what, double *H, double *grad, double *hess);
+    int (*mhdiff)(const void *self, const double *y1, const double *y0, double *dH); /* NULL: dth__model_hdiff's rule */
+    const void *mself;
     dth__state st;    /* the step state (above): everything a checkpoint holds */
     /* workspace: nothing here carries from one step to the next */
     double *dnew;     /* scratch for the next offset (rotates with st.dprev..st.dprev3) */
-    double *hwork;    /* 2(2n+1) doubles for dth__model_hdiff */
+    double *hwork;    /* 2(2n+1) doubles for dth__model_hdiff (models without their own hdiff) */
     double *zblo;     /* low part of the midpoint of the compensated solution (it->zb + it->zblo) */
     double *znew, *znewlo, *zb, *grad, *hess, *u, *ybar, *A, *F, *x, *dx, *work, *B;
     double Hphys;     /* H_phys at it->zb after the last step evaluation */
     double bs[4];     /* block scales (q, t, p, wp) of the Newton solve in progress (step_judge) */
+    double ibq, ibp;  /* 1 / bs[0], 1 / bs[2] */
     int *piv;
     dth__newton_track nt; /* progress of the current Newton solve (messages) */
     double *block;
@@ -102,8 +129,10 @@ typedef struct dth__solution {
 
 /**
  * Newton on the bordered system from the current vertex, seeded with lambda0 and the offset
- * d0 (length 2n+2). On success it->x holds (d, lambda) and it->zb the midpoint; the factors of
- * the last iteration are in it->A / it->piv. Does not change the vertex.
+ * d0 (length 2n+2), finished by chord steps on the compensated constraint (opt.compensate). On
+ * success it->x holds (d, lambda), it->zb the midpoint and it->zblo its low part; the factors of
+ * the last iteration stay with the linear solver (it->A / it->piv, it->ss, or the band). Does not
+ * change the vertex.
  */
 int dth__newton(dth_integrator *it, double lam0, const double *d0, dth__solution *sol);
 

@@ -21,11 +21,15 @@ const char *dth_linsolve_name(dth_linsolve k)
     case DTH_LINSOLVE_SMALL: return "small";
     case DTH_LINSOLVE_BANDED: return "banded";
     case DTH_LINSOLVE_BANDED_LU: return "banded-lu";
+    case DTH_LINSOLVE_SMALL_LU: return "small-lu";
     default: return NULL;
     }
 }
 
-int dth__lu_small(dth_linsolve k, int m) { return k == DTH_LINSOLVE_SMALL || (k != DTH_LINSOLVE_DENSE && m <= DTH__SMALL_MAX); }
+int dth__lu_small(dth_linsolve k, int m)
+{
+    return k == DTH_LINSOLVE_SMALL || k == DTH_LINSOLVE_SMALL_LU || (k != DTH_LINSOLVE_DENSE && m <= DTH__SMALL_MAX);
+}
 
 #define SIZES(F) F(1) F(2) F(3) F(4) F(5) F(6) F(7) F(8)
 #define FACT_CASE(M) case M: return lu_factor_m(M, a, piv);

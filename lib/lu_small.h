@@ -8,9 +8,10 @@
 #include <math.h>
 #include "dth/status.h"
 
-/* Doolittle LU with partial pivoting, column-major, in place; piv 1-based like LAPACK. Inlined
- * below for each m <= DTH__SMALL_MAX, so that the loops unroll for the size at hand. */
-static inline __attribute__((always_inline)) int lu_factor_m(const int m, double *a, int *piv)
+/* Doolittle LU with partial pivoting, column-major, in place; piv 1-based like LAPACK; dinv (NULL:
+ * not kept) gets the reciprocals of the pivots. Inlined for each m <= DTH__SMALL_MAX, so that the
+ * loops unroll for the size at hand. */
+static inline __attribute__((always_inline)) int lu_factor_core(const int m, double *a, int *piv, double *dinv)
 {
 #pragma GCC unroll 8
     for (int k = 0; k < m; k++) {
@@ -21,7 +22,12 @@ static inline __attribute__((always_inline)) int lu_factor_m(const int m, double
             if (v > best) best = v, p = i;
         }
         piv[k] = p + 1;
-        if (!(best > 0)) return best == 0 ? DTH_ESINGULAR : DTH_OK; /* NaN: the solve shows it */
+        if (!(best > 0)) { /* NaN: the solve shows it (the remaining pivots are set, so it stays in bounds) */
+            for (int j = k + 1; j < m; j++) piv[j] = j + 1;
+            if (dinv)
+                for (int j = k; j < m; j++) dinv[j] = best;
+            return best == 0 ? DTH_ESINGULAR : DTH_OK;
+        }
         if (p != k)
             for (int j = 0; j < m; j++) {
                 double t = a[k + j * m];
@@ -29,6 +35,7 @@ static inline __attribute__((always_inline)) int lu_factor_m(const int m, double
                 a[p + j * m] = t;
             }
         double inv = 1.0 / a[k + k * m];
+        if (dinv) dinv[k] = inv;
         for (int i = k + 1; i < m; i++) a[i + k * m] *= inv;
 #pragma GCC unroll 8
         for (int j = k + 1; j < m; j++) {
@@ -38,6 +45,11 @@ static inline __attribute__((always_inline)) int lu_factor_m(const int m, double
         }
     }
     return DTH_OK;
+}
+
+static inline __attribute__((always_inline)) int lu_factor_m(const int m, double *a, int *piv)
+{
+    return lu_factor_core(m, a, piv, (double *)0);
 }
 
 static inline __attribute__((always_inline)) void lu_solve_m(const int m, const double *a, const int *piv, double *x)
@@ -59,6 +71,39 @@ static inline __attribute__((always_inline)) void lu_solve_m(const int m, const 
 #pragma GCC unroll 8
     for (int j = m - 1; j >= 0; j--) {
         x[j] /= a[j + j * m];
+        double xj = x[j];
+#pragma GCC unroll 8
+        for (int i = 0; i < j; i++) x[i] -= a[i + j * m] * xj;
+    }
+}
+
+/* The same LU keeping the reciprocals of its pivots in dinv (m doubles), for solves that multiply
+ * instead of dividing (a division's latency dominates a solve of this size). */
+static inline __attribute__((always_inline)) int lu_factor_recip_m(const int m, double *a, int *piv, double *dinv)
+{
+    return lu_factor_core(m, a, piv, dinv);
+}
+
+static inline __attribute__((always_inline)) void lu_solve_recip_m(const int m, const double *a, const int *piv,
+                                                                   const double *dinv, double *x)
+{
+    for (int k = 0; k < m; k++) {
+        int p = piv[k] - 1;
+        if (p != k) {
+            double t = x[k];
+            x[k] = x[p];
+            x[p] = t;
+        }
+    }
+#pragma GCC unroll 8
+    for (int j = 0; j < m; j++) {
+        double xj = x[j];
+#pragma GCC unroll 8
+        for (int i = j + 1; i < m; i++) x[i] -= a[i + j * m] * xj;
+    }
+#pragma GCC unroll 8
+    for (int j = m - 1; j >= 0; j--) {
+        x[j] *= dinv[j];
         double xj = x[j];
 #pragma GCC unroll 8
         for (int i = 0; i < j; i++) x[i] -= a[i + j * m] * xj;

@@ -1,57 +1,16 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * The one Newton driver of the library: the DTH step's bordered system (paper, Theorem "DTH
- * Equations"), the decoupled solve of Theorem "Decoupling", the kicked segment and the Gauss
- * baselines all iterate through dth__newton_run, each with its own residual/Jacobian, linear
- * solver and convergence test.
+ * The one Newton driver of the library (its loop: newton.h): the DTH step's bordered system (paper,
+ * Theorem "DTH Equations"), the decoupled solve of Theorem "Decoupling", the kicked segment and the
+ * Gauss baselines all iterate through it, each with its own residual/Jacobian, linear solver and
+ * convergence test.
  */
-#include <float.h>
-#include <math.h>
-#include <string.h>
-#include "dth_internal.h"
+#include "newton.h"
 
-int dth__newton_rate(double r, double r_prev, int iter, double tol)
-{
-    if (!isfinite(r)) return DTH__NT_DIVERGED;
-    if (r <= tol) return DTH__NT_DONE;
-    /* Quadratic rate r_(k+1) ~ r_k^3 / r_(k-1)^2: when the next correction is predicted below
-     * round-off, finish with one chord step (the factors at hand, no new Jacobian) instead of a
-     * full iteration. Without it the last residual keeps one sign from step to step and quadratic
-     * invariants drift like N instead of Brouwer's sqrt(N). */
-    if (iter >= 2 && r < 1e-6 && r * (r / r_prev) * (r / r_prev) <= DBL_EPSILON) return DTH__NT_CHORD;
-    if (r >= 0.5 * r_prev) return DTH__NT_STALLED;
-    return DTH__NT_MORE;
-}
+int dth__newton_rate(double r, double r_prev, int iter, double tol) { return dth__newton_rate_inl(r, r_prev, iter, tol); }
 
-int dth__newton_run(const dth__newton_ops *ops, void *ctx, int m, int max_iter, double *x, double *F,
-                    double *dx, dth__newton_track *tr)
+int dth__newton_run(const dth__newton_ops *ops, void *ctx, int m, int max_iter, double *x, double *F, double *dx,
+                    dth__newton_track *tr)
 {
-    tr->iter = 0;
-    tr->r = NAN;
-    tr->r_prev = INFINITY;
-    tr->verdict = DTH__NT_MORE;
-    for (int iter = 1; iter <= max_iter; iter++) {
-        tr->iter = iter;
-        int rc = ops->eval(ctx, x, F, 1);
-        if (rc) return rc;
-        memcpy(dx, F, (size_t)m * sizeof *dx);
-        rc = ops->solve(ctx, dx);
-        if (rc) return rc;
-        for (int a = 0; a < m; a++) x[a] -= dx[a];
-        int verdict = DTH__NT_MORE;
-        rc = ops->judge(ctx, x, dx, F, tr, &verdict);
-        tr->verdict = verdict;
-        if (rc) return rc;
-        if (verdict == DTH__NT_DONE) return DTH_OK;
-        if (verdict == DTH__NT_CHORD) {
-            rc = ops->eval(ctx, x, dx, 0); /* residual only: the factors stay */
-            if (!rc) rc = ops->solve(ctx, dx);
-            if (rc) return rc;
-            for (int a = 0; a < m; a++) x[a] -= dx[a];
-            return DTH_OK;
-        }
-        tr->r_prev = tr->r;
-    }
-    tr->verdict = DTH__NT_MAXITER;
-    return DTH_ENOCONV;
+    return dth__newton_iterate(ops, NULL, ctx, m, max_iter, x, F, dx, tr);
 }

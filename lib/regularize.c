@@ -328,11 +328,9 @@ static int ks_eval(void *ctx, const double *x, double *F, int jac)
      * (it is multiplied by mu, which is tiny) */
     for (size_t a = 0; a < q; a++) {
         size_t ya = a < n ? a : a + 1;           /* y-index of this (q, p) component */
-        size_t ua = a < n ? n + 1 + a : a - n;   /* u_a = +dH/dy_ua (a < n) or -dH/dy_ua */
-        double su = a < n ? 1.0 : -1.0;
         for (size_t b = 0; b < q; b++) {
             size_t yb = b < n ? b : b + 1;
-            A[a + b * m] = (a == b ? 1.0 : 0.0) - 0.5 * lam * su * hs[ua * d + yb] - 0.5 * kmu * sc[a] * sc[a] * hs[ya * d + yb];
+            A[a + b * m] = (a == b ? 1.0 : 0.0) - 0.5 * lam * dth__dudz(n, hs, ya, yb) - 0.5 * kmu * sc[a] * sc[a] * hs[ya * d + yb];
         }
         A[a + q * m] = -0.5 * nv[a];
         A[q + a * m] = g[ya];

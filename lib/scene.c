@@ -682,7 +682,7 @@ typedef struct setup_ctx {
     const dth_scene *s;
     char *err;
     size_t errlen;
-    const entry *q, *p, *t, *wp, *h, *steps, *t_end, *every, *dt, *start, *points, *method;
+    const entry *q, *p, *t, *wp, *h, *steps, *t_end, *every, *dt, *start, *points, *method, *linsolve;
     /* [events] */
     const entry *section, *section_value, *section_dir, *section_term, *time, *time_term, *dist, *dist_dofs,
         *dist_dir, *dist_term;
@@ -773,8 +773,17 @@ static int check_integrator(setup_ctx *c, dth_run_setup *rs, const entry *e)
         if (!strcmp(v, "yes") || !strcmp(v, "true") || !strcmp(v, "1")) rs->opt.branch_check = 1;
         else if (!strcmp(v, "no") || !strcmp(v, "false") || !strcmp(v, "0")) rs->opt.branch_check = 0;
         else return bad(c->err, c->errlen, e, "'%s' is not one of yes, no", v);
+    } else if (strcmp(k, "linsolve") == 0) {
+        c->linsolve = e;
+        dth_linsolve ls;
+        for (ls = DTH_LINSOLVE_AUTO; dth_linsolve_name(ls); ls++)
+            if (strcmp(v, dth_linsolve_name(ls)) == 0) break;
+        if (!dth_linsolve_name(ls))
+            return bad(c->err, c->errlen, e, "'%s' is not one of auto, dense, small, small-lu, banded, banded-lu", v);
+        rs->opt.linsolve = ls;
     } else {
-        return bad(c->err, c->errlen, e, "unknown key (known in [integrator]: method, start, h, steps, t_end, max_iter, K, branch_check)");
+        return bad(c->err, c->errlen, e,
+                   "unknown key (known in [integrator]: method, start, h, steps, t_end, max_iter, K, branch_check, linsolve)");
     }
     return DTH_OK;
 }
@@ -1211,6 +1220,10 @@ int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *
         } else if (dth_model_dof(rs.model) != rs.n) {
             rc = bad(err, errlen, c.q, "model '%s' has %zu degrees of freedom, but %zu q values are given",
                      type->name, dth_model_dof(rs.model), rs.n);
+        } else if ((rs.opt.linsolve == DTH_LINSOLVE_BANDED || rs.opt.linsolve == DTH_LINSOLVE_BANDED_LU) &&
+                   !dth__model_banded(rs.model)) {
+            rc = bad(err, errlen, c.linsolve, "'%s' needs a model with a banded Hessian (model '%s' has a dense one)",
+                     dth_linsolve_name(rs.opt.linsolve), type->name);
         } else {
             rc = check_start(&c, &rs, type->name);
         }

@@ -52,18 +52,21 @@ static int create(const dth_model_args *a, void **self, dth_model_info *info)
 
 static void destroy(void *self, const dth_allocator *alloc) { dth_free(alloc, self); }
 
-static double dot(size_t n, const double *a, const double *b)
+static inline double dot(size_t n, const double *a, const double *b)
 {
     double s = 0;
     for (size_t i = 0; i < n; i++) s += a[i] * b[i];
     return s;
 }
 
+/* The callbacks below are written once for a dimension n known at compile time (2 or 3), so that
+ * their loops unroll: the step evaluates them several times per step. */
+#define KI static inline __attribute__((always_inline))
+
 /* y = (q, t, p); q = 0 is outside the domain. */
-static int eval(const void *self, const double *y, unsigned what, double *H, double *g, double *hs)
+KI int eval_n(const kepler *k, const size_t n, const double *y, unsigned what, double *H, double *g, double *hs)
 {
-    const kepler *k = self;
-    size_t n = k->n, d = 2 * n + 1;
+    size_t d = 2 * n + 1;
     const double *q = y, *p = y + n + 1;
     double r2 = dot(n, q, q);
     if (!(r2 > 0) || !isfinite(r2)) return 1;
@@ -89,11 +92,15 @@ static int eval(const void *self, const double *y, unsigned what, double *H, dou
     return 0;
 }
 
-/* H(y1) - H(y0) = sum (p1 - p0)(p1 + p0)/2 + mu (r1 - r0)/(r1 r0), r1 - r0 = (q1 - q0).(q1 + q0)/(r1 + r0). */
-static int hdiff(const void *self, const double *y1, const double *y0, double *dH)
+static int eval(const void *self, const double *y, unsigned what, double *H, double *g, double *hs)
 {
     const kepler *k = self;
-    size_t n = k->n;
+    return k->n == 2 ? eval_n(k, 2, y, what, H, g, hs) : eval_n(k, 3, y, what, H, g, hs);
+}
+
+/* H(y1) - H(y0) = sum (p1 - p0)(p1 + p0)/2 + mu (r1 - r0)/(r1 r0), r1 - r0 = (q1 - q0).(q1 + q0)/(r1 + r0). */
+KI int hdiff_n(const kepler *k, const size_t n, const double *y1, const double *y0, double *dH)
+{
     double r1 = sqrt(dot(n, y1, y1)), r0 = sqrt(dot(n, y0, y0)), dd = 0, kin = 0;
     if (!(r1 > 0) || !(r0 > 0)) return 1;
     for (size_t i = 0; i < n; i++) {
@@ -102,6 +109,12 @@ static int hdiff(const void *self, const double *y1, const double *y0, double *d
     }
     *dH = 0.5 * kin + k->mu * (dd / (r1 + r0)) / (r1 * r0);
     return 0;
+}
+
+static int hdiff(const void *self, const double *y1, const double *y0, double *dH)
+{
+    const kepler *k = self;
+    return k->n == 2 ? hdiff_n(k, 2, y1, y0, dH) : hdiff_n(k, 3, y1, y0, dH);
 }
 
 /* D^3 H[u,u,u] = mu (q.v) (15 (q.v)^2 / r^7 - 9 |v|^2 / r^5), v the q part of u. */

@@ -4,8 +4,10 @@
  * the LAPACK dense path to round-off: from common vertices, every path takes the same step (lambda
  * and the new vertex within the conditioning of lambda, eps scale(H) / (|psi| lambda^2 / 8)), carries
  * wp bit for bit, and gives the same tangent map. Covers the small path (n = 1, 2, 3 instantiated and
- * the generic one), the non-autonomous case, and the banded paths (Schur complement by Cholesky, by
- * LU where it is not positive definite, and the banded LU of the whole matrix).
+ * the generic one; its Schur complement for separable models with diagonal T'', indefinite K included,
+ * its LU where T'' is not diagonal, and small-lu), the non-autonomous case, and the banded paths
+ * (Schur complement by Cholesky, by LU where it is not positive definite, and the banded LU of the
+ * whole matrix).
  */
 #include <float.h>
 #include <math.h>
@@ -48,7 +50,46 @@ static int forced_eval(const void *self, const double *y, unsigned what, double 
 static const dth_model_type forced_type = {.name = "forced", .doc = "forced oscillator", .create = forced_create,
                                            .eval = forced_eval};
 
+/* ---- a separable model whose T'' is not diagonal (the small path's Schur complement does not apply) ---- */
+
+static int mass_create(const dth_model_args *a, void **self, dth_model_info *info)
+{
+    (void)a;
+    *self = NULL;
+    *info = (dth_model_info){.n = 2, .autonomous = 1, .separable = 1};
+    return DTH_OK;
+}
+
+/* H = (p1^2 + p2^2)/2 + 0.4 p1 p2 + (q1^2 + 2 q2^2)/2 + 0.1 q1^4 */
+static int mass_eval(const void *self, const double *y, unsigned what, double *H, double *g, double *h)
+{
+    (void)self;
+    double q1 = y[0], q2 = y[1], p1 = y[3], p2 = y[4];
+    if (what & DTH_EVAL_H) *H = 0.5 * (p1 * p1 + p2 * p2) + 0.4 * p1 * p2 + 0.5 * (q1 * q1 + 2 * q2 * q2) + 0.1 * q1 * q1 * q1 * q1;
+    if (what & DTH_EVAL_GRAD) {
+        g[0] = q1 + 0.4 * q1 * q1 * q1;
+        g[1] = 2 * q2;
+        g[2] = 0;
+        g[3] = p1 + 0.4 * p2;
+        g[4] = p2 + 0.4 * p1;
+    }
+    if (what & DTH_EVAL_HESS) {
+        for (int i = 0; i < 25; i++) h[i] = 0;
+        h[0] = 1 + 1.2 * q1 * q1;
+        h[6] = 2;
+        h[18] = h[24] = 1;
+        h[19] = h[23] = 0.4;
+    }
+    return 0;
+}
+
+static const dth_model_type mass_type = {.name = "mass", .doc = "non-diagonal mass", .create = mass_create,
+                                         .eval = mass_eval};
+
 /* ---- the comparison ---- */
+
+/* Nonzero: banded integrators factor the Schur complement with LAPACK's dpbtrf, not the written-out LDL^T. */
+static int band_lapack;
 
 static dth_integrator *make(const dth_model *m, double h, dth_linsolve ls, const double *q, const double *p)
 {
@@ -59,6 +100,7 @@ static dth_integrator *make(const dth_model *m, double h, dth_linsolve ls, const
     o.branch_check = 0; /* the same root from both: the paths are what is compared */
     dth_integrator *it = NULL;
     CU_ASSERT_EQUAL_FATAL(dth_integrator_new(m, &o, &it), DTH_OK);
+    if (it->band) dth__band_lapack_only(it->band, band_lapack);
     CU_ASSERT_EQUAL_FATAL(dth_integrator_start(it, q, p, 0.0), DTH_OK);
     return it;
 }
@@ -108,8 +150,10 @@ static double compare(const dth_model *m, double h, dth_linsolve ls, const doubl
             tworst /= mm;
         }
     }
-    printf("\n    %-8s n = %zu, %s vs dense: largest difference %.2f x the conditioning bound, tangent maps %.1e", 
-           dth_model_get_type(m)->name, n, dth_linsolve_name(ls), worst, tworst);
+    printf("\n    %-8s n = %zu, %s%s vs dense: largest difference %.2f x the conditioning bound, tangent maps %.1e",
+           dth_model_get_type(m)->name, n, dth_linsolve_name(ls),
+           oth->band ? (dth__band_mode(oth->band) == 1 ? (band_lapack ? " (Schur, dpbtrf)" : " (Schur, LDL^T)") : " (LU)") : "",
+           worst, tworst);
     CU_ASSERT(worst <= 4);
     CU_ASSERT(tworst <= 1e-11);
     dth_integrator_free(ref);
@@ -126,22 +170,73 @@ static dth_model *model(const dth_model_type *t, const dth_kv *kv, size_t nkv, s
     return m;
 }
 
+/* After one ordinary step: did the small path's last factorization take its Schur complement? */
+static int schur_used(const dth_model *m, double h, dth_linsolve ls, const double *q, const double *p)
+{
+    dth_integrator *it = make(m, h, ls, q, p);
+    CU_ASSERT_EQUAL(dth_integrator_step(it, NULL), DTH_OK); /* the exact first step */
+    CU_ASSERT_EQUAL(dth_integrator_step(it, NULL), DTH_OK);
+    int on = it->small_schur && it->ss.on;
+    dth_integrator_free(it);
+    return on;
+}
+
 static void test_small(void)
 {
     dth_model *pen = model(&dth_model_pendulum, NULL, 0, 1);
     double q1 = 1.0, p1 = 0.3;
     compare(pen, 0.1, DTH_LINSOLVE_SMALL, &q1, &p1, 200);
+    compare(pen, 0.1, DTH_LINSOLVE_SMALL_LU, &q1, &p1, 200);
     compare(pen, 0.1, DTH_LINSOLVE_AUTO, &q1, &p1, 50);
+    CU_ASSERT(schur_used(pen, 0.1, DTH_LINSOLVE_AUTO, &q1, &p1));
+    CU_ASSERT(!schur_used(pen, 0.1, DTH_LINSOLVE_SMALL_LU, &q1, &p1));
+    /* near the top with a large step (branch_check off: the roots taken are far out, lambda ~ 200)
+     * K = 1 + (lambda^2/4) cos q is negative; from common vertices the Schur complement takes the
+     * dense path's steps to a few ulps (below the conditioning bound's reach at this lambda) */
+    {
+        double qt = 3.0, pt = 1.2, zc[4], worst = 0;
+        dth_integrator *r = make(pen, 1.0, DTH_LINSOLVE_DENSE, &qt, &pt), *o = make(pen, 1.0, DTH_LINSOLVE_SMALL, &qt, &pt);
+        int neg = 0;
+        for (int k = 0; k < 4; k++) {
+            if (k > 0) {
+                memcpy(zc, dth_integrator_vertex(r), sizeof zc);
+                double lam = dth_integrator_lambda(r);
+                CU_ASSERT_EQUAL_FATAL(dth_integrator_set_vertex(r, zc, lam), DTH_OK);
+                CU_ASSERT_EQUAL_FATAL(dth_integrator_set_vertex(o, zc, lam), DTH_OK);
+            }
+            dth_step_info sr, so;
+            CU_ASSERT_EQUAL_FATAL(dth_integrator_step(r, &sr), DTH_OK);
+            CU_ASSERT_EQUAL_FATAL(dth_integrator_step(o, &so), DTH_OK);
+            worst = fmax(worst, fabs(so.lambda - sr.lambda) / fabs(sr.lambda));
+            neg += o->ss.on && o->ss.K[0] < 0;
+        }
+        printf("\n    pendulum near the top, K < 0 in %d steps: lambda up to %.0f agrees to %.1e", neg,
+               dth_integrator_lambda(r), worst);
+        CU_ASSERT(neg >= 2);
+        CU_ASSERT(worst <= 16 * DBL_EPSILON);
+        dth_integrator_free(r);
+        dth_integrator_free(o);
+    }
     dth_model_free(pen);
     /* Kepler 2-D (n = 2) and an inclined 3-D orbit (n = 3) */
     dth_model *k2 = model(&dth_model_kepler, NULL, 0, 2);
     double q2[2] = {0.4, 0}, p2[2] = {0, 2};
     compare(k2, 0.01, DTH_LINSOLVE_SMALL, q2, p2, 300);
+    compare(k2, 0.01, DTH_LINSOLVE_SMALL_LU, q2, p2, 300);
+    CU_ASSERT(schur_used(k2, 0.01, DTH_LINSOLVE_SMALL, q2, p2));
     dth_model_free(k2);
     dth_model *k3 = model(&dth_model_kepler, NULL, 0, 3);
     double q3[3] = {0.3, 0.1, 0.05}, p3[3] = {0.1, 1.6, 0.9};
     compare(k3, 0.01, DTH_LINSOLVE_SMALL, q3, p3, 300);
+    compare(k3, 0.01, DTH_LINSOLVE_SMALL_LU, q3, p3, 300);
+    CU_ASSERT(schur_used(k3, 0.01, DTH_LINSOLVE_SMALL, q3, p3));
     dth_model_free(k3);
+    /* separable, T'' not diagonal: the small path factors the whole bordered matrix */
+    dth_model *mm = model(&mass_type, NULL, 0, 2);
+    double qm[2] = {0.7, -0.3}, pm[2] = {0.2, 0.5};
+    compare(mm, 0.05, DTH_LINSOLVE_SMALL, qm, pm, 200);
+    CU_ASSERT(!schur_used(mm, 0.05, DTH_LINSOLVE_SMALL, qm, pm));
+    dth_model_free(mm);
     /* the generic small LU (m = 5, not instantiated: non-autonomous) */
     dth_model *f = model(&forced_type, NULL, 0, 1);
     double qf = 0.5, pf = 0.2;
@@ -149,30 +244,44 @@ static void test_small(void)
     dth_model_free(f);
 }
 
-/* A 2-D chain; `compress` scales the initial spacing (1: at rest length). */
-static void chain(size_t Np, double compress, double spring_k, dth_linsolve ls, double h, int steps)
+/* A chain in `dim` = 2 or 3 dimensions; `compress` scales the initial spacing (1: at rest length). */
+static void chain_dim(size_t dim, size_t Np, double compress, double spring_k, dth_linsolve ls, double h, int steps)
 {
-    char size[32], kk[32];
+    char size[32], kk[32], dd[8];
     snprintf(size, sizeof size, "%zu", Np);
     snprintf(kk, sizeof kk, "%g", spring_k);
-    dth_kv kv[] = {{"preset", "chain"}, {"size", size}, {"dim", "2"}, {"L", "1"}, {"k", kk}};
-    dth_model *m = model(&dth_model_coupled, kv, 5, 2 * Np);
-    size_t n = 2 * Np;
+    snprintf(dd, sizeof dd, "%zu", dim);
+    dth_kv kv[] = {{"preset", "chain"}, {"size", size}, {"dim", dd}, {"L", "1"}, {"k", kk}};
+    dth_model *m = model(&dth_model_coupled, kv, 5, dim * Np);
+    size_t n = dim * Np;
     double *q = calloc(n, sizeof *q), *p = calloc(n, sizeof *p);
     for (size_t i = 0; i < Np; i++) {
-        q[2 * i] = compress * (double)i;
-        q[2 * i + 1] = 0.05 * sin(3.0 * (double)i);
-        p[2 * i] = 0.1 * cos(2.0 * (double)i);
-        p[2 * i + 1] = 0.2 * sin(1.0 + (double)i);
+        q[dim * i] = compress * (double)i;
+        q[dim * i + 1] = 0.05 * sin(3.0 * (double)i);
+        p[dim * i] = 0.1 * cos(2.0 * (double)i);
+        p[dim * i + 1] = 0.2 * sin(1.0 + (double)i);
+        if (dim == 3) {
+            q[dim * i + 2] = 0.04 * cos(5.0 * (double)i);
+            p[dim * i + 2] = 0.15 * sin(2.0 + (double)i);
+        }
     }
     compare(m, h, ls, q, p, steps);
     free(q), free(p);
     dth_model_free(m);
 }
 
+static void chain(size_t Np, double compress, double spring_k, dth_linsolve ls, double h, int steps)
+{
+    chain_dim(2, Np, compress, spring_k, ls, h, steps);
+}
+
 static void test_banded(void)
 {
-    chain(10, 1.0, 1.0, DTH_LINSOLVE_BANDED, 0.05, 100);
+    chain(10, 1.0, 1.0, DTH_LINSOLVE_BANDED, 0.05, 100); /* the written-out LDL^T of K (half-bandwidth 3) */
+    band_lapack = 1;
+    chain(10, 1.0, 1.0, DTH_LINSOLVE_BANDED, 0.05, 100); /* LAPACK's dpbtrf */
+    band_lapack = 0;
+    chain_dim(3, 8, 1.0, 1.0, DTH_LINSOLVE_BANDED, 0.05, 100); /* half-bandwidth 5: the LDL^T's general loops */
     chain(10, 1.0, 1.0, DTH_LINSOLVE_BANDED_LU, 0.05, 100);
     chain(10, 1.0, 1.0, DTH_LINSOLVE_SMALL, 0.05, 30); /* the written-out LU at m = 41 */
 }
@@ -203,6 +312,27 @@ static void test_schur_indefinite(void)
     dth_model_free(m);
 }
 
+/* A NaN pivot: the written-out LU reports success and its solve gives NaN, within bounds (the
+ * pivots after the NaN column are set: they used to be left as the caller's zeros, and the solve read
+ * x[-1]; found by fuzz_integrator). */
+static void test_nan_pivot(void)
+{
+    for (int m = 1; m <= 8; m++) {
+        double *a = calloc((size_t)(m * m), sizeof *a), *b = calloc((size_t)m, sizeof *b);
+        int *piv = calloc((size_t)m, sizeof *piv); /* zeros, as a fresh integrator's */
+        for (int i = 0; i < m; i++) {
+            a[i + i * m] = 1.0 + i;
+            b[i] = 1.0;
+        }
+        a[0] = NAN;
+        CU_ASSERT_EQUAL(dth__lu_factor(DTH_LINSOLVE_SMALL, m, a, piv), DTH_OK);
+        for (int i = 0; i < m; i++) CU_ASSERT(piv[i] >= 1 && piv[i] <= m);
+        CU_ASSERT_EQUAL(dth__lu_solve(DTH_LINSOLVE_SMALL, m, a, piv, 1, b), DTH_OK);
+        CU_ASSERT(isnan(b[0]));
+        free(a), free(b), free(piv);
+    }
+}
+
 /* Forcing a path the model cannot use is refused up front. */
 static void test_refusals(void)
 {
@@ -216,15 +346,17 @@ static void test_refusals(void)
     CU_ASSERT_EQUAL(dth_integrator_new(pen, &o, &it), DTH_EINVAL);
     CU_ASSERT_PTR_NULL(it);
     CU_ASSERT_STRING_EQUAL(dth_linsolve_name(DTH_LINSOLVE_BANDED_LU), "banded-lu");
+    CU_ASSERT_STRING_EQUAL(dth_linsolve_name(DTH_LINSOLVE_SMALL_LU), "small-lu");
     CU_ASSERT_PTR_NULL(dth_linsolve_name((dth_linsolve)99));
     dth_model_free(pen);
 }
 
 static CU_TestInfo tests[] = {
-    {"small path against LAPACK dense (n = 1, 2, 3, non-autonomous)", test_small},
+    {"small path against LAPACK dense (n = 1, 2, 3, Schur and LU, non-autonomous)", test_small},
     {"banded paths against dense (chain)", test_banded},
     {"Schur complement not positive definite: LU fallback", test_schur_indefinite},
     {"paths a model cannot use are refused", test_refusals},
+    {"a NaN pivot stays within bounds", test_nan_pivot},
     CU_TEST_INFO_NULL,
 };
 

@@ -259,5 +259,32 @@ for f in "$T/term.csv" "$T/$tmp"; do
 done
 ok "killed runs"
 
+# ---- integrator.linsolve: every path the model can use takes the same steps (to round-off: the
+# same number of rows, the last time within 1e-9); a path it cannot use, or an unknown name, is a
+# scene error (exit 2, one line naming the key)
+for ls in auto dense small small-lu; do
+    "$DTH" run "$SC/pendulum.ini" -s integrator.steps=200 -s integrator.linsolve=$ls >"$T/ls_$ls.csv" ||
+        fail "linsolve=$ls run"
+done
+for ls in auto banded banded-lu dense; do
+    "$DTH" run "$SC/coupled-chain-50-2d.ini" -s integrator.steps=20 -s integrator.linsolve=$ls >"$T/lc_$ls.csv" ||
+        fail "chain linsolve=$ls run"
+done
+for f in "$T"/ls_*.csv "$T"/lc_*.csv; do
+    ref="$T/ls_auto.csv"
+    case $f in "$T"/lc_*) ref="$T/lc_auto.csv" ;; esac
+    [ "$(wc -l <"$f")" -eq "$(wc -l <"$ref")" ] || fail "$f: row count differs from $ref"
+    paste -d, "$f" "$ref" | tail -1 | awk -F, '{ n = NF / 2; d = $2 - $(n + 2); if (d < 0) d = -d; exit !(d <= 1e-9) }' ||
+        fail "$f: last time differs from $ref"
+done
+for bad in "bogus" "banded"; do
+    "$DTH" run "$SC/pendulum.ini" -s integrator.linsolve=$bad -s integrator.steps=3 >"$T/lsbad.csv" 2>"$T/lsbad.err"
+    rc=$?
+    [ $rc -eq 2 ] || fail "linsolve=$bad: exit $rc, want 2"
+    [ "$(wc -l <"$T/lsbad.err")" -eq 1 ] && grep -q "integrator.linsolve" "$T/lsbad.err" ||
+        fail "linsolve=$bad message: $(cat "$T/lsbad.err")"
+done
+ok "integrator.linsolve"
+
 [ $fails -eq 0 ] || { echo "$fails failure(s)" >&2; exit 1; }
 echo "all CLI checks passed"

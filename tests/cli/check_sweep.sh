@@ -55,8 +55,11 @@ awk -F, -v OFS=, 'function abs(x) { return x < 0 ? -x : x }
       if ($1 != r) { print "row " NR ": run " $1; bad = 1 }
       if (abs($2 - (-3 + 6 * i / 63)) > 1e-12 || abs($3 - (-2.5 + 5 * j / 63)) > 1e-12) { print "row " NR ": grid " $2 "," $3; bad = 1 }
       if ($4 != "ok" || $6 != 20) { print "row " NR ": status " $4 " t " $6; bad = 1 }
-      E0 = $3 * $3 / 2 - cos($2); S = $3 * $3 / 2 + 1   # relative to |E0|, which may be near 0; S: the terms of H
-      if ($7 * abs(E0) > 4e-15 * S) { print "row " NR ": energy error " $7 " of E0 = " E0; bad = 1 }
+      # relative to |E0|, which may be near 0; S: the size of the terms the step constraint of the
+      # library weighs its round-off by (|wp| + |H_phys| + |q dH/dq| + |p dH/dp|), the midpoint energy
+      # being exact to 4 eps S (docs/performance.md); 8 eps S allows the Newton residual on top
+      E0 = $3 * $3 / 2 - cos($2); S = 2 * abs(E0) + abs($2 * sin($2)) + $3 * $3
+      if ($7 * abs(E0) > 1.8e-15 * S) { print "row " NR ": energy error " $7 " of E0 = " E0; bad = 1 }
       if ($11 == "" || $13 == "" || $13 > 20.2) { print "row " NR ": megno " $11 " over " $13; bad = 1 }
       if ($9 == 0 && !($13 >= 20.025 && $13 < 20.2)) { print "row " NR ": no regularized step but megno_t " $13; bad = 1 }
       if ($9 > 0 && !($13 < 20)) { print "row " NR ": regularized steps but megno_t " $13; bad = 1 }
@@ -64,7 +67,7 @@ awk -F, -v OFS=, 'function abs(x) { return x < 0 ? -x : x }
       if ($8 > 0 && $9 == 0) { print "row " NR ": crossings without regularized steps"; bad = 1 } }
     END { if (nfull < 500) { print "only " nfull " runs without regularized steps"; bad = 1 } exit bad }' "$T/s1.csv" >"$T/aw" ||
     fail "summary rows: $(head -5 "$T/aw")"
-ok "grid order, status, t = 20, energy error |E - E0| <= 4e-15 (p^2/2 + 1), MEGNO over the whole run unless a step was regularized"
+ok "grid order, status, t = 20, energy error |E - E0| <= 8 eps S, MEGNO over the whole run unless a step was regularized"
 
 # ---- --list with element keys and -s; trajectories equal to dth run's rows
 cat >"$T/list.csv" <<EOF

@@ -39,15 +39,21 @@ typedef enum dth_start {
 typedef enum dth_linsolve {
     DTH_LINSOLVE_AUTO = 0,   /**< banded for banded models, else small for m <= 8 unknowns, else dense */
     DTH_LINSOLVE_DENSE = 1,  /**< LAPACK dgetrf/dgetrs on the bordered system: the reference path */
-    DTH_LINSOLVE_SMALL = 2,  /**< LU with partial pivoting written out (no library call, no lock) */
+    DTH_LINSOLVE_SMALL = 2,  /**< written out, no library call (no OpenBLAS lock): for autonomous separable
+                                  models with n <= 3 and diagonal T'' the Schur complement
+                                  T''^-1 + (lambda^2/4) V'' (n x n) and its border in closed form, else LU
+                                  with partial pivoting of the bordered system */
     DTH_LINSOLVE_BANDED = 3, /**< banded models only: LAPACK banded Cholesky of the Schur complement
                                   M^-1 + (lambda^2/4) V'' for separable H with diagonal mass (banded LU
                                   when it is not positive definite), else banded LU of the step matrix */
-    DTH_LINSOLVE_BANDED_LU = 4 /**< banded models only: banded LU of the whole (2n) step matrix, never the
-                                    Schur complement (for comparison, or a model whose T'' is not diagonal) */
+    DTH_LINSOLVE_BANDED_LU = 4, /**< banded models only: banded LU of the whole (2n) step matrix, never the
+                                     Schur complement (for comparison, or a model whose T'' is not diagonal) */
+    DTH_LINSOLVE_SMALL_LU = 5  /**< the small path's LU with partial pivoting, never its Schur complement
+                                    (for comparison) */
 } dth_linsolve;
 
-/** Name of a linear-solver choice ("auto", "dense", "small", "banded", "banded-lu"), NULL if unknown. */
+/** Name of a linear-solver choice ("auto", "dense", "small", "banded", "banded-lu", "small-lu"), NULL if
+ *  unknown. */
 DTH_API const char *dth_linsolve_name(dth_linsolve k);
 
 /** Options of an integrator. Initialize with dth_options_default(). */

@@ -5,7 +5,8 @@
  * Sections and keys (see docs/user-guide.md):
  *   [model]      name=, then the model's own parameters
  *   [initial]    q=, p= (n comma-separated values each), t= (default 0), wp= (explicit wp)
- *   [integrator] method=dth, start=midpoint|vertex, h=, steps= or t_end=, max_iter=, K=
+ *   [integrator] method=dth, start=midpoint|vertex, h=, steps= or t_end=, max_iter=, K=, branch_check=,
+ *                linsolve=auto|dense|small|small-lu|banded|banded-lu
  *   [regularize] method=none, then the regularizer's parameters
  *   [output]     file=, points=auto|vertices|midpoints, every=, dt=, diagnostics=yes|no
  *   [events]     section=q<i>|p<i>, section_value=, section_direction=up|down|both,
@@ -87,7 +88,7 @@ typedef struct dth_run_setup {
     size_t n;           /**< degrees of freedom */
     double *q0, *p0;    /**< initial values, n each (owned) */
     double t0;          /**< initial time */
-    dth_options opt;    /**< integrator options (h, start, wp, max_iter, K) */
+    dth_options opt;    /**< integrator options (h, start, wp, max_iter, K, branch_check, linsolve) */
     char method[32];    /**< integrator method name ("dth") */
     int has_t_end;      /**< 1: run until t_end; 0: run `steps` steps */
     long steps;         /**< number of steps (when !has_t_end; may be 0) */
