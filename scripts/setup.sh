@@ -29,8 +29,21 @@ elif [ $# -gt 0 ]; then
   meson setup --reconfigure "$builddir" "$@" >/dev/null
 fi
 ninja -C "$builddir" >/dev/null
-# The Python package is used from the checkout with PYTHONPATH (it finds build/libdth.so itself;
-# another build directory: DTH_LIBRARY=BUILDDIR/libdth.so), or installed by meson install.
+# The Python package runs from the checkout (it finds build/libdth.so itself; another build
+# directory: DTH_LIBRARY=BUILDDIR/libdth.so): a .pth file in Debian's site directory of the system
+# python3 puts python/ on its path, so `python3 -c "import dth"` works after this script (meson
+# install installs the package for good; remove the .pth file to undo).
+pth_note="export PYTHONPATH=$PWD/python"
+if [ "$builddir" = build ] && [ -x /usr/bin/python3 ]; then
+  site=$(/usr/bin/python3 -c 'import site; print(site.getsitepackages()[0])' 2>/dev/null || true)
+  if [ -n "$site" ]; then
+    sudo=""
+    [ "$(id -u)" -eq 0 ] || sudo="sudo"
+    if $sudo mkdir -p "$site" 2>/dev/null && echo "$PWD/python" | $sudo tee "$site/dth-checkout.pth" >/dev/null 2>&1; then
+      pth_note="python3 finds it through $site/dth-checkout.pth"
+    fi
+  fi
+fi
 if [ -z "${DTH_SETUP_QUIET:-}" ]; then
-  echo "setup: built in $builddir; Python: export PYTHONPATH=$PWD/python (see docs/python.md)" >&2
+  echo "setup: built in $builddir; Python package: $pth_note (docs/python.md)" >&2
 fi
