@@ -14,33 +14,8 @@
 #include <string.h>
 #include "bench_common.h"
 #include "dth/dth.h"
+#include "symp_models.h" /* the Henon-Heiles user model (hh_type) */
 
-static int hh_create(const dth_model_args *a, void **self, dth_model_info *info)
-{
-    (void)a;
-    *self = NULL;
-    *info = (dth_model_info){.n = 2, .autonomous = 1, .separable = 1};
-    return DTH_OK;
-}
-
-static int hh_eval(const void *self, const double *y, unsigned what, double *H, double *g, double *h)
-{
-    (void)self;
-    double x = y[0], yy = y[1], px = y[3], py = y[4];
-    if (what & DTH_EVAL_H) *H = 0.5 * (px * px + py * py) + 0.5 * (x * x + yy * yy) + x * x * yy - yy * yy * yy / 3;
-    if (what & DTH_EVAL_GRAD) {
-        memset(g, 0, 5 * sizeof *g);
-        g[0] = x + 2 * x * yy, g[1] = yy + x * x - yy * yy, g[3] = px, g[4] = py;
-    }
-    if (what & DTH_EVAL_HESS) {
-        memset(h, 0, 25 * sizeof *h);
-        h[0] = 1 + 2 * yy, h[1] = h[5] = 2 * x, h[6] = 1 - 2 * yy, h[18] = h[24] = 1;
-    }
-    return 0;
-}
-
-static const dth_model_type hh_type = {
-    .name = "henon-heiles", .doc = "Henon-Heiles (a user model)", .create = hh_create, .eval = hh_eval};
 
 typedef struct rt {
     double dz, dt;
