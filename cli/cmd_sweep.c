@@ -802,8 +802,10 @@ int cli_cmd_sweep(int argc, char **argv)
     const char *out_path = NULL, *list_path = NULL;
     int dynamic = 1, status = CLI_USAGE, rank = 0, size = 1, mpi = 0, stats = 0;
     long chunk = 16;
-    void *libs[16];
-    int nlibs = 0;
+    enum { MAX_LIBS = 16 };
+    const char *lib_args[MAX_LIBS]; /* the --model-lib values, loaded once the registry exists */
+    void *libs[MAX_LIBS];
+    int nlib_args = 0, nlibs = 0;
     dth_registry *reg = NULL;
     cli_out o;
     memset(&o, 0, sizeof o);
@@ -867,10 +869,12 @@ int cli_cmd_sweep(int argc, char **argv)
                 }
             } else { /* --model-lib FILE:SYMBOL */
                 const char *colon = strrchr(v, ':');
-                if (!colon || colon == v || !colon[1] || nlibs >= 16) {
-                    cli_error("--model-lib: '%s' is not FILE.so:SYMBOL%s", v, nlibs >= 16 ? " (at most 16)" : "");
+                if (!colon || colon == v || !colon[1] || nlib_args >= MAX_LIBS) {
+                    cli_error("--model-lib: '%s' is not FILE.so:SYMBOL%s", v,
+                              nlib_args >= MAX_LIBS ? " (at most 16)" : "");
                     goto done;
                 }
+                lib_args[nlib_args++] = v;
             }
         } else if (a[0] == '-' && a[1]) {
             cli_error("unknown option '%s' (try dth sweep --help)", a);
@@ -913,15 +917,8 @@ int cli_cmd_sweep(int argc, char **argv)
         status = CLI_FAIL;
         goto done;
     }
-    for (int i = 1; i < argc; i++) {
-        if (strcmp(argv[i], "--model-lib")) {
-            if (!strcmp(argv[i], "-s") || !strcmp(argv[i], "-o") || !strcmp(argv[i], "--vary") ||
-                !strcmp(argv[i], "--list") || !strcmp(argv[i], "--trajectories") || !strcmp(argv[i], "--schedule") ||
-                !strcmp(argv[i], "--chunk"))
-                i++;
-            continue;
-        }
-        const char *v = argv[++i], *colon = strrchr(v, ':');
+    for (int i = 0; i < nlib_args; i++) {
+        const char *v = lib_args[i], *colon = strrchr(v, ':');
         char file[4096];
         snprintf(file, sizeof file, "%.*s", (int)(colon - v), v);
         void *h = dlopen(file, RTLD_NOW | RTLD_LOCAL);
