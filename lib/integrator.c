@@ -708,14 +708,14 @@ AI int schur_factor_n(dth_integrator *it, const size_t n, double lam)
             S->K[i + k * n] = (i == k ? 1.0 : 0.0) + c * (S->t[i] * v);
         }
     }
-    if (lu_factor_recip_m((int)n, S->K, S->piv, S->kinv) != DTH_OK) return 1;
+    if (lu_factor_m((int)n, S->K, S->piv, S->kinv) != DTH_OK) return 1;
     for (size_t i = 0; i < n; i++) {
         double a = 0;
         for (size_t k = 0; k < n; k++) a += S->V[i * n + k] * S->g[n + k];
         vg[i] = a;
         eq[i] = S->t[i] * (0.5 * hl * S->g[i] + hl * (0.5 * hl * a));
     }
-    lu_solve_recip_m((int)n, S->K, S->piv, S->kinv, eq);
+    lu_solve_m((int)n, S->K, S->piv, S->kinv, eq);
     double sc = 0;
     for (size_t i = 0; i < n; i++) {
         double ve = 0;
@@ -735,7 +735,7 @@ AI void schur_solve_n(const dth_integrator *it, const size_t n, double *b)
     const dth__small_schur *S = &it->ss;
     double wq[3], wp[3], gw = 0;
     for (size_t i = 0; i < n; i++) wq[i] = b[i] + S->hl * (S->t[i] * b[n + i]);
-    lu_solve_recip_m((int)n, S->K, S->piv, S->kinv, wq);
+    lu_solve_m((int)n, S->K, S->piv, S->kinv, wq);
     for (size_t i = 0; i < n; i++) {
         double vw = 0;
         for (size_t k = 0; k < n; k++) vw += S->V[i * n + k] * wq[k];
@@ -772,7 +772,7 @@ AI int eval_n(dth_integrator *it, const size_t nc, const double *x, double *F, i
         if (it->ss.on) return DTH_OK;
         assemble_n(it, nc, x, it->zb, it->Hphys, F, it->A); /* it does not apply here: LU */
     }
-    rc = nc ? lu_factor_m((int)(2 * nc + 1), it->A, it->piv) : it->ls->factor(it, x[m - 1]);
+    rc = nc ? lu_factor_m((int)(2 * nc + 1), it->A, it->piv, NULL) : it->ls->factor(it, x[m - 1]);
     if (rc == DTH_ESINGULAR || rc == DTH_ELAPACK)
         seterr(it, "bordered Jacobian is singular at iteration %d (lambda = %.17g)", it->nt.iter, x[m - 1]);
     else if (rc)
@@ -897,7 +897,7 @@ static const dth__newton_ops step_ops = {step_eval, step_solve, step_judge};
     {                                                                                                             \
         dth_integrator *it = c;                                                                                   \
         if (it->small_schur && it->ss.on) schur_solve_n(it, N, b);                                                \
-        else lu_solve_m(2 * N + 1, it->A, it->piv, b);                                                             \
+        else lu_solve_m(2 * N + 1, it->A, it->piv, NULL, b);                                                      \
         return DTH_OK;                                                                                            \
     }                                                                                                             \
     AI int judge_##N(void *c, const double *x, const double *dx, const double *F, dth__newton_track *tr, int *v)     \

@@ -32,15 +32,15 @@ int dth__lu_small(dth_linsolve k, int m)
 }
 
 #define SIZES(F) F(1) F(2) F(3) F(4) F(5) F(6) F(7) F(8)
-#define FACT_CASE(M) case M: return lu_factor_m(M, a, piv);
-#define SOLVE_CASE(M) case M: lu_solve_m(M, a, piv, x); break;
+#define FACT_CASE(M) case M: return lu_factor_m(M, a, piv, NULL);
+#define SOLVE_CASE(M) case M: lu_solve_m(M, a, piv, NULL, x); break;
 _Static_assert(DTH__SMALL_MAX == 8, "the cases below cover m = 1 .. 8");
 
 static int small_factor(int m, double *a, int *piv)
 {
     switch (m) {
         SIZES(FACT_CASE)
-    default: return lu_factor_m(m, a, piv);
+    default: return lu_factor_m(m, a, piv, NULL);
     }
 }
 
@@ -50,7 +50,7 @@ static void small_solve(int m, const double *a, const int *piv, int nrhs, double
         double *x = b + (size_t)r * (size_t)m;
         switch (m) {
             SIZES(SOLVE_CASE)
-        default: lu_solve_m(m, a, piv, x);
+        default: lu_solve_m(m, a, piv, NULL, x);
         }
     }
 }

@@ -9,9 +9,10 @@
 #include "dth/status.h"
 
 /* Doolittle LU with partial pivoting, column-major, in place; piv 1-based like LAPACK; dinv (NULL:
- * not kept) gets the reciprocals of the pivots. Inlined for each m <= DTH__SMALL_MAX, so that the
- * loops unroll for the size at hand. */
-static inline __attribute__((always_inline)) int lu_factor_core(const int m, double *a, int *piv, double *dinv)
+ * not kept) gets the reciprocals of the pivots, for solves that multiply instead of dividing (a
+ * division's latency dominates a solve of this size). Inlined for each m <= DTH__SMALL_MAX, so that
+ * the loops unroll for the size at hand (and a constant NULL dinv folds away). */
+static inline __attribute__((always_inline)) int lu_factor_m(const int m, double *a, int *piv, double *dinv)
 {
 #pragma GCC unroll 8
     for (int k = 0; k < m; k++) {
@@ -47,12 +48,10 @@ static inline __attribute__((always_inline)) int lu_factor_core(const int m, dou
     return DTH_OK;
 }
 
-static inline __attribute__((always_inline)) int lu_factor_m(const int m, double *a, int *piv)
-{
-    return lu_factor_core(m, a, piv, (double *)0);
-}
-
-static inline __attribute__((always_inline)) void lu_solve_m(const int m, const double *a, const int *piv, double *x)
+/* x = A^-1 x with lu_factor_m's factors; dinv: the reciprocals of the pivots it kept (the back
+ * substitution multiplies by them), NULL: divide by the pivots. */
+static inline __attribute__((always_inline)) void lu_solve_m(const int m, const double *a, const int *piv,
+                                                             const double *dinv, double *x)
 {
     for (int k = 0; k < m; k++) {
         int p = piv[k] - 1;
@@ -70,40 +69,8 @@ static inline __attribute__((always_inline)) void lu_solve_m(const int m, const 
     }
 #pragma GCC unroll 8
     for (int j = m - 1; j >= 0; j--) {
-        x[j] /= a[j + j * m];
-        double xj = x[j];
-#pragma GCC unroll 8
-        for (int i = 0; i < j; i++) x[i] -= a[i + j * m] * xj;
-    }
-}
-
-/* The same LU keeping the reciprocals of its pivots in dinv (m doubles), for solves that multiply
- * instead of dividing (a division's latency dominates a solve of this size). */
-static inline __attribute__((always_inline)) int lu_factor_recip_m(const int m, double *a, int *piv, double *dinv)
-{
-    return lu_factor_core(m, a, piv, dinv);
-}
-
-static inline __attribute__((always_inline)) void lu_solve_recip_m(const int m, const double *a, const int *piv,
-                                                                   const double *dinv, double *x)
-{
-    for (int k = 0; k < m; k++) {
-        int p = piv[k] - 1;
-        if (p != k) {
-            double t = x[k];
-            x[k] = x[p];
-            x[p] = t;
-        }
-    }
-#pragma GCC unroll 8
-    for (int j = 0; j < m; j++) {
-        double xj = x[j];
-#pragma GCC unroll 8
-        for (int i = j + 1; i < m; i++) x[i] -= a[i + j * m] * xj;
-    }
-#pragma GCC unroll 8
-    for (int j = m - 1; j >= 0; j--) {
-        x[j] *= dinv[j];
+        if (dinv) x[j] *= dinv[j];
+        else x[j] /= a[j + j * m];
         double xj = x[j];
 #pragma GCC unroll 8
         for (int i = 0; i < j; i++) x[i] -= a[i + j * m] * xj;
