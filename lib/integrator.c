@@ -896,7 +896,7 @@ static const dth__newton_ops step_ops = {step_eval, step_solve, step_judge};
     AI int solve_##N(void *c, double *b)                                                                          \
     {                                                                                                             \
         dth_integrator *it = c;                                                                                   \
-        if (it->small_schur && it->ss.on) schur_solve_n(it, N, b);                                                \
+        if (it->ss.on) schur_solve_n(it, N, b); /* set only where it->small_schur */                              \
         else lu_solve_m(2 * N + 1, it->A, it->piv, NULL, b);                                                      \
         return DTH_OK;                                                                                            \
     }                                                                                                             \
