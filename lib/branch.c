@@ -135,16 +135,6 @@ void dth_rootfinder_free(dth_rootfinder *rf)
     dth_free(rf->alloc, rf);
 }
 
-/* u = J grad H over z = (q, t, p, wp). */
-static void flow_z(size_t n, const double *grad, double *u)
-{
-    dth__flow_y(n, grad, u);
-    u[2 * n + 1] = -grad[n];
-}
-
-/* d u_j / d z_l from the Hessian of H_phys (rows of J H_zz; the wp column is zero). */
-static double dudz(const dth_rootfinder *rf, int j, size_t l) { return dth__dudz(rf->n, rf->hess, (size_t)j, l); }
-
 /*
  * H, psi, psi' at the vertex with one evaluation (psi' from the model's third derivative, else by
  * dth_model_psi's difference). *pabs gets sum |u_i H_ij u_j|, the scale of psi's round-off.
@@ -194,12 +184,13 @@ static int dec_eval(void *ctx, const double *x, double *F, int jac)
                                  rf->hess);
     if (rc) return rc;
     rf->sHp = Hp;
-    flow_z(n, rf->grad, rf->u);
+    dth__flow_z(n, rf->grad, rf->u);
     for (int a = 0; a < M; a++) {
         int j = rf->act[a];
         F[a] = zb[j] - rf->sz[j] - 0.5 * lam * rf->u[j];
         if (jac)
-            for (int b = 0; b < M; b++) rf->A[a + b * M] = (a == b ? 1.0 : 0.0) - 0.5 * lam * dudz(rf, j, (size_t)rf->act[b]);
+            for (int b = 0; b < M; b++)
+                rf->A[a + b * M] = (a == b ? 1.0 : 0.0) - 0.5 * lam * dth__dudz(n, rf->hess, (size_t)j, (size_t)rf->act[b]);
     }
     if (!jac) return DTH_OK;
     rc = dth__lu_factor(DTH_LINSOLVE_AUTO, M, rf->A, rf->piv);
@@ -266,7 +257,7 @@ static int solve_at(dth_rootfinder *rf, const double *z, double lam, double *zb,
     /* dzb/dlambda: the t column of Du enters through d t_bar / d lambda = 1/2 */
     for (int a = 0; a < M; a++) {
         int j = rf->act[a];
-        rf->F[a] = 0.5 * rf->u[j] + 0.25 * lam * dudz(rf, j, n);
+        rf->F[a] = 0.5 * rf->u[j] + 0.25 * lam * dth__dudz(n, rf->hess, (size_t)j, n);
     }
     rc = dec_solve(rf, rf->F);
     if (rc) return rc;

@@ -35,6 +35,12 @@ static inline double dth__dudz(size_t n, const double *hess, size_t j, size_t l)
     if (j == d) return -hess[n * d + l];
     return 0;
 }
+/** u = J grad H over z = (q, t, p, wp): dth__flow_y, and -dH/dt in the wp slot. */
+static inline void dth__flow_z(size_t n, const double *grad, double *u)
+{
+    dth__flow_y(n, grad, u);
+    u[2 * n + 1] = -grad[n];
+}
 struct dth_regularizer;
 /** Bytes of state a regularizer instance carries (0: stateless or NULL). */
 size_t dth__reg_state_size(const struct dth_regularizer *r);

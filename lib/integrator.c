@@ -190,13 +190,6 @@ static inline double two_sum(double a, double b, double *e)
     return s;
 }
 
-/* u = J grad H over z = (q, t, p, wp) from the gradient of H_phys over y. */
-static void flow_z(size_t n, const double *grad, double *u)
-{
-    dth__flow_y(n, grad, u);
-    u[2 * n + 1] = -grad[n];
-}
-
 /* The vertex offset rho = H(z_k) evaluated directly (a start, or after a regularizer's step). */
 static int rho_direct(dth_integrator *it)
 {
@@ -316,7 +309,7 @@ static int vertex_offset(dth_integrator *it, const double *y, double Hp, double 
             return rc;
         }
         lam0 = cubic_predict(it->st.z[N - 1] + Hv, psi, dpsi, h);
-        flow_z(it->n, it->grad, it->u);
+        dth__flow_z(it->n, it->grad, it->u);
         for (size_t j = 0; j < N; j++) it->znewlo[j] = 0.5 * lam0 * it->u[j];
         dth__solution sol = {NAN, NAN, 0};
         rc = dth__newton(it, lam0, it->znewlo, &sol);
@@ -376,7 +369,7 @@ int dth_integrator_start(dth_integrator *it, const double *q0, const double *p0,
         }
         memcpy(it->zb, y, (N - 1) * sizeof *y);
         it->zb[N - 1] = -H;
-        flow_z(n, it->grad, it->u);
+        dth__flow_z(n, it->grad, it->u);
         /* z_0 = zbar_0 - (h/2) u, kept in double-double so the first step returns to zbar_0 */
         for (size_t j = 0; j < N; j++) {
             it->znewlo[j] = 0.5 * h * it->u[j];
@@ -519,7 +512,7 @@ AI void assemble_n(const dth_integrator *it, const size_t nc, const double *x, c
         return;
     }
     double *u = it->u;
-    flow_z(n, g, u);
+    dth__flow_z(n, g, u);
     for (int a = 0; a < m - 1; a++) {
         size_t j = (size_t)it->act[a];
         F[a] = x[a] - hl * u[j];
@@ -1104,7 +1097,7 @@ static int step(dth_integrator *it, dth_step_info *info)
             return rc;
         }
         lam0 = cubic_predict(it->st.z[N - 1] + Hphys, psi, dpsi, it->st.lam_hint);
-        flow_z(it->n, it->grad, it->u);
+        dth__flow_z(it->n, it->grad, it->u);
         for (size_t j = 0; j < N; j++) it->znewlo[j] = 0.5 * lam0 * it->u[j];
         d0 = it->znewlo;
     }
