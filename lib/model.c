@@ -294,15 +294,24 @@ static size_t hess_size(const dth_model *m)
     return dth__model_banded(m) ? 2 * n * (2 * m->info.bandwidth + 1) : d * d;
 }
 
+/* Name of entry i of y = (q, t, p): "q3", "t", "p1". */
+static void yname(size_t n, size_t i, char *buf, size_t len)
+{
+    if (i < n) snprintf(buf, len, "q%zu", i + 1);
+    else if (i == n) snprintf(buf, len, "t");
+    else snprintf(buf, len, "p%zu", i - n);
+}
+
 int dth_model_domain_check(const dth_model *m, const double *y, char *why, size_t len)
 {
     if (why && len) why[0] = '\0';
     if (!m || !y) return DTH_EINVAL;
     size_t n = m->info.n, d = 2 * n + 1;
+    char name[24];
     for (size_t j = 0; j < d; j++)
         if (!isfinite(y[j])) {
-            dth__set_err(why, len, "%c%zu = %g is not finite", j < n ? 'q' : 'p', j < n ? j + 1 : j - n, y[j]);
-            if (j == n) dth__set_err(why, len, "t = %g is not finite", y[j]);
+            yname(n, j, name, sizeof name);
+            dth__set_err(why, len, "%s = %g is not finite", name, y[j]);
             return DTH_EDOMAIN;
         }
     double *g = dth_calloc(m->alloc, d, sizeof *g), H = 0;
@@ -317,8 +326,8 @@ int dth_model_domain_check(const dth_model *m, const double *y, char *why, size_
         for (size_t j = 0; j < d && !rc; j++)
             if (!isfinite(g[j])) {
                 rc = DTH_EDOMAIN;
-                if (j == n) dth__set_err(why, len, "dH/dt is not finite");
-                else dth__set_err(why, len, "dH/d%c%zu is not finite", j < n ? 'q' : 'p', j < n ? j + 1 : j - n);
+                yname(n, j, name, sizeof name);
+                dth__set_err(why, len, "dH/d%s is not finite", name);
             }
     }
     if (rc == DTH_EDOMAIN && (!why || !len || !why[0] || m->type->domain)) {
@@ -425,14 +434,6 @@ int dth_model_psi(const dth_model *m, const double *y, double *psi, double *dpsi
 }
 
 /* ---------------------------------------------------------------- model checker */
-
-/* Name of entry i of y = (q, t, p): "q3", "t", "p1". */
-static void yname(size_t n, size_t i, char *buf, size_t len)
-{
-    if (i < n) snprintf(buf, len, "q%zu", i + 1);
-    else if (i == n) snprintf(buf, len, "t");
-    else snprintf(buf, len, "p%zu", i - n);
-}
 
 /* The verdict: pass when every mismatch is within the threshold; the message names the worst. */
 static void check_verdict(size_t n, dth_model_check_report *rep)
