@@ -730,6 +730,15 @@ static int check_initial(setup_ctx *c, dth_run_setup *rs, const entry *e)
     return bad(c->err, c->errlen, e, "unknown key (known in [initial]: q, p, t, wp)");
 }
 
+/* yes/true/1 or no/false/0; -1 (out untouched) otherwise */
+static int parse_bool(const char *v, int *out)
+{
+    if (!strcmp(v, "yes") || !strcmp(v, "true") || !strcmp(v, "1")) *out = 1;
+    else if (!strcmp(v, "no") || !strcmp(v, "false") || !strcmp(v, "0")) *out = 0;
+    else return -1;
+    return 0;
+}
+
 static int check_integrator(setup_ctx *c, dth_run_setup *rs, const entry *e)
 {
     const char *k = e->key, *v = e->value;
@@ -770,9 +779,7 @@ static int check_integrator(setup_ctx *c, dth_run_setup *rs, const entry *e)
             return bad(c->err, c->errlen, e, "'%s' is not a finite number >= 0 (0: estimate K locally)", v);
     } else if (strcmp(k, "branch_check") == 0) {
         /* no: take whatever root Newton converges to, as raw DTH does (for comparison only) */
-        if (!strcmp(v, "yes") || !strcmp(v, "true") || !strcmp(v, "1")) rs->opt.branch_check = 1;
-        else if (!strcmp(v, "no") || !strcmp(v, "false") || !strcmp(v, "0")) rs->opt.branch_check = 0;
-        else return bad(c->err, c->errlen, e, "'%s' is not one of yes, no", v);
+        if (parse_bool(v, &rs->opt.branch_check)) return bad(c->err, c->errlen, e, "'%s' is not one of yes, no", v);
     } else if (strcmp(k, "linsolve") == 0) {
         c->linsolve = e;
         dth_linsolve ls;
@@ -811,22 +818,11 @@ static int check_output(setup_ctx *c, dth_run_setup *rs, const entry *e)
         if (dth_parse_double(v, &rs->dt) || rs->dt < 0)
             return bad(c->err, c->errlen, e, "'%s' is not a finite number >= 0 (0: write vertices)", v);
     } else if (strcmp(k, "diagnostics") == 0) {
-        if (!strcmp(v, "yes") || !strcmp(v, "true") || !strcmp(v, "1")) rs->diagnostics = 1;
-        else if (!strcmp(v, "no") || !strcmp(v, "false") || !strcmp(v, "0")) rs->diagnostics = 0;
-        else return bad(c->err, c->errlen, e, "'%s' is not yes or no", v);
+        if (parse_bool(v, &rs->diagnostics)) return bad(c->err, c->errlen, e, "'%s' is not yes or no", v);
     } else {
         return bad(c->err, c->errlen, e, "unknown key (known in [output]: file, points, every, dt, diagnostics)");
     }
     return DTH_OK;
-}
-
-/* yes/no */
-static int parse_bool(const char *v, int *out)
-{
-    if (!strcmp(v, "yes") || !strcmp(v, "true") || !strcmp(v, "1")) *out = 1;
-    else if (!strcmp(v, "no") || !strcmp(v, "false") || !strcmp(v, "0")) *out = 0;
-    else return -1;
-    return 0;
 }
 
 static int parse_direction(const char *v, int *out)
@@ -910,7 +906,6 @@ static int build_events(setup_ctx *c, dth_run_setup *rs)
     rs->event_dofs = dth_calloc(a, nd + 1, sizeof *rs->event_dofs);
     if (!rs->events || !rs->event_specs || !rs->event_names || !rs->event_dofs) return DTH_ENOMEM;
     size_t i = 0;
-    int b;
     if (c->section) {
         long idx;
         parse_long(c->section->value + 1, 1, 1000000000L, &idx);
@@ -958,7 +953,7 @@ static int build_events(setup_ctx *c, dth_run_setup *rs)
         }
         rs->events[i] = (dth_event){dth_event_distance, sp, 0, 0};
         if (c->dist_dir) parse_direction(c->dist_dir->value, &rs->events[i].direction);
-        if (c->dist_term) parse_bool(c->dist_term->value, &b), rs->events[i].terminal = b;
+        if (c->dist_term) parse_bool(c->dist_term->value, &rs->events[i].terminal);
         rs->event_names[i++] = "distance";
     }
     rs->nevents = i;
