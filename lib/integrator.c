@@ -474,6 +474,30 @@ AI void midpoint_n(const dth_integrator *it, const size_t nc, const double *x, d
     for (int a = 0; a < m - 1; a++) zb[a] = it->st.z[a] + (it->st.zlo[a] + x[a]);
 }
 
+/* The Newton unknowns it->x from a step: the offset d (length N) over the active components, then
+ * lambda. */
+AI void unknowns_n(dth_integrator *it, const size_t nc, const double *d, double lam)
+{
+    size_t n = nc ? nc : it->n;
+    int m = nc ? (int)(2 * nc + 1) : it->m;
+    double *x = it->x;
+    if (nc) {
+        for (size_t i = 0; i < n; i++) {
+            x[i] = d[i];
+            x[n + i] = d[n + 1 + i];
+        }
+    } else {
+        for (int a = 0; a < m - 1; a++) x[a] = d[it->act[a]];
+    }
+    x[m - 1] = lam;
+}
+
+void dth__integrator_set_solution(dth_integrator *it, const double *d, double lam)
+{
+    unknowns_n(it, 0, d, lam);
+    midpoint_n(it, 0, it->x, it->zb);
+}
+
 /*
  * Residual F and, if A != NULL, the Jacobian A (column-major m x m) at the unknowns x, given
  * grad and hess of H_phys at the midpoint zb. F_a = d_j - (lambda/2) u_j(zbar); F_last = H(zbar).
@@ -913,15 +937,7 @@ AI int newton_n(dth_integrator *it, const size_t nc, const dth__newton_ops *ops,
     size_t n = nc ? nc : it->n, N = 2 * n + 2;
     int m = nc ? (int)(2 * nc + 1) : it->m;
     double *x = it->x, *zb = it->zb;
-    if (nc) {
-        for (size_t i = 0; i < n; i++) {
-            x[i] = d0[i];
-            x[n + i] = d0[n + 1 + i];
-        }
-    } else {
-        for (int a = 0; a < m - 1; a++) x[a] = d0[it->act[a]];
-    }
-    x[m - 1] = lam0;
+    unknowns_n(it, nc, d0, lam0);
     sol->iters = 0;
     sol->residual = NAN;
     midpoint_n(it, nc, x, zb);
@@ -1054,12 +1070,10 @@ static const double *predict(dth_integrator *it, double *lam0)
 static int step(dth_integrator *it, dth_step_info *info)
 {
     size_t N = it->N;
-    int m = it->m;
     if (it->st.pending_exact) {
         /* Midpoint start: zbar_0 and lambda = h solve the step equations exactly. */
         double lam = it->st.lam_hint;
-        for (int a = 0; a < m - 1; a++) it->x[a] = it->st.dprev[it->act[a]];
-        it->x[m - 1] = lam;
+        unknowns_n(it, 0, it->st.dprev, lam);
         memcpy(it->zb, it->st.zbar, N * sizeof *it->zb);
         int rc = dth_model_eval(it->model, it->zb, DTH_EVAL_H | DTH_EVAL_GRAD, &it->Hphys, it->grad, NULL);
         if (rc) {
@@ -1202,8 +1216,7 @@ static int dense_tangent(dth_integrator *it, double *M)
     int rc = dth_model_eval(it->model, it->st.zbar, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &it->Hphys, it->grad,
                             it->hess);
     if (rc) return rc;
-    for (int a = 0; a < m - 1; a++) it->x[a] = it->st.dprev[it->act[a]];
-    it->x[m - 1] = lam;
+    unknowns_n(it, 0, it->st.dprev, lam);
     assemble(it, it->x, it->st.zbar, it->Hphys, it->F, it->A);
     rc = dth__lu_factor(it->kind, m, it->A, it->piv);
     if (rc) return rc;

@@ -152,6 +152,10 @@ int dth__branch_select(dth_integrator *it, int rc, dth__solution *sol, dth_branc
 /* ---- regularization (regularize.c) ---- */
 /** Commit the solution in it->x / it->zb as the next vertex (integrator.c). */
 int dth__integrator_commit(dth_integrator *it, double lam);
+/** Put the step with offset d (zbar - z_k, length N; autonomous: its t and wp entries are not
+ *  read, t advances by lambda/2 and wp stays) and lambda in it->x, its midpoint in it->zb, for
+ *  dth__integrator_commit. */
+void dth__integrator_set_solution(dth_integrator *it, const double *d, double lam);
 /**
  * With a regularizer attached: take the ordinary step `rc` / `sol` (root `br`) if it succeeded
  * without changing the sign of psi, else call the hook and commit what it decides. pre != 0: the

@@ -584,7 +584,7 @@ static int reg_finish(dth_integrator *it, const dth_reg_action *act, int rc, int
                       dth_branch br, dth_step_info *info)
 {
     size_t N = it->N;
-    int m = it->m, r, sa = it->st.psi_sign, sb = 0;
+    int r, sa = it->st.psi_sign, sb = 0;
     double *dd = it->rbuf + N, *zt = it->rbuf + 2 * N, *ad = it->rbuf + 3 * N;
     int replace = act->what == DTH_REG_REPLACE;
     if (!replace && !plain_ok) return rc;
@@ -606,12 +606,7 @@ static int reg_finish(dth_integrator *it, const dth_reg_action *act, int rc, int
     }
     r = psi_sign_at(it, zt, &sb);
     if (r) return r;
-    if (replace) {
-        for (int a = 0; a < m - 1; a++) it->x[a] = dk[it->act[a]];
-        it->x[m - 1] = lam;
-        for (size_t j = 0; j < N; j++) it->zb[j] = it->st.z[j] + (it->st.zlo[j] + dk[j]);
-        if (it->auton) it->zb[it->n] = it->st.z[it->n] + (it->st.zlo[it->n] + 0.5 * lam);
-    }
+    if (replace) dth__integrator_set_solution(it, dk, lam);
     /* it->x / it->zb hold the ordinary solution otherwise. After a replacing segment's commit the
      * carried vertex offset is evaluated afresh, which may fail: keep a copy of the vectors for
      * dth_integrator_step to undo the step with */
