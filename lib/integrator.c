@@ -241,24 +241,6 @@ static int rho_from_mid(dth_integrator *it, const double *zb, const double *zblo
     return rho_from_mid_n(it, 0, zb, zblo, grad, z, zlo, rho);
 }
 
-/* The low part of the midpoint of the unknowns x: zb + zblo = z + zlo + d exactly (to the rounding
- * of zlo + d, far below eps |zbar|). */
-AI void midpoint_lo_n(const dth_integrator *it, const size_t nc, const double *x, double *zblo)
-{
-    size_t n = nc ? nc : it->n, N = 2 * n + 2;
-    int m = nc ? (int)(2 * nc + 1) : it->m;
-    if (nc || it->auton) {
-        for (size_t i = 0; i < n; i++) {
-            two_sum(it->st.z[i], it->st.zlo[i] + x[i], &zblo[i]);
-            two_sum(it->st.z[n + 1 + i], it->st.zlo[n + 1 + i] + x[n + i], &zblo[n + 1 + i]);
-        }
-        two_sum(it->st.z[n], it->st.zlo[n] + 0.5 * x[m - 1], &zblo[n]);
-        two_sum(it->st.z[N - 1], it->st.zlo[N - 1], &zblo[N - 1]);
-        return;
-    }
-    for (int a = 0; a < m - 1; a++) two_sum(it->st.z[a], it->st.zlo[a] + x[a], &zblo[a]);
-}
-
 static void reset_history(dth_integrator *it)
 {
     it->st.nhist = 0;
@@ -456,22 +438,30 @@ void dth_integrator_reverse(dth_integrator *it)
     }
 }
 
-/* zbar = (z + zlo) + d for the unknowns x; passive t, wp in closed form (autonomous). */
-AI void midpoint_n(const dth_integrator *it, const size_t nc, const double *x, double *zb)
+/* a + b, and with lo != NULL its rounding error in *lo */
+AI double sum_lo(double a, double b, double *lo) { return lo ? two_sum(a, b, lo) : a + b; }
+
+/*
+ * zbar = (z + zlo) + d for the unknowns x; passive t, wp in closed form (autonomous). zblo (NULL:
+ * not wanted) gets the low part: zb + zblo = z + zlo + d exactly (to the rounding of zlo + d, far
+ * below eps |zbar|).
+ */
+AI void midpoint_n(const dth_integrator *it, const size_t nc, const double *x, double *zb, double *zblo)
 {
     size_t n = nc ? nc : it->n, N = 2 * n + 2;
     int m = nc ? (int)(2 * nc + 1) : it->m;
+    const double *z = it->st.z, *zlo = it->st.zlo;
     if (nc || it->auton) {
         /* unknowns (d_q, d_p, lambda) */
         for (size_t i = 0; i < n; i++) {
-            zb[i] = it->st.z[i] + (it->st.zlo[i] + x[i]);
-            zb[n + 1 + i] = it->st.z[n + 1 + i] + (it->st.zlo[n + 1 + i] + x[n + i]);
+            zb[i] = sum_lo(z[i], zlo[i] + x[i], zblo ? &zblo[i] : NULL);
+            zb[n + 1 + i] = sum_lo(z[n + 1 + i], zlo[n + 1 + i] + x[n + i], zblo ? &zblo[n + 1 + i] : NULL);
         }
-        zb[n] = it->st.z[n] + (it->st.zlo[n] + 0.5 * x[m - 1]);
-        zb[N - 1] = it->st.z[N - 1] + it->st.zlo[N - 1];
+        zb[n] = sum_lo(z[n], zlo[n] + 0.5 * x[m - 1], zblo ? &zblo[n] : NULL);
+        zb[N - 1] = sum_lo(z[N - 1], zlo[N - 1], zblo ? &zblo[N - 1] : NULL);
         return;
     }
-    for (int a = 0; a < m - 1; a++) zb[a] = it->st.z[a] + (it->st.zlo[a] + x[a]);
+    for (int a = 0; a < m - 1; a++) zb[a] = sum_lo(z[a], zlo[a] + x[a], zblo ? &zblo[a] : NULL);
 }
 
 /* The Newton unknowns it->x from a step: the offset d (length N) over the active components, then
@@ -495,7 +485,7 @@ AI void unknowns_n(dth_integrator *it, const size_t nc, const double *d, double 
 void dth__integrator_set_solution(dth_integrator *it, const double *d, double lam)
 {
     unknowns_n(it, 0, d, lam);
-    midpoint_n(it, 0, it->x, it->zb);
+    midpoint_n(it, 0, it->x, it->zb, NULL);
 }
 
 /*
@@ -675,14 +665,13 @@ static const struct dth__linsolver *linsolver_of(dth_linsolve kind)
  * from the direct value by more than tau = 4 eps S, the step takes the direct value instead (and
  * the next offset is measured from this midpoint again), so the midpoint energy stays within tau of
  * exact. Both rules give the backward step the same equation at the same midpoint (the carried
- * offset of z_(k+1) is measured from zbar), so the map stays time-reversible. it->zb, it->Hphys and
- * it->grad belong to x.
+ * offset of z_(k+1) is measured from zbar), so the map stays time-reversible. it->zb, it->zblo,
+ * it->Hphys and it->grad belong to x (eval_n).
  */
 AI int compensated_n(dth_integrator *it, const size_t nc, const double *x, double *F)
 {
     int m = nc ? (int)(2 * nc + 1) : it->m;
     double dh;
-    midpoint_lo_n(it, nc, x, it->zblo);
     int rc = rho_from_mid_n(it, nc, it->zb, it->zblo, it->grad, it->st.z, it->st.zlo, &dh); /* H(z_k) - H(zbar) */
     if (rc) {
         seterr(it, "model evaluation failed in the compensated constraint: %s", dth_strerror(rc));
@@ -771,7 +760,8 @@ AI void schur_solve_n(const dth_integrator *it, const size_t n, double *b)
 AI int eval_n(dth_integrator *it, const size_t nc, const double *x, double *F, int jac)
 {
     int m = nc ? (int)(2 * nc + 1) : it->m;
-    midpoint_n(it, nc, x, it->zb);
+    /* a chord step's compensated constraint (compensated_n) needs the midpoint's low part */
+    midpoint_n(it, nc, x, it->zb, !jac && it->opt.compensate ? it->zblo : NULL);
     /* the model's outputs are not swept for NaN/Inf here (the Hessian alone is (2n+1)^2): a
      * non-finite value shows in the correction, and step_judge finds out why */
     unsigned what = DTH_EVAL_H | DTH_EVAL_GRAD | (jac ? it->ls->hess : 0u);
@@ -940,14 +930,14 @@ AI int newton_n(dth_integrator *it, const size_t nc, const dth__newton_ops *ops,
     unknowns_n(it, nc, d0, lam0);
     sol->iters = 0;
     sol->residual = NAN;
-    midpoint_n(it, nc, x, zb);
+    midpoint_n(it, nc, x, zb, NULL);
     block_scales_n(it, nc, zb, it->bs);
     int rc = dth__newton_iterate(ops, step_again, it, m, it->opt.max_iter, x, it->F, it->dx, &it->nt);
     sol->iters = it->nt.iter;
     if (rc == DTH_ENOCONV && it->nt.verdict == DTH__NT_MAXITER)
         seterr(it, "Newton did not converge in %d iterations (last correction %.3g)", it->nt.iter, it->nt.r);
     if (rc) return rc;
-    midpoint_n(it, nc, x, zb);
+    midpoint_n(it, nc, x, zb, it->opt.compensate ? it->zblo : NULL);
     rc = it->meval(it->mself, zb, DTH_EVAL_H, &it->Hphys, NULL, NULL);
     if (!rc && !isfinite(it->Hphys)) rc = 1;
     if (rc) {
@@ -956,7 +946,6 @@ AI int newton_n(dth_integrator *it, const size_t nc, const dth__newton_ops *ops,
         return rc;
     }
     sol->residual = fabs(zb[N - 1] + it->Hphys);
-    if (it->opt.compensate) midpoint_lo_n(it, nc, x, it->zblo);
     sol->lambda = x[m - 1];
     return DTH_OK;
 }
