@@ -255,6 +255,7 @@ static void reset_history(dth_integrator *it)
 }
 
 static double cubic_predict(double Hk, double psi, double dpsi, double target);
+static int newton(dth_integrator *it, double lam0, const double *d0, int max_iter, dth__solution *sol);
 
 /*
  * Vertex start: the vertex offset rho = H(z_0) whose first DTH step is exactly h. The offset
@@ -274,9 +275,9 @@ static int vertex_offset(dth_integrator *it, const double *y, double Hp, double 
     }
     double rho = psi * h * h / 8 + dpsi * h * h * h / 24, rp = 0, fp = 0;
     if (!(rho != 0) || !isfinite(rho)) rho = psi * h * h / 8;
-    int ok = 0, max_iter = it->opt.max_iter;
+    /* the step limit is for steps, not this solve */
+    int ok = 0, max_iter = it->opt.max_iter < 30 ? 30 : it->opt.max_iter;
     double best = INFINITY, rbest = rho;
-    if (it->opt.max_iter < 30) it->opt.max_iter = 30; /* the step limit is for steps, not this solve */
     for (int k = 0; k < 16; k++) {
         for (size_t j = 0; j < N - 1; j++) it->st.z[j] = y[j];
         it->st.z[N - 1] = rho - Hp;
@@ -286,7 +287,6 @@ static int vertex_offset(dth_integrator *it, const double *y, double Hp, double 
         double Hv, lam0;
         if ((it->opt.compensate && (rc = rho_direct(it))) ||
             (rc = dth_model_eval(it->model, it->st.z, DTH_EVAL_H | DTH_EVAL_GRAD, &Hv, it->grad, NULL))) {
-            it->opt.max_iter = max_iter;
             seterr(it, "model evaluation failed at the initial vertex");
             return rc;
         }
@@ -294,7 +294,7 @@ static int vertex_offset(dth_integrator *it, const double *y, double Hp, double 
         dth__flow_z(it->n, it->grad, it->u);
         for (size_t j = 0; j < N; j++) it->znewlo[j] = 0.5 * lam0 * it->u[j];
         dth__solution sol = {NAN, NAN, 0};
-        rc = dth__newton(it, lam0, it->znewlo, &sol);
+        rc = newton(it, lam0, it->znewlo, max_iter, &sol);
         if (rc < 0) break;
         if (rc || !(sol.lambda * h > 0)) {
             rc = DTH_OK;
@@ -311,7 +311,6 @@ static int vertex_offset(dth_integrator *it, const double *y, double Hp, double 
         if (!isfinite(rn) || fabs(rn - rho) <= 2 * DBL_EPSILON * fabs(rho)) break;
         rp = rho, fp = f, rho = rn;
     }
-    it->opt.max_iter = max_iter;
     if (rc < 0) return rc;
     rho = rbest;
     ok = best <= 1e-10 * fabs(h);
@@ -922,7 +921,7 @@ SMALL_OPS(3)
  * its low part for the commit.
  */
 AI int newton_n(dth_integrator *it, const size_t nc, const dth__newton_ops *ops, double lam0, const double *d0,
-                dth__solution *sol)
+                int max_iter, dth__solution *sol)
 {
     size_t n = nc ? nc : it->n, N = 2 * n + 2;
     int m = nc ? (int)(2 * nc + 1) : it->m;
@@ -932,7 +931,7 @@ AI int newton_n(dth_integrator *it, const size_t nc, const dth__newton_ops *ops,
     sol->residual = NAN;
     midpoint_n(it, nc, x, zb, NULL);
     block_scales_n(it, nc, zb, it->bs);
-    int rc = dth__newton_iterate(ops, step_again, it, m, it->opt.max_iter, x, it->F, it->dx, &it->nt);
+    int rc = dth__newton_iterate(ops, step_again, it, m, max_iter, x, it->F, it->dx, &it->nt);
     sol->iters = it->nt.iter;
     if (rc == DTH_ENOCONV && it->nt.verdict == DTH__NT_MAXITER)
         seterr(it, "Newton did not converge in %d iterations (last correction %.3g)", it->nt.iter, it->nt.r);
@@ -950,14 +949,20 @@ AI int newton_n(dth_integrator *it, const size_t nc, const dth__newton_ops *ops,
     return DTH_OK;
 }
 
-int dth__newton(dth_integrator *it, double lam0, const double *d0, dth__solution *sol)
+/* newton_n for the path at hand, at most max_iter iterations */
+static int newton(dth_integrator *it, double lam0, const double *d0, int max_iter, dth__solution *sol)
 {
     switch (it->nsmall) {
-    case 1: return newton_n(it, 1, &small_ops_1, lam0, d0, sol);
-    case 2: return newton_n(it, 2, &small_ops_2, lam0, d0, sol);
-    case 3: return newton_n(it, 3, &small_ops_3, lam0, d0, sol);
-    default: return newton_n(it, 0, &step_ops, lam0, d0, sol);
+    case 1: return newton_n(it, 1, &small_ops_1, lam0, d0, max_iter, sol);
+    case 2: return newton_n(it, 2, &small_ops_2, lam0, d0, max_iter, sol);
+    case 3: return newton_n(it, 3, &small_ops_3, lam0, d0, max_iter, sol);
+    default: return newton_n(it, 0, &step_ops, lam0, d0, max_iter, sol);
     }
+}
+
+int dth__newton(dth_integrator *it, double lam0, const double *d0, dth__solution *sol)
+{
+    return newton(it, lam0, d0, it->opt.max_iter, sol);
 }
 
 /* Commit the solution in it->x / it->zb: new vertex z + 2 d in double-double. */
