@@ -9,8 +9,9 @@
  * found by Newton's method on the bordered system
  *     [ I - (lambda/2) J H_zz(zbar)   -(1/2) J grad H(zbar) ]
  *     [ grad H(zbar)^T                 0                    ]
- * factored with LAPACK. For autonomous models the t and wp rows are solved in closed form
- * (t advances by lambda, wp is carried bit for bit), leaving a (2n+1)-square system.
+ * factored by the linear solver that dth_options.linsolve chooses (dth_linsolve). For autonomous
+ * models the t and wp rows are solved in closed form (t advances by lambda, wp is carried bit for
+ * bit), leaving a (2n+1)-square system.
  */
 #ifndef DTH_INTEGRATOR_H
 #define DTH_INTEGRATOR_H
@@ -27,8 +28,9 @@ extern "C" {
 typedef enum dth_start {
     /** (q0, t0, p0) is the first midpoint, wp = -H_phys: the first step is exactly h. */
     DTH_START_MIDPOINT = 0,
-    /** (q0, t0, p0) is the vertex z_0; wp is solved for so that the first step is exactly h
-     *  (refused with DTH_ENOROOT where no wp gives that step), unless given explicitly. */
+    /** (q0, t0, p0) is the vertex z_0; wp is solved for so that the first step is h (a secant
+     *  aiming at 8 ulps, accepted within 1e-10 |h|; refused with DTH_ENOROOT where no wp gives
+     *  that step), unless given explicitly. */
     DTH_START_VERTEX = 1
 } dth_start;
 
@@ -40,12 +42,16 @@ typedef enum dth_linsolve {
     DTH_LINSOLVE_AUTO = 0,   /**< banded for banded models, else small for m <= 8 unknowns, else dense */
     DTH_LINSOLVE_DENSE = 1,  /**< LAPACK dgetrf/dgetrs on the bordered system: the reference path */
     DTH_LINSOLVE_SMALL = 2,  /**< written out, no library call (no OpenBLAS lock): for autonomous separable
-                                  models with n <= 3 and diagonal T'' the Schur complement
-                                  T''^-1 + (lambda^2/4) V'' (n x n) and its border in closed form, else LU
-                                  with partial pivoting of the bordered system */
-    DTH_LINSOLVE_BANDED = 3, /**< banded models only: LAPACK banded Cholesky of the Schur complement
-                                  M^-1 + (lambda^2/4) V'' for separable H with diagonal mass (banded LU
-                                  when it is not positive definite), else banded LU of the step matrix */
+                                  models with n <= 3, where T'' is diagonal and positive at the
+                                  midpoint, the Schur complement K = I + (lambda^2/4) T'' V'' (n x n,
+                                  LU with partial pivoting) and its border in closed form; else (or
+                                  where K or the bordered complement is singular) LU with partial
+                                  pivoting of the bordered system */
+    DTH_LINSOLVE_BANDED = 3, /**< banded models only: for separable H where T'' is diagonal and positive
+                                  at the midpoint, the Schur complement K = T''^-1 + (lambda^2/4) V''
+                                  by a banded Cholesky (written out as LDL^T for half-bandwidths of K
+                                  up to 16, LAPACK dpbtrf above; LAPACK banded LU where K is not
+                                  positive definite), else LAPACK banded LU of the step matrix */
     DTH_LINSOLVE_BANDED_LU = 4, /**< banded models only: banded LU of the whole (2n) step matrix, never the
                                      Schur complement (for comparison, or a model whose T'' is not diagonal) */
     DTH_LINSOLVE_SMALL_LU = 5  /**< the small path's LU with partial pivoting, never its Schur complement
@@ -72,8 +78,11 @@ typedef struct dth_options {
     dth_linsolve linsolve;      /**< linear solver of the Newton system (default AUTO) */
     int compensate;             /**< default 1: finish each step on the compensated constraint (the
                                      vertex offset carried from step to step plus H(zbar) - H(z_k)
-                                     from the model's hdiff), so that lambda carries no round-off of
-                                     the energy's size; 0: the constraint wp + H_phys(zbar) as is */
+                                     from the model's hdiff), whose round-off scales with the step
+                                     rather than the energy's size; where it has drifted from the
+                                     direct value wp + H_phys(zbar) by more than 4 eps S (S: the size
+                                     of the terms of H at the midpoint) the step takes the direct
+                                     value; 0: the constraint wp + H_phys(zbar) as is */
 } dth_options;
 
 /** Fill `o` with defaults: h = 0.01, midpoint start, max_iter = 30, K = 0, branch_check = 1,
