@@ -14,7 +14,6 @@
  */
 #include <float.h>
 #include <math.h>
-#include <stdio.h>
 #include <string.h>
 #include "dth/regularize.h"
 #include "reg_common.h"
@@ -35,12 +34,6 @@ static const dth_param_spec params[] = {
     {"fallback", "yes", "yes: keep the ordinary DTH step where the kicked segment has no solution (no: refuse)"},
 };
 
-static int param_err(const dth_reg_args *a, const char *key, const char *what)
-{
-    if (a->err && a->errlen) snprintf(a->err, a->errlen, "parameter '%s' must be %s", key, what);
-    return DTH_EINVAL;
-}
-
 static int create(const dth_reg_args *a, void **self)
 {
     size_t n = dth_model_dof(a->model), N = 2 * n + 2;
@@ -52,15 +45,16 @@ static int create(const dth_reg_args *a, void **self)
     for (size_t i = 0; i < a->nkv; i++) {
         const char *k = a->kv[i].key, *v = a->kv[i].value;
         if (!strcmp(k, "alpha") && (dth_parse_double(v, &r->alpha) || !(r->alpha >= 0) || !isfinite(r->alpha)))
-            return param_err(a, k, "a number >= 0");
+            return dth__reg_param_err(a, k, "a number >= 0");
         if (!strcmp(k, "arc")) {
-            if (dth_parse_double(v, &r->arc) || !(r->arc > 0) || !isfinite(r->arc)) return param_err(a, k, "a number > 0");
+            if (dth_parse_double(v, &r->arc) || !(r->arc > 0) || !isfinite(r->arc))
+                return dth__reg_param_err(a, k, "a number > 0");
             r->arc_fixed = 1;
         }
         if (!strcmp(k, "fallback")) {
             if (!strcmp(v, "yes")) r->fallback = 1;
             else if (!strcmp(v, "no")) r->fallback = 0;
-            else return param_err(a, k, "yes or no");
+            else return dth__reg_param_err(a, k, "yes or no");
         }
     }
     r->ks = dth_calloc(a->alloc, nks + nw + 4 * N, sizeof(double));

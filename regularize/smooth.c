@@ -25,7 +25,6 @@
  */
 #include <float.h>
 #include <math.h>
-#include <stdio.h>
 #include <string.h>
 #include "dth/regularize.h"
 #include "reg_common.h"
@@ -47,12 +46,6 @@ static const dth_param_spec params[] = {
     {"outer", "3.2", "ordinary DTH steps where |psi/psi'| >= outer law steps from the crossing, at both vertices (> inner)"},
 };
 
-static int param_err(const dth_reg_args *a, const char *key, const char *what)
-{
-    if (a->err && a->errlen) snprintf(a->err, a->errlen, "parameter '%s' must be %s", key, what);
-    return DTH_EINVAL;
-}
-
 static int create(const dth_reg_args *a, void **self)
 {
     size_t n = dth_model_dof(a->model), N = 2 * n + 2;
@@ -65,15 +58,16 @@ static int create(const dth_reg_args *a, void **self)
     for (size_t i = 0; i < a->nkv; i++) {
         const char *k = a->kv[i].key, *v = a->kv[i].value;
         if (!strcmp(k, "invariant")) {
-            if (dth_parse_double(v, &r->off) || !(r->off > 0) || !isfinite(r->off)) return param_err(a, k, "a number > 0");
+            if (dth_parse_double(v, &r->off) || !(r->off > 0) || !isfinite(r->off))
+                return dth__reg_param_err(a, k, "a number > 0");
             r->off_fixed = 1;
         }
         if (!strcmp(k, "inner") && (dth_parse_double(v, &r->inner) || !(r->inner > 0) || !isfinite(r->inner)))
-            return param_err(a, k, "a number > 0");
+            return dth__reg_param_err(a, k, "a number > 0");
         if (!strcmp(k, "outer") && (dth_parse_double(v, &r->outer) || !isfinite(r->outer)))
-            return param_err(a, k, "a number");
+            return dth__reg_param_err(a, k, "a number");
     }
-    if (!(r->outer > r->inner)) return param_err(a, "outer", "larger than inner");
+    if (!(r->outer > r->inner)) return dth__reg_param_err(a, "outer", "larger than inner");
     r->ks = dth_calloc(a->alloc, nks + nw + 5 * N, sizeof(double));
     if (!r->ks) return DTH_ENOMEM;
     r->model = a->model;
