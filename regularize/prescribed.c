@@ -85,9 +85,7 @@ static int speed_at(prescribed *r, const double *z, const double *zlo, const dou
     double H;
     int rc = dth_model_eval(r->model, r->y, DTH_EVAL_H | DTH_EVAL_GRAD, &H, r->g, NULL);
     if (rc) return rc;
-    double s = 0;
-    for (size_t i = 0; i < n; i++) s += r->g[i] * r->g[i] + r->g[n + 1 + i] * r->g[n + 1 + i];
-    *speed = sqrt(s);
+    *speed = sqrt(dth__reg_grad_qp2(r->g, n));
     return isfinite(*speed) ? DTH_OK : DTH_EDOMAIN;
 }
 
@@ -126,14 +124,8 @@ static int solve(prescribed *r, const dth_reg_event *ev, double *lam_out, double
             for (size_t j = 0; j < N; j++) r->d[j] = s * ev->plain_d[j];
             attempt = 1;
         } else {
-            for (size_t j = 0; j < N - 1; j++) r->y[j] = ev->z[j] + ev->zlo[j];
-            double H;
-            rc = dth_model_eval(r->model, r->y, DTH_EVAL_H | DTH_EVAL_GRAD, &H, r->g, NULL);
+            rc = dth__reg_euler_seed(r->model, r->n, ev->z, ev->zlo, lam, r->d, r->y, r->g);
             if (rc) return rc;
-            for (size_t i = 0; i < r->n; i++) {
-                r->d[i] = 0.5 * lam * r->g[r->n + 1 + i];
-                r->d[r->n + 1 + i] = -0.5 * lam * r->g[i];
-            }
             attempt = 2;
         }
         int ki = 0;

@@ -152,11 +152,10 @@ static int weight(smooth *r, const double *y, double *w, int *psi_sign, double *
     if (scale) {
         /* s = l |psi|_reg / (2 c), c = |grad_(q,p) H|^2 ~ grad H . n: the changeover's contraction
          * factor of the offset excess is then 1 - 2 w (docs/regularization.md) */
-        double H, c = 0;
-        size_t n = r->n;
+        double H;
         rc = dth_model_eval(r->model, y, DTH_EVAL_H | DTH_EVAL_GRAD, &H, r->g, NULL);
         if (rc) return rc;
-        for (size_t i = 0; i < n; i++) c += r->g[i] * r->g[i] + r->g[n + 1 + i] * r->g[n + 1 + i];
+        double c = dth__reg_grad_qp2(r->g, r->n);
         if (!(c > 0)) return DTH_EDOMAIN;
         *scale = l * psi_e(psi, dpsi, l) / (2 * c);
     }
@@ -236,15 +235,8 @@ static int solve(smooth *r, const dth_reg_event *ev, const blend *b, double lam0
     int total = 0, rc, k;
     if (d0) memcpy(r->d, d0, N * sizeof *r->d);
     else {
-        for (size_t j = 0; j < N - 1; j++) r->y[j] = ev->z[j] + ev->zlo[j];
-        double H;
-        rc = dth_model_eval(r->model, r->y, DTH_EVAL_H | DTH_EVAL_GRAD, &H, r->g, NULL);
+        rc = dth__reg_euler_seed(r->model, r->n, ev->z, ev->zlo, lam, r->d, r->y, r->g);
         if (rc) return rc;
-        memset(r->d, 0, N * sizeof *r->d);
-        for (size_t i = 0; i < r->n; i++) {
-            r->d[i] = 0.5 * lam * r->g[r->n + 1 + i];
-            r->d[r->n + 1 + i] = -0.5 * lam * r->g[i];
-        }
     }
     *mu = 0;
     /* where the kicked segment of the starting step has no solution (an unresolved passage, e.g.
