@@ -1,27 +1,32 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Regularizer "smooth" (paper, section 7, with Lemma g_taylor and Theorem EU_2's s = -(psi'/psi)
- * lambda): ordinary DTH steps wherever the step is healthy, and a C-infinity changeover to kicked
- * segments of a step law around each psi = 0 crossing or fold. A changeover step solves, at its own
- * midpoint zbar,
+ * Regularizer "smooth", the default: the regularization across psi = 0 that DTH dynamics needs
+ * (paper, section 7; the changeover's distance is Theorem EU_2's s = -(psi'/psi) lambda). Ordinary
+ * DTH steps wherever the step is healthy, and around each psi = 0 crossing or fold a C-infinity
+ * changeover to kicked segments of a step law (docs/regularization.md, "smooth"). A step from the
+ * vertex z_a solves, at its own midpoint zbar,
  *     zbar = z_a + (lambda J grad H(zbar) + mu n(zbar)) / 2,   H(zbar) = 0,
- *     (1 - w) mu = w sigma (lambda - L),
- * where
- *   L = dir l(zbar), l the positive root of |psi| l^2/8 + |psi'| l^3/24 = off (the cubic model of the
- *     step constraint with its terms all adding, for a constant vertex offset off): the ordinary
- *     step of a vertex with offset off where |psi'| l << |psi|, finite at psi = 0;
- *   w = bump(x), x = |psi / psi'|(zbar) / l(zbar), the distance to the crossing in steps: w = 0 for
- *     x >= outer (mu = 0, the ordinary DTH step), w = 1 for x <= inner (lambda = L);
- *   sigma = -sign(psi(zbar)) dir. With this sign the changeover contracts the excess e of the
- *     vertex offset over the law's (psi L^2/8): one step multiplies e by (1 + a)/(1 - a) with
- *     a = 2 c sigma w / ((1 - w) L psi) <= 0 (c = grad H . n > 0), so |factor| <= 1, and the
- *     lambda-derivative of the changeover equation never vanishes. The other sign amplifies e and
- *     has a fold at a = 1 (docs/regularization.md shows why no sign is exactly reversible).
- * Every ordinary stretch therefore leaves a band with its offset pinned to the law, |H(z)| ~ off,
- * so the step does not drift from crossing to crossing. Ordinary steps are taken only where the
- * changeover weight vanishes at both vertices (a condition on the unordered pair): they are exactly
- * DTH steps (symplectic, their own reverse). Law steps (w = 1) are their own reverse too; the
- * changeover steps (0 < w < 1) are neither symplectic nor reversible (sigma reads dir).
+ *     (1 - w) mu = w sigma s (lambda - L),
+ * where, with psi and psi' at zbar,
+ *   L = dir l, l the positive root of l^6 psi_e^2 = K, psi_e^4 = psi^4 + (psi' l)^4: DTH's own step
+ *     scaling (lambda^6 psi^2 is the ordinary step's adiabatic invariant, see law()), finite at
+ *     psi = 0. K is fixed once, from the first step offered, or set by the parameter `invariant`;
+ *   w = bump(x), x = |psi / psi'| / l, the distance to the crossing in law steps (1/x is EU_2's s):
+ *     w = 1 for x <= inner (lambda = L, a law step), w = 0 for x >= outer (mu = 0, the ordinary DTH
+ *     step), and a plateau w = 1/2 on the middle 60 % of [inner, outer] between two C-infinity half
+ *     steps; the weight at z_a is a floor, w = max(w(zbar), w(z_a));
+ *   sigma = -sign(psi) dir, and s = l psi_e / (2 c), c = |grad_(q,p) H|^2 ~ grad H . n > 0. With
+ *     this sign and scale one step multiplies the excess of the vertex offset over the law's
+ *     (psi L^2/8) by 1 - 2 w (0 on the plateau): it contracts, and the lambda-derivative of the
+ *     changeover equation never vanishes. The other sign amplifies the excess and has a fold
+ *     (docs/regularization.md also shows why no smooth changeover is exactly reversible).
+ * Every ordinary stretch therefore leaves a band with its vertex offset pinned to the law's, so the
+ * step does not drift from crossing to crossing. Ordinary steps are taken only where w = 0 at both
+ * vertices and lambda is within a factor 2 of the law's step there (conditions on the unordered
+ * pair): they are exactly DTH steps (symplectic, their own reverse). Law steps (w = 1 at both
+ * vertices) are their own reverse too; the changeover steps (0 < w < 1) are neither symplectic nor
+ * reversible (sigma reads dir). Where no changeover segment exists a law step is taken; where none
+ * exists either (an unresolved passage), the step is refused.
  */
 #include <float.h>
 #include <math.h>
@@ -32,8 +37,8 @@
 typedef struct smooth {
     const dth_model *model;
     size_t n;
-    double off;        /* the law's vertex offset (> 0 once fixed) */
-    int off_fixed;     /* off set (parameter, or from the first step): a constant after that */
+    double K;          /* the law's constant in l^6 psi_e^2 = K (> 0 once fixed) */
+    int K_fixed;       /* K set (parameter `invariant`, or from the first step): a constant after that */
     double inner, outer;
     double *ks, *work, *d, *y, *g, *zb, *zc;
     double wc, lc;     /* the weight and the law's step at the vertex zc, cached (the next step starts there) */
@@ -58,9 +63,9 @@ static int create(const dth_reg_args *a, void **self)
     for (size_t i = 0; i < a->nkv; i++) {
         const char *k = a->kv[i].key, *v = a->kv[i].value;
         if (!strcmp(k, "invariant")) {
-            if (dth_parse_double(v, &r->off) || !(r->off > 0) || !isfinite(r->off))
+            if (dth_parse_double(v, &r->K) || !(r->K > 0) || !isfinite(r->K))
                 return dth__reg_param_err(a, k, "a number > 0");
-            r->off_fixed = 1;
+            r->K_fixed = 1;
         }
         if (!strcmp(k, "inner") && (dth_parse_double(v, &r->inner) || !(r->inner > 0) || !isfinite(r->inner)))
             return dth__reg_param_err(a, k, "a number > 0");
@@ -139,7 +144,7 @@ static int weight(smooth *r, const double *y, double *w, int *psi_sign, double *
     double psi, dpsi;
     int rc = dth_model_psi(r->model, y, &psi, &dpsi, r->work);
     if (rc) return rc;
-    double l = law(r->off, psi, dpsi);
+    double l = law(r->K, psi, dpsi);
     if (!isfinite(l)) return DTH_EDOMAIN; /* psi = psi' = 0: an equilibrium */
     *lstep = l;
     *psi_sign = psi > 0 ? 1 : (psi < 0 ? -1 : 0);
@@ -150,7 +155,7 @@ static int weight(smooth *r, const double *y, double *w, int *psi_sign, double *
     double wd = 0.2 * (r->outer - r->inner);
     *w = 0.5 * (1 - smoothstep((x - r->inner) / wd)) + 0.5 * (1 - smoothstep((x - (r->outer - wd)) / wd));
     if (scale) {
-        /* s = l |psi|_reg / (2 c), c = |grad_(q,p) H|^2 ~ grad H . n: the changeover's contraction
+        /* s = l psi_e / (2 c), c = |grad_(q,p) H|^2 ~ grad H . n: the changeover's contraction
          * factor of the offset excess is then 1 - 2 w (docs/regularization.md) */
         double H;
         rc = dth_model_eval(r->model, y, DTH_EVAL_H | DTH_EVAL_GRAD, &H, r->g, NULL);
@@ -162,16 +167,16 @@ static int weight(smooth *r, const double *y, double *w, int *psi_sign, double *
     return DTH_OK;
 }
 
-/* Fix the law's offset once, from a step lam whose midpoint is y: the law then gives that step. */
-static int fix_offset(smooth *r, const double *y, double lam)
+/* Fix the law's constant K once, from a step lam whose midpoint is y: the law then gives that step. */
+static int fix_law_constant(smooth *r, const double *y, double lam)
 {
     double psi, dpsi, l = fabs(lam);
     int rc = dth_model_psi(r->model, y, &psi, &dpsi, r->work);
     if (rc) return rc;
     double l2 = l * l, pe = psi_e(psi, dpsi, l);
-    r->off = l2 * l2 * l2 * pe * pe;
-    if (!(r->off > 0) || !isfinite(r->off)) return DTH_EREFUSED;
-    r->off_fixed = 1;
+    r->K = l2 * l2 * l2 * pe * pe;
+    if (!(r->K > 0) || !isfinite(r->K)) return DTH_EREFUSED;
+    r->K_fixed = 1;
     return DTH_OK;
 }
 
@@ -183,7 +188,7 @@ typedef struct blend {
 /*
  * The changeover residual of the kicked segment (r->d, mu) of step lam from z + zlo, as
  *     R = sign(psi) dir (1 - w) mu + w s (lambda - L)
- * (the changeover equation times -sigma, the law's term scaled by s = l |psi|_e / (2 c) so that the
+ * (the changeover equation times -sigma, the law's term scaled by s = l psi_e / (2 c) so that the
  * offset excess contracts by 1 - 2 w per step), with w = max(w(zbar), w(z_a)), sign(psi), s and L
  * at the segment's own midpoint. The floor w(z_a) keeps a step that starts in the band from
  * landing on an ordinary root (w(zbar) = 0) far beyond it; ordinary steps (w = 0 at both vertices)
@@ -313,9 +318,9 @@ static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
         act->why = "no step to start the changeover from";
         return DTH_EREFUSED;
     }
-    if (!r->off_fixed) {
+    if (!r->K_fixed) {
         for (size_t j = 0; j < N; j++) r->y[j] = ev->z[j] + (ev->zlo[j] + (d0 ? d0[j] : 0));
-        int rc = fix_offset(r, r->y, lam0);
+        int rc = fix_law_constant(r, r->y, lam0);
         if (rc) return rc;
     }
     double lam = 0, mu = 0, res = 0, l;
@@ -371,9 +376,9 @@ static int admit(void *self, const double *za, const double *zb, double lambda)
 {
     smooth *r = self;
     size_t N = 2 * r->n + 2;
-    if (!r->off_fixed) {
+    if (!r->K_fixed) {
         for (size_t j = 0; j < N; j++) r->zb[j] = 0.5 * (za[j] + zb[j]);
-        if (fix_offset(r, r->zb, lambda)) return -1;
+        if (fix_law_constant(r, r->zb, lambda)) return -1;
     }
     double wa, wb, la, lb;
     if (vertex_weight(r, za, &wa, &la)) return -1;
@@ -383,7 +388,7 @@ static int admit(void *self, const double *za, const double *zb, double lambda)
     return wb == 0 && q >= 0.5 && q <= 2;
 }
 
-/* The state a checkpoint keeps: the law's offset once fixed (the weight cache is only a cache). */
+/* The state a checkpoint keeps: the law's constant K once fixed (the weight cache is only a cache). */
 static size_t state_size(const void *self)
 {
     (void)self;
@@ -393,7 +398,7 @@ static size_t state_size(const void *self)
 static void save_state(const void *self, void *buf)
 {
     const smooth *r = self;
-    double s[2] = {r->off, (double)r->off_fixed};
+    double s[2] = {r->K, (double)r->K_fixed};
     memcpy(buf, s, sizeof s);
 }
 
@@ -404,8 +409,8 @@ static int load_state(void *self, const void *buf, size_t len)
     if (len != sizeof s) return -1;
     memcpy(s, buf, sizeof s);
     if (!(s[1] == 0 || s[1] == 1) || (s[1] == 1 && !(s[0] > 0 && isfinite(s[0])))) return -1;
-    r->off = s[0];
-    r->off_fixed = (int)s[1];
+    r->K = s[0];
+    r->K_fixed = (int)s[1];
     r->cache_ok = 0;
     return 0;
 }
