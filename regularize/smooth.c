@@ -319,6 +319,10 @@ static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
         return DTH_EREFUSED;
     }
     if (!r->K_fixed) {
+        /* fix K so that the law gives lam0 at the (predicted) midpoint of the step now taken:
+         * z + plain_d is the ordinary step's midpoint; z + in_d (in_d = zbar_in - z_(k-1), the
+         * incoming offset reused for this step) its predicted midpoint, not the incoming midpoint
+         * z - in_d; without d0, the vertex itself */
         for (size_t j = 0; j < N; j++) r->y[j] = ev->z[j] + (ev->zlo[j] + (d0 ? d0[j] : 0));
         int rc = fix_law_constant(r, r->y, lam0);
         if (rc) return rc;
