@@ -6,8 +6,10 @@
  *     lambda = dir * arc / |u(zbar)|^alpha,   u = the (q, p) part of J grad H,
  * with arc a constant fixed once (parameter, or from the first step: |lambda| |u(its midpoint)|^alpha).
  * The law depends on the midpoint only and each kicked segment is its own reverse, so the step
- * map is exactly time-reversible with no switching decision; the step varies smoothly through
- * psi = 0 and the step never ends there (dH/dmu = |n|^2/2 != 0 away from equilibria). Energy is
+ * map is exactly time-reversible with no switching decision (with fallback=no: the default
+ * fallback keeps the ordinary step where no kicked segment exists, a switch that the reverse run
+ * need not repeat); the step varies smoothly through psi = 0 and the step never ends there
+ * (dH/dmu = |n|^2/2 != 0 away from equilibria). Energy is
  * exact (wp untouched, midpoints on H = 0), quadratic invariants are kept; the kick gives up
  * symplecticity at every step. (Its former hybrid `band`, ordinary steps away from psi = 0 behind
  * a hard switch, was not reversible; the default regularizer `smooth` is that hybrid done right.)
@@ -266,7 +268,7 @@ static int load_state(void *self, const void *buf, size_t len)
 
 const dth_regularizer_type dth_reg_prescribed = {
     .name = "prescribed",
-    .doc = "every step a kicked segment with lambda = arc/|u(zbar)|^alpha at its own midpoint: energy-exact, keeps quadratic invariants, exactly reversible, smooth through psi = 0; not symplectic at any step",
+    .doc = "every step a kicked segment with lambda = arc/|u(zbar)|^alpha at its own midpoint: energy-exact, keeps quadratic invariants, exactly reversible (with fallback=no; fallback steps are not), smooth through psi = 0; not symplectic at any step",
     .params = params,
     .n_params = sizeof params / sizeof params[0],
     .create = create,

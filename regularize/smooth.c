@@ -48,7 +48,7 @@ typedef struct smooth {
 static const dth_param_spec params[] = {
     {"invariant", "", "the step law's constant K in l^6 (psi^4 + (psi' l)^4)^(1/2) = K (> 0); default: from the first step offered (the second of a midpoint start), so the law continues the ordinary steps"},
     {"inner", "1", "law steps where |psi/psi'| <= inner law steps from the crossing, at the midpoint (> 0)"},
-    {"outer", "3.2", "ordinary DTH steps where |psi/psi'| >= outer law steps from the crossing, at both vertices (> inner)"},
+    {"outer", "3.2", "ordinary DTH steps where |psi/psi'| >= outer law steps from the crossing, at both vertices, and lambda is within a factor 2 of the law's step (> inner)"},
 };
 
 static int create(const dth_reg_args *a, void **self)
@@ -421,7 +421,7 @@ static int load_state(void *self, const void *buf, size_t len)
 
 const dth_regularizer_type dth_reg_smooth = {
     .name = "smooth",
-    .doc = "ordinary DTH (symplectic) wherever the step is healthy; around psi = 0 and folds a C-infinity changeover to kicked segments of a step law: energy-exact, keeps quadratic invariants, never ends at psi = 0, the step pinned at every crossing; the changeover steps are neither symplectic nor reversible",
+    .doc = "ordinary DTH (symplectic) wherever the step is healthy; around psi = 0 and folds a C-infinity changeover to kicked segments of a step law: energy-exact, keeps quadratic invariants, the step pinned at every crossing, ends only where no law segment exists (refused; dth run then suggests a smaller h); the changeover steps are neither symplectic nor reversible",
     .params = params,
     .n_params = sizeof params / sizeof params[0],
     .create = create,
