@@ -301,6 +301,28 @@ static int solve(smooth *r, const dth_reg_event *ev, const blend *b, double lam0
     return DTH_OK;
 }
 
+/* The changeover weight and the law's step at a vertex z, cached for the last vertex asked (the
+ * next step starts there, and apply asks for the vertex admit turned down). A function of the
+ * point only (K is fixed before the first call; load_state drops the cache), so a hit gives
+ * exactly what weight() would. */
+static int vertex_weight(smooth *r, const double *z, double *w, double *l)
+{
+    size_t N = 2 * r->n + 2;
+    if (r->cache_ok && !memcmp(z, r->zc, N * sizeof *z)) {
+        *w = r->wc;
+        *l = r->lc;
+        return DTH_OK;
+    }
+    int sg;
+    int rc = weight(r, z, w, &sg, l, NULL);
+    if (rc) return rc;
+    memcpy(r->zc, z, N * sizeof *z);
+    r->wc = *w;
+    r->lc = *l;
+    r->cache_ok = 1;
+    return DTH_OK;
+}
+
 static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
 {
     smooth *r = self;
@@ -327,14 +349,13 @@ static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
         int rc = fix_law_constant(r, r->y, lam0);
         if (rc) return rc;
     }
-    double lam = 0, mu = 0, res = 0, l;
+    double lam = 0, mu = 0, res = 0;
     int iters = 0;
     blend b;
-    int sg;
+    /* the start vertex's weight, usually cached by admit */
     for (size_t j = 0; j < N; j++) r->y[j] = ev->z[j] + ev->zlo[j];
-    int rc = weight(r, r->y, &b.wa, &sg, &l, NULL);
+    int rc = vertex_weight(r, r->y, &b.wa, &b.la);
     if (rc) return rc;
-    b.la = l;
     rc = solve(r, ev, &b, lam0, d0, &lam, &mu, &res, &iters);
     if (rc > 0 && b.wa < 1) {
         /* no changeover segment (a vertex far off the law's offset): a law step */
@@ -350,26 +371,6 @@ static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
     act->lambda = lam;
     act->what = DTH_REG_REPLACE;
     act->residual = res;
-    return DTH_OK;
-}
-
-/* The changeover weight and the law's step at a vertex z, cached for the last vertex asked (the
- * next step starts there). */
-static int vertex_weight(smooth *r, const double *z, double *w, double *l)
-{
-    size_t N = 2 * r->n + 2;
-    if (r->cache_ok && !memcmp(z, r->zc, N * sizeof *z)) {
-        *w = r->wc;
-        *l = r->lc;
-        return DTH_OK;
-    }
-    int sg;
-    int rc = weight(r, z, w, &sg, l, NULL);
-    if (rc) return rc;
-    memcpy(r->zc, z, N * sizeof *z);
-    r->wc = *w;
-    r->lc = *l;
-    r->cache_ok = 1;
     return DTH_OK;
 }
 
