@@ -6,15 +6,16 @@
  *     lambda = dir * arc / |u(zbar)|^alpha,   u = the (q, p) part of J grad H,
  * with arc a constant fixed once (parameter, or from the first step: |lambda| |u(its midpoint)|^alpha).
  * The law depends on the midpoint only and each kicked segment is its own reverse, so the step
- * map is exactly time-reversible with no switching decision; the step varies smoothly through
- * psi = 0 and the step never ends there (dH/dmu = |n|^2/2 != 0 away from equilibria). Energy is
+ * map is exactly time-reversible with no switching decision (with fallback=no: the default
+ * fallback keeps the ordinary step where no kicked segment exists, a switch that the reverse run
+ * need not repeat); the step varies smoothly through psi = 0 and the step never ends there
+ * (dH/dmu = |n|^2/2 != 0 away from equilibria). Energy is
  * exact (wp untouched, midpoints on H = 0), quadratic invariants are kept; the kick gives up
  * symplecticity at every step. (Its former hybrid `band`, ordinary steps away from psi = 0 behind
  * a hard switch, was not reversible; the default regularizer `smooth` is that hybrid done right.)
  */
 #include <float.h>
 #include <math.h>
-#include <stdio.h>
 #include <string.h>
 #include "dth/regularize.h"
 #include "reg_common.h"
@@ -35,12 +36,6 @@ static const dth_param_spec params[] = {
     {"fallback", "yes", "yes: keep the ordinary DTH step where the kicked segment has no solution (no: refuse)"},
 };
 
-static int param_err(const dth_reg_args *a, const char *key, const char *what)
-{
-    if (a->err && a->errlen) snprintf(a->err, a->errlen, "parameter '%s' must be %s", key, what);
-    return DTH_EINVAL;
-}
-
 static int create(const dth_reg_args *a, void **self)
 {
     size_t n = dth_model_dof(a->model), N = 2 * n + 2;
@@ -52,15 +47,16 @@ static int create(const dth_reg_args *a, void **self)
     for (size_t i = 0; i < a->nkv; i++) {
         const char *k = a->kv[i].key, *v = a->kv[i].value;
         if (!strcmp(k, "alpha") && (dth_parse_double(v, &r->alpha) || !(r->alpha >= 0) || !isfinite(r->alpha)))
-            return param_err(a, k, "a number >= 0");
+            return dth__reg_param_err(a, k, "a number >= 0");
         if (!strcmp(k, "arc")) {
-            if (dth_parse_double(v, &r->arc) || !(r->arc > 0) || !isfinite(r->arc)) return param_err(a, k, "a number > 0");
+            if (dth_parse_double(v, &r->arc) || !(r->arc > 0) || !isfinite(r->arc))
+                return dth__reg_param_err(a, k, "a number > 0");
             r->arc_fixed = 1;
         }
         if (!strcmp(k, "fallback")) {
             if (!strcmp(v, "yes")) r->fallback = 1;
             else if (!strcmp(v, "no")) r->fallback = 0;
-            else return param_err(a, k, "yes or no");
+            else return dth__reg_param_err(a, k, "yes or no");
         }
     }
     r->ks = dth_calloc(a->alloc, nks + nw + 4 * N, sizeof(double));
@@ -91,9 +87,7 @@ static int speed_at(prescribed *r, const double *z, const double *zlo, const dou
     double H;
     int rc = dth_model_eval(r->model, r->y, DTH_EVAL_H | DTH_EVAL_GRAD, &H, r->g, NULL);
     if (rc) return rc;
-    double s = 0;
-    for (size_t i = 0; i < n; i++) s += r->g[i] * r->g[i] + r->g[n + 1 + i] * r->g[n + 1 + i];
-    *speed = sqrt(s);
+    *speed = sqrt(dth__reg_grad_qp2(r->g, n));
     return isfinite(*speed) ? DTH_OK : DTH_EDOMAIN;
 }
 
@@ -132,14 +126,8 @@ static int solve(prescribed *r, const dth_reg_event *ev, double *lam_out, double
             for (size_t j = 0; j < N; j++) r->d[j] = s * ev->plain_d[j];
             attempt = 1;
         } else {
-            for (size_t j = 0; j < N - 1; j++) r->y[j] = ev->z[j] + ev->zlo[j];
-            double H;
-            rc = dth_model_eval(r->model, r->y, DTH_EVAL_H | DTH_EVAL_GRAD, &H, r->g, NULL);
+            rc = dth__reg_euler_seed(r->model, r->n, ev->z, ev->zlo, lam, r->d, r->y, r->g);
             if (rc) return rc;
-            for (size_t i = 0; i < r->n; i++) {
-                r->d[i] = 0.5 * lam * r->g[r->n + 1 + i];
-                r->d[r->n + 1 + i] = -0.5 * lam * r->g[i];
-            }
             attempt = 2;
         }
         int ki = 0;
@@ -280,7 +268,7 @@ static int load_state(void *self, const void *buf, size_t len)
 
 const dth_regularizer_type dth_reg_prescribed = {
     .name = "prescribed",
-    .doc = "every step a kicked segment with lambda = arc/|u(zbar)|^alpha at its own midpoint: energy-exact, keeps quadratic invariants, exactly reversible, smooth through psi = 0; not symplectic at any step",
+    .doc = "every step a kicked segment with lambda = arc/|u(zbar)|^alpha at its own midpoint: energy-exact, keeps quadratic invariants, exactly reversible (with fallback=no; fallback steps are not), smooth through psi = 0; not symplectic at any step",
     .params = params,
     .n_params = sizeof params / sizeof params[0],
     .create = create,

@@ -1,31 +1,35 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Regularizer "smooth" (paper, section 7, with Lemma g_taylor and Theorem EU_2's s = -(psi'/psi)
- * lambda): ordinary DTH steps wherever the step is healthy, and a C-infinity changeover to kicked
- * segments of a step law around each psi = 0 crossing or fold. A changeover step solves, at its own
- * midpoint zbar,
+ * Regularizer "smooth", the default: the regularization across psi = 0 that DTH dynamics needs
+ * (paper, section 7; the changeover's distance is Theorem EU_2's s = -(psi'/psi) lambda). Ordinary
+ * DTH steps wherever the step is healthy, and around each psi = 0 crossing or fold a C-infinity
+ * changeover to kicked segments of a step law (docs/regularization.md, "smooth"). A step from the
+ * vertex z_a solves, at its own midpoint zbar,
  *     zbar = z_a + (lambda J grad H(zbar) + mu n(zbar)) / 2,   H(zbar) = 0,
- *     (1 - w) mu = w sigma (lambda - L),
- * where
- *   L = dir l(zbar), l the positive root of |psi| l^2/8 + |psi'| l^3/24 = off (the cubic model of the
- *     step constraint with its terms all adding, for a constant vertex offset off): the ordinary
- *     step of a vertex with offset off where |psi'| l << |psi|, finite at psi = 0;
- *   w = bump(x), x = |psi / psi'|(zbar) / l(zbar), the distance to the crossing in steps: w = 0 for
- *     x >= outer (mu = 0, the ordinary DTH step), w = 1 for x <= inner (lambda = L);
- *   sigma = -sign(psi(zbar)) dir. With this sign the changeover contracts the excess e of the
- *     vertex offset over the law's (psi L^2/8): one step multiplies e by (1 + a)/(1 - a) with
- *     a = 2 c sigma w / ((1 - w) L psi) <= 0 (c = grad H . n > 0), so |factor| <= 1, and the
- *     lambda-derivative of the changeover equation never vanishes. The other sign amplifies e and
- *     has a fold at a = 1 (docs/regularization.md shows why no sign is exactly reversible).
- * Every ordinary stretch therefore leaves a band with its offset pinned to the law, |H(z)| ~ off,
- * so the step does not drift from crossing to crossing. Ordinary steps are taken only where the
- * changeover weight vanishes at both vertices (a condition on the unordered pair): they are exactly
- * DTH steps (symplectic, their own reverse). Law steps (w = 1) are their own reverse too; the
- * changeover steps (0 < w < 1) are neither symplectic nor reversible (sigma reads dir).
+ *     (1 - w) mu = w sigma s (lambda - L),
+ * where, with psi and psi' at zbar,
+ *   L = dir l, l the positive root of l^6 psi_e^2 = K, psi_e^4 = psi^4 + (psi' l)^4: DTH's own step
+ *     scaling (lambda^6 psi^2 is the ordinary step's adiabatic invariant, see law()), finite at
+ *     psi = 0. K is fixed once, from the first step offered, or set by the parameter `invariant`;
+ *   w = bump(x), x = |psi / psi'| / l, the distance to the crossing in law steps (1/x is EU_2's s):
+ *     w = 1 for x <= inner (lambda = L, a law step), w = 0 for x >= outer (mu = 0, the ordinary DTH
+ *     step), and a plateau w = 1/2 on the middle 60 % of [inner, outer] between two C-infinity half
+ *     steps; the weight at z_a is a floor, w = max(w(zbar), w(z_a));
+ *   sigma = -sign(psi) dir, and s = l psi_e / (2 c), c = |grad_(q,p) H|^2 ~ grad H . n > 0. With
+ *     this sign and scale one step multiplies the excess of the vertex offset over the law's
+ *     (psi L^2/8) by 1 - 2 w (0 on the plateau): it contracts, and the lambda-derivative of the
+ *     changeover equation never vanishes. The other sign amplifies the excess and has a fold
+ *     (docs/regularization.md also shows why no smooth changeover is exactly reversible).
+ * Every ordinary stretch therefore leaves a band with its vertex offset pinned to the law's, so the
+ * step does not drift from crossing to crossing. Ordinary steps are taken only where w = 0 at both
+ * vertices and lambda is within a factor 2 of the law's step there (conditions on the unordered
+ * pair): they are exactly DTH steps (symplectic, their own reverse). Law steps (w = 1 at both
+ * vertices) are their own reverse too; the changeover steps (0 < w < 1) are neither symplectic nor
+ * reversible (sigma reads dir). Where no changeover segment exists a law step is taken; where none
+ * exists either (an unresolved passage), the step is refused.
  */
 #include <float.h>
 #include <math.h>
-#include <stdio.h>
 #include <string.h>
 #include "dth/regularize.h"
 #include "reg_common.h"
@@ -33,8 +37,8 @@
 typedef struct smooth {
     const dth_model *model;
     size_t n;
-    double off;        /* the law's vertex offset (> 0 once fixed) */
-    int off_fixed;     /* off set (parameter, or from the first step): a constant after that */
+    double K;          /* the law's constant in l^6 psi_e^2 = K (> 0 once fixed) */
+    int K_fixed;       /* K set (parameter `invariant`, or from the first step): a constant after that */
     double inner, outer;
     double *ks, *work, *d, *y, *g, *zb, *zc;
     double wc, lc;     /* the weight and the law's step at the vertex zc, cached (the next step starts there) */
@@ -44,14 +48,8 @@ typedef struct smooth {
 static const dth_param_spec params[] = {
     {"invariant", "", "the step law's constant K in l^6 (psi^4 + (psi' l)^4)^(1/2) = K (> 0); default: from the first step offered (the second of a midpoint start), so the law continues the ordinary steps"},
     {"inner", "1", "law steps where |psi/psi'| <= inner law steps from the crossing, at the midpoint (> 0)"},
-    {"outer", "3.2", "ordinary DTH steps where |psi/psi'| >= outer law steps from the crossing, at both vertices (> inner)"},
+    {"outer", "3.2", "ordinary DTH steps where |psi/psi'| >= outer law steps from the crossing, at both vertices, and lambda is within a factor 2 of the law's step (> inner)"},
 };
-
-static int param_err(const dth_reg_args *a, const char *key, const char *what)
-{
-    if (a->err && a->errlen) snprintf(a->err, a->errlen, "parameter '%s' must be %s", key, what);
-    return DTH_EINVAL;
-}
 
 static int create(const dth_reg_args *a, void **self)
 {
@@ -65,15 +63,16 @@ static int create(const dth_reg_args *a, void **self)
     for (size_t i = 0; i < a->nkv; i++) {
         const char *k = a->kv[i].key, *v = a->kv[i].value;
         if (!strcmp(k, "invariant")) {
-            if (dth_parse_double(v, &r->off) || !(r->off > 0) || !isfinite(r->off)) return param_err(a, k, "a number > 0");
-            r->off_fixed = 1;
+            if (dth_parse_double(v, &r->K) || !(r->K > 0) || !isfinite(r->K))
+                return dth__reg_param_err(a, k, "a number > 0");
+            r->K_fixed = 1;
         }
         if (!strcmp(k, "inner") && (dth_parse_double(v, &r->inner) || !(r->inner > 0) || !isfinite(r->inner)))
-            return param_err(a, k, "a number > 0");
+            return dth__reg_param_err(a, k, "a number > 0");
         if (!strcmp(k, "outer") && (dth_parse_double(v, &r->outer) || !isfinite(r->outer)))
-            return param_err(a, k, "a number");
+            return dth__reg_param_err(a, k, "a number");
     }
-    if (!(r->outer > r->inner)) return param_err(a, "outer", "larger than inner");
+    if (!(r->outer > r->inner)) return dth__reg_param_err(a, "outer", "larger than inner");
     r->ks = dth_calloc(a->alloc, nks + nw + 5 * N, sizeof(double));
     if (!r->ks) return DTH_ENOMEM;
     r->model = a->model;
@@ -145,7 +144,7 @@ static int weight(smooth *r, const double *y, double *w, int *psi_sign, double *
     double psi, dpsi;
     int rc = dth_model_psi(r->model, y, &psi, &dpsi, r->work);
     if (rc) return rc;
-    double l = law(r->off, psi, dpsi);
+    double l = law(r->K, psi, dpsi);
     if (!isfinite(l)) return DTH_EDOMAIN; /* psi = psi' = 0: an equilibrium */
     *lstep = l;
     *psi_sign = psi > 0 ? 1 : (psi < 0 ? -1 : 0);
@@ -156,29 +155,28 @@ static int weight(smooth *r, const double *y, double *w, int *psi_sign, double *
     double wd = 0.2 * (r->outer - r->inner);
     *w = 0.5 * (1 - smoothstep((x - r->inner) / wd)) + 0.5 * (1 - smoothstep((x - (r->outer - wd)) / wd));
     if (scale) {
-        /* s = l |psi|_reg / (2 c), c = |grad_(q,p) H|^2 ~ grad H . n: the changeover's contraction
+        /* s = l psi_e / (2 c), c = |grad_(q,p) H|^2 ~ grad H . n: the changeover's contraction
          * factor of the offset excess is then 1 - 2 w (docs/regularization.md) */
-        double H, c = 0;
-        size_t n = r->n;
+        double H;
         rc = dth_model_eval(r->model, y, DTH_EVAL_H | DTH_EVAL_GRAD, &H, r->g, NULL);
         if (rc) return rc;
-        for (size_t i = 0; i < n; i++) c += r->g[i] * r->g[i] + r->g[n + 1 + i] * r->g[n + 1 + i];
+        double c = dth__reg_grad_qp2(r->g, r->n);
         if (!(c > 0)) return DTH_EDOMAIN;
         *scale = l * psi_e(psi, dpsi, l) / (2 * c);
     }
     return DTH_OK;
 }
 
-/* Fix the law's offset once, from a step lam whose midpoint is y: the law then gives that step. */
-static int fix_offset(smooth *r, const double *y, double lam)
+/* Fix the law's constant K once, from a step lam whose midpoint is y: the law then gives that step. */
+static int fix_law_constant(smooth *r, const double *y, double lam)
 {
     double psi, dpsi, l = fabs(lam);
     int rc = dth_model_psi(r->model, y, &psi, &dpsi, r->work);
     if (rc) return rc;
     double l2 = l * l, pe = psi_e(psi, dpsi, l);
-    r->off = l2 * l2 * l2 * pe * pe;
-    if (!(r->off > 0) || !isfinite(r->off)) return DTH_EREFUSED;
-    r->off_fixed = 1;
+    r->K = l2 * l2 * l2 * pe * pe;
+    if (!(r->K > 0) || !isfinite(r->K)) return DTH_EREFUSED;
+    r->K_fixed = 1;
     return DTH_OK;
 }
 
@@ -190,7 +188,7 @@ typedef struct blend {
 /*
  * The changeover residual of the kicked segment (r->d, mu) of step lam from z + zlo, as
  *     R = sign(psi) dir (1 - w) mu + w s (lambda - L)
- * (the changeover equation times -sigma, the law's term scaled by s = l |psi|_e / (2 c) so that the
+ * (the changeover equation times -sigma, the law's term scaled by s = l psi_e / (2 c) so that the
  * offset excess contracts by 1 - 2 w per step), with w = max(w(zbar), w(z_a)), sign(psi), s and L
  * at the segment's own midpoint. The floor w(z_a) keeps a step that starts in the band from
  * landing on an ordinary root (w(zbar) = 0) far beyond it; ordinary steps (w = 0 at both vertices)
@@ -242,15 +240,8 @@ static int solve(smooth *r, const dth_reg_event *ev, const blend *b, double lam0
     int total = 0, rc, k;
     if (d0) memcpy(r->d, d0, N * sizeof *r->d);
     else {
-        for (size_t j = 0; j < N - 1; j++) r->y[j] = ev->z[j] + ev->zlo[j];
-        double H;
-        rc = dth_model_eval(r->model, r->y, DTH_EVAL_H | DTH_EVAL_GRAD, &H, r->g, NULL);
+        rc = dth__reg_euler_seed(r->model, r->n, ev->z, ev->zlo, lam, r->d, r->y, r->g);
         if (rc) return rc;
-        memset(r->d, 0, N * sizeof *r->d);
-        for (size_t i = 0; i < r->n; i++) {
-            r->d[i] = 0.5 * lam * r->g[r->n + 1 + i];
-            r->d[r->n + 1 + i] = -0.5 * lam * r->g[i];
-        }
     }
     *mu = 0;
     /* where the kicked segment of the starting step has no solution (an unresolved passage, e.g.
@@ -310,56 +301,10 @@ static int solve(smooth *r, const dth_reg_event *ev, const blend *b, double lam0
     return DTH_OK;
 }
 
-static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
-{
-    smooth *r = self;
-    size_t N = ev->N;
-    /* the step to start from: the ordinary one if it exists and is within a factor 2 of the
-     * incoming one (a far root of the ordinary constraint, e.g. a ghost, is no guide), else the
-     * incoming one; the bracket then stays within a factor 8 of it, so the root found continues
-     * the trajectory */
-    int plain = ev->plain_status == DTH_OK && ev->plain_lambda != 0 && ev->plain_d &&
-                (ev->lam_in == 0 ||
-                 (fabs(ev->plain_lambda) <= 2 * fabs(ev->lam_in) && 2 * fabs(ev->plain_lambda) >= fabs(ev->lam_in)));
-    double lam0 = plain ? ev->plain_lambda : ev->lam_in;
-    const double *d0 = plain ? ev->plain_d : ev->in_d;
-    if (!(lam0 * ev->dir > 0)) {
-        act->why = "no step to start the changeover from";
-        return DTH_EREFUSED;
-    }
-    if (!r->off_fixed) {
-        for (size_t j = 0; j < N; j++) r->y[j] = ev->z[j] + (ev->zlo[j] + (d0 ? d0[j] : 0));
-        int rc = fix_offset(r, r->y, lam0);
-        if (rc) return rc;
-    }
-    double lam = 0, mu = 0, res = 0, l;
-    int iters = 0;
-    blend b;
-    int sg;
-    for (size_t j = 0; j < N; j++) r->y[j] = ev->z[j] + ev->zlo[j];
-    int rc = weight(r, r->y, &b.wa, &sg, &l, NULL);
-    if (rc) return rc;
-    b.la = l;
-    rc = solve(r, ev, &b, lam0, d0, &lam, &mu, &res, &iters);
-    if (rc > 0 && b.wa < 1) {
-        /* no changeover segment (a vertex far off the law's offset): a law step */
-        int more = 0;
-        b.wa = 1;
-        rc = solve(r, ev, &b, lam0, d0, &lam, &mu, &res, &more);
-        iters += more;
-    }
-    act->iters = iters;
-    if (rc > 0) act->why = "no changeover or law segment between 1/1024 of the incoming step and 8 times the law's";
-    if (rc) return rc < 0 ? rc : DTH_EREFUSED;
-    memcpy(act->d, r->d, N * sizeof *act->d);
-    act->lambda = lam;
-    act->what = DTH_REG_REPLACE;
-    act->residual = res;
-    return DTH_OK;
-}
-
 /* The changeover weight and the law's step at a vertex z, cached for the last vertex asked (the
- * next step starts there). */
+ * next step starts there, and apply asks for the vertex admit turned down). A function of the
+ * point only (K is fixed before the first call; load_state drops the cache), so a hit gives
+ * exactly what weight() would. */
 static int vertex_weight(smooth *r, const double *z, double *w, double *l)
 {
     size_t N = 2 * r->n + 2;
@@ -378,6 +323,57 @@ static int vertex_weight(smooth *r, const double *z, double *w, double *l)
     return DTH_OK;
 }
 
+static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
+{
+    smooth *r = self;
+    size_t N = ev->N;
+    /* the step to start from: the ordinary one if it exists and is within a factor 2 of the
+     * incoming one (a far root of the ordinary constraint, e.g. a ghost, is no guide), else the
+     * incoming one; the bracket then stays within a factor 8 of it, so the root found continues
+     * the trajectory */
+    int plain = ev->plain_status == DTH_OK && ev->plain_lambda != 0 && ev->plain_d &&
+                (ev->lam_in == 0 ||
+                 (fabs(ev->plain_lambda) <= 2 * fabs(ev->lam_in) && 2 * fabs(ev->plain_lambda) >= fabs(ev->lam_in)));
+    double lam0 = plain ? ev->plain_lambda : ev->lam_in;
+    const double *d0 = plain ? ev->plain_d : ev->in_d;
+    if (!(lam0 * ev->dir > 0)) {
+        act->why = "no step to start the changeover from";
+        return DTH_EREFUSED;
+    }
+    if (!r->K_fixed) {
+        /* fix K so that the law gives lam0 at the (predicted) midpoint of the step now taken:
+         * z + plain_d is the ordinary step's midpoint; z + in_d (in_d = zbar_in - z_(k-1), the
+         * incoming offset reused for this step) its predicted midpoint, not the incoming midpoint
+         * z - in_d; without d0, the vertex itself */
+        for (size_t j = 0; j < N; j++) r->y[j] = ev->z[j] + (ev->zlo[j] + (d0 ? d0[j] : 0));
+        int rc = fix_law_constant(r, r->y, lam0);
+        if (rc) return rc;
+    }
+    double lam = 0, mu = 0, res = 0;
+    int iters = 0;
+    blend b;
+    /* the start vertex's weight, usually cached by admit */
+    for (size_t j = 0; j < N; j++) r->y[j] = ev->z[j] + ev->zlo[j];
+    int rc = vertex_weight(r, r->y, &b.wa, &b.la);
+    if (rc) return rc;
+    rc = solve(r, ev, &b, lam0, d0, &lam, &mu, &res, &iters);
+    if (rc > 0 && b.wa < 1) {
+        /* no changeover segment (a vertex far off the law's offset): a law step */
+        int more = 0;
+        b.wa = 1;
+        rc = solve(r, ev, &b, lam0, d0, &lam, &mu, &res, &more);
+        iters += more;
+    }
+    act->iters = iters;
+    if (rc > 0) act->why = "no changeover or law segment between 1/1024 of the incoming step and 8 times the law's";
+    if (rc) return rc < 0 ? rc : DTH_EREFUSED;
+    memcpy(act->d, r->d, N * sizeof *act->d);
+    act->lambda = lam;
+    act->what = DTH_REG_REPLACE;
+    act->residual = res;
+    return DTH_OK;
+}
+
 /* Take the ordinary step where the changeover weight is 0 at both of its vertices and its size is
  * within a factor 2 of the law's there (a ghost root is far larger): conditions on the unordered
  * pair, so an ordinary step stays its own reverse. */
@@ -385,9 +381,9 @@ static int admit(void *self, const double *za, const double *zb, double lambda)
 {
     smooth *r = self;
     size_t N = 2 * r->n + 2;
-    if (!r->off_fixed) {
+    if (!r->K_fixed) {
         for (size_t j = 0; j < N; j++) r->zb[j] = 0.5 * (za[j] + zb[j]);
-        if (fix_offset(r, r->zb, lambda)) return -1;
+        if (fix_law_constant(r, r->zb, lambda)) return -1;
     }
     double wa, wb, la, lb;
     if (vertex_weight(r, za, &wa, &la)) return -1;
@@ -397,7 +393,7 @@ static int admit(void *self, const double *za, const double *zb, double lambda)
     return wb == 0 && q >= 0.5 && q <= 2;
 }
 
-/* The state a checkpoint keeps: the law's offset once fixed (the weight cache is only a cache). */
+/* The state a checkpoint keeps: the law's constant K once fixed (the weight cache is only a cache). */
 static size_t state_size(const void *self)
 {
     (void)self;
@@ -407,7 +403,7 @@ static size_t state_size(const void *self)
 static void save_state(const void *self, void *buf)
 {
     const smooth *r = self;
-    double s[2] = {r->off, (double)r->off_fixed};
+    double s[2] = {r->K, (double)r->K_fixed};
     memcpy(buf, s, sizeof s);
 }
 
@@ -418,15 +414,15 @@ static int load_state(void *self, const void *buf, size_t len)
     if (len != sizeof s) return -1;
     memcpy(s, buf, sizeof s);
     if (!(s[1] == 0 || s[1] == 1) || (s[1] == 1 && !(s[0] > 0 && isfinite(s[0])))) return -1;
-    r->off = s[0];
-    r->off_fixed = (int)s[1];
+    r->K = s[0];
+    r->K_fixed = (int)s[1];
     r->cache_ok = 0;
     return 0;
 }
 
 const dth_regularizer_type dth_reg_smooth = {
     .name = "smooth",
-    .doc = "ordinary DTH (symplectic) wherever the step is healthy; around psi = 0 and folds a C-infinity changeover to kicked segments of a step law: energy-exact, keeps quadratic invariants, never ends at psi = 0, the step pinned at every crossing; the changeover steps are neither symplectic nor reversible",
+    .doc = "ordinary DTH (symplectic) wherever the step is healthy; around psi = 0 and folds a C-infinity changeover to kicked segments of a step law: energy-exact, keeps quadratic invariants, the step pinned at every crossing, ends only where no law segment exists (refused; dth run then suggests a smaller h); the changeover steps are neither symplectic nor reversible",
     .params = params,
     .n_params = sizeof params / sizeof params[0],
     .create = create,
