@@ -47,7 +47,11 @@ static void follow(const dth_model *m, const double *q, const double *p, double 
         int rc = dth_integrator_step(it, &info);
         CU_ASSERT_EQUAL_FATAL(rc, DTH_OK);
         CU_ASSERT_EQUAL_FATAL(dth_megno_update(g, it), DTH_OK);
+        dth_megno_result r0, r1;
+        dth_megno_get(g, &r0);
         CU_ASSERT_EQUAL(dth_megno_update(g, it), DTH_OK); /* no new step: nothing happens */
+        dth_megno_get(g, &r1);
+        CU_ASSERT(r1.steps == r0.steps && memcmp(&r1.megno, &r0.megno, sizeof r0.megno) == 0);
     }
     dth_megno_get(g, r);
     dth_megno_free(g);
