@@ -14,15 +14,8 @@
 #include <string.h>
 #include "cu_main.h"
 #include "dth/dth.h"
+#include "test_util.h"
 #include "../docs/examples/henon_heiles.h"
-
-static dth_model *model(const dth_model_type *t, const dth_kv *kv, size_t nkv, size_t n)
-{
-    dth_model *m = NULL;
-    char err[256];
-    CU_ASSERT_EQUAL_FATAL(dth_model_new(t, kv, nkv, n, NULL, &m, err, sizeof err), DTH_OK);
-    return m;
-}
 
 /* Run `steps` steps (or to t_end > 0) with MEGNO updated after every step; the indicators into r. */
 static void follow(const dth_model *m, const double *q, const double *p, double h, double t_end,

@@ -18,6 +18,7 @@
 #include "dth/dth.h"
 #include "dth_internal.h"
 #include "integrator_impl.h"
+#include "test_util.h"
 
 /* ---- a forced oscillator (non-autonomous: t and wp are Newton unknowns) ---- */
 
@@ -169,14 +170,6 @@ static double compare(const dth_model *m, double h, dth_linsolve ls, const doubl
     dth_integrator_free(oth);
     free(g), free(w), free(Mr), free(Mo), free(zc);
     return worst;
-}
-
-static dth_model *model(const dth_model_type *t, const dth_kv *kv, size_t nkv, size_t n)
-{
-    dth_model *m = NULL;
-    char err[256];
-    CU_ASSERT_EQUAL_FATAL(dth_model_new(t, kv, nkv, n, NULL, &m, err, sizeof err), DTH_OK);
-    return m;
 }
 
 /* After one ordinary step: did the small path's last factorization take its Schur complement? */

@@ -15,6 +15,7 @@
 #include <string.h>
 #include "cu_main.h"
 #include "dth/dth.h"
+#include "test_util.h"
 
 #define PI 3.14159265358979323846
 #define MAXS 40000
@@ -74,17 +75,6 @@ static int on_event(void *user, const dth_sample *s)
     r->eidx[r->ne] = s->event;
     r->ne++;
     return 0;
-}
-
-static dth_model *model(const dth_model_type *t, const char *k1, const char *v1, size_t n)
-{
-    dth_model *m = NULL;
-    char err[256];
-    dth_kv kv[1] = {{k1, v1}};
-    int rc = dth_model_new(t, kv, k1 ? 1 : 0, n, NULL, &m, err, sizeof err);
-    if (rc) fprintf(stderr, "model: %s\n", err);
-    CU_ASSERT_FATAL(rc == DTH_OK);
-    return m;
 }
 
 static dth_integrator *start(const dth_model *m, double h, dth_start mode, const double *q0, const double *p0, double t0)
@@ -215,16 +205,16 @@ static void test_dense_order(void)
 {
     /* times off any step grid, the last one is t_end */
     static const double th[] = {0.0, 0.3731, 1.9123, 4.4047, 7.7777, 10.0};
-    dth_model *mh = model(&dth_model_harmonic, "omega", "1.3", 1);
+    dth_model *mh = model(&dth_model_harmonic, &(dth_kv){"omega", "1.3"}, 1, 1);
     double q[3] = {0.8}, p[3] = {-0.25};
     check_order("harmonic", mh, q, p, 0.02, th, 6);
     dth_model_free(mh);
-    dth_model *mp = model(&dth_model_pendulum, NULL, NULL, 1);
+    dth_model *mp = model(&dth_model_pendulum, NULL, 0, 1);
     q[0] = 1.5, p[0] = 0;
     check_order("pendulum", mp, q, p, 0.01, th, 6);
     dth_model_free(mp);
     /* Kepler e = 0.6 from pericentre, over one orbit */
-    dth_model *mk = model(&dth_model_kepler, NULL, NULL, 2);
+    dth_model *mk = model(&dth_model_kepler, NULL, 0, 2);
     double qk[2] = {0.4, 0}, pk[2] = {0, 2};
     static const double tk[] = {0.0, 0.51, 1.7, 3.14, 4.9, 6.0};
     check_order("kepler e=0.6", mk, qk, pk, 0.00125, tk, 6);
@@ -235,7 +225,7 @@ static void test_dense_order(void)
 
 static void test_exact_end(void)
 {
-    dth_model *m = model(&dth_model_pendulum, NULL, NULL, 1);
+    dth_model *m = model(&dth_model_pendulum, NULL, 0, 1);
     double q0 = 1, p0 = 0;
     for (int d = 0; d < 2; d++) {
         double h = d ? -0.05 : 0.05, t_end = d ? -3.21 : 7.654321;
@@ -328,15 +318,15 @@ static void midpoint_energy(const char *name, const dth_model *m, const double *
 
 static void test_midpoints(void)
 {
-    dth_model *m = model(&dth_model_pendulum, NULL, NULL, 1);
+    dth_model *m = model(&dth_model_pendulum, NULL, 0, 1);
     double q[8] = {1.2}, p[8] = {0.1};
     midpoint_energy("pendulum", m, q, p, 0.05);
     dth_model_free(m);
-    m = model(&dth_model_harmonic, "omega", "1,1.7320508075688772", 2);
+    m = model(&dth_model_harmonic, &(dth_kv){"omega", "1,1.7320508075688772"}, 1, 2);
     q[0] = 1, q[1] = 0.5, p[0] = 0, p[1] = 0.3;
     midpoint_energy("harmonic", m, q, p, 0.05);
     dth_model_free(m);
-    m = model(&dth_model_kepler, NULL, NULL, 2);
+    m = model(&dth_model_kepler, NULL, 0, 2);
     q[0] = 0.4, q[1] = 0, p[0] = 0, p[1] = 2;
     midpoint_energy("kepler", m, q, p, 0.01);
     dth_model_free(m);
@@ -405,7 +395,7 @@ static double kepler_events(const dth_model *m, double h)
 
 static void test_events_kepler(void)
 {
-    dth_model *m = model(&dth_model_kepler, NULL, NULL, 2);
+    dth_model *m = model(&dth_model_kepler, NULL, 0, 2);
     /* event times carry the method's phase error, O(h^2): 3.3e-8 at h = 0.001 after 2.5 orbits */
     double e1 = kepler_events(m, 0.001), e2 = kepler_events(m, 0.0005);
     CU_ASSERT(e1 < 1e-7);
@@ -417,7 +407,7 @@ static void test_events_kepler(void)
  * w t = 3 pi / 2 + 2 pi j; a terminal distance event stops the run. */
 static void test_events_direction_terminal(void)
 {
-    dth_model *m = model(&dth_model_harmonic, NULL, NULL, 1);
+    dth_model *m = model(&dth_model_harmonic, NULL, 0, 1);
     double q = 1, p = 0;
     dth_integrator *it = start(m, 0.01, DTH_START_MIDPOINT, &q, &p, 0);
     rec r;
@@ -516,7 +506,7 @@ static void run_pendulum(dth_points pts, double t_end, saver *sv, dth_integrator
 
 static void test_resume(void)
 {
-    dth_model *m = model(&dth_model_pendulum, NULL, NULL, 1);
+    dth_model *m = model(&dth_model_pendulum, NULL, 0, 1);
     double q = 1, p = 0;
     for (int pts = 0; pts < 3; pts++) {
         /* the reference, uninterrupted */

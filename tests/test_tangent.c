@@ -16,6 +16,7 @@
 #include "cu_main.h"
 #include "dth/dth.h"
 #include "integrator_impl.h"
+#include "test_util.h"
 
 enum { MAXN = 3, MAXZ = 2 * MAXN + 2, MAXM = 2 * MAXN + 1 };
 typedef long double ld;
@@ -209,21 +210,6 @@ static int ld_step_tangent(ld_model f, int n, const ld *z, const ld *d0, ld lam0
     return 0;
 }
 
-/* |M^T J M - J| max, J extended: [[0, I], [-I, 0]] with I of size n + 1. */
-static double symplectic_defect(int n, const double *M)
-{
-    int N = 2 * n + 2, h = n + 1;
-    double worst = 0;
-    for (int a = 0; a < N; a++)
-        for (int b = 0; b < N; b++) {
-            ld s = 0;
-            for (int k = 0; k < h; k++) s += (ld)M[k * N + a] * M[(h + k) * N + b] - (ld)M[(h + k) * N + a] * M[k * N + b];
-            ld j = (a < h && b == a + h) ? 1 : (a >= h && b == a - h) ? -1 : 0;
-            worst = fmax(worst, (double)fabsl(s - j));
-        }
-    return worst;
-}
-
 /*
  * Step `steps` times; at every `every`-th step compare the tangent map with two references:
  *  - at the library's own step (its converged midpoint and lambda, differentiated in long double):
@@ -266,7 +252,7 @@ static void check(const dth_model *m, ld_model f, const double *q0, const double
         worst = fmax(worst, e / mm);
         wre = fmax(wre, er / mm);
         wlam = fmax(wlam, dlam);
-        wsym = fmax(wsym, symplectic_defect(n, M) / (mm * mm));
+        wsym = fmax(wsym, symplectic_defect((size_t)n, M, 1) / (mm * mm));
     }
     printf("\n    %-12s h = %g: |M - M_ld| / |M| <= %.2e at its own step, %.2e at the re-solved step (|dlambda / lambda| "
            "<= %.1e); |M^T J M - J| / |M|^2 <= %.2e",
@@ -276,17 +262,9 @@ static void check(const dth_model *m, ld_model f, const double *q0, const double
     dth_integrator_free(it);
 }
 
-static dth_model *model(const dth_model_type *t, size_t n)
-{
-    dth_model *m = NULL;
-    char err[256];
-    CU_ASSERT_EQUAL_FATAL(dth_model_new(t, NULL, 0, n, NULL, &m, err, sizeof err), DTH_OK);
-    return m;
-}
-
 static void test_pendulum(void)
 {
-    dth_model *m = model(&dth_model_pendulum, 1);
+    dth_model *m = model(&dth_model_pendulum, NULL, 0, 1);
     double q = 1.2, p = 0.4;
     check(m, ld_pendulum, &q, &p, 0.1, 400, 7);
     check(m, ld_pendulum, &q, &p, 0.01, 2000, 37);
@@ -295,7 +273,7 @@ static void test_pendulum(void)
 
 static void test_kepler3(void)
 {
-    dth_model *m = model(&dth_model_kepler, 3);
+    dth_model *m = model(&dth_model_kepler, NULL, 0, 3);
     /* e = 0.7, inclined */
     double e = 0.7, v = sqrt((1 + e) / (1 - e)), c = cos(0.5), s = sin(0.5);
     double q[3] = {1 - e, 0, 0}, p[3] = {0, v * c, v * s};
@@ -305,7 +283,7 @@ static void test_kepler3(void)
 
 static void test_henon(void)
 {
-    dth_model *m = model(&hh_type, 2);
+    dth_model *m = model(&hh_type, NULL, 0, 2);
     double q[2] = {0.1, -0.2}, p[2] = {0.3, 0.25}; /* E ~ 0.1 */
     check(m, ld_henon, q, p, 0.05, 2000, 31);
     dth_model_free(m);
