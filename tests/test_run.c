@@ -55,26 +55,41 @@ static void rec_free(rec *r)
     free(r->eidx);
 }
 
-static int on_sample(void *user, const dth_sample *s)
+/* Record s as the next sample (event = 0) or the next event (1). */
+static int push(rec *r, int event, const dth_sample *s)
 {
-    rec *r = user;
-    if (r->ns >= MAXS) return DTH_ENOMEM;
-    memcpy(r->z + (size_t)r->ns * r->N, s->z, r->N * sizeof *r->z);
-    r->kind[r->ns] = s->kind;
-    r->k[r->ns] = s->k;
-    r->ns++;
+    long *i = event ? &r->ne : &r->ns;
+    if (*i >= MAXS) return DTH_ENOMEM;
+    memcpy((event ? r->ze : r->z) + (size_t)*i * r->N, s->z, r->N * sizeof *r->z);
+    if (event) r->edir[*i] = s->direction, r->eidx[*i] = s->event;
+    else r->kind[*i] = s->kind, r->k[*i] = s->k;
+    ++*i;
     return 0;
 }
 
-static int on_event(void *user, const dth_sample *s)
+static int on_sample(void *user, const dth_sample *s) { return push(user, 0, s); }
+static int on_event(void *user, const dth_sample *s) { return push(user, 1, s); }
+
+/* A run from t0 = 0 to t_end (steps = 0) or to vertex `steps`, its samples and events recorded in r. */
+static dth_run_config config(double t_end, long steps, rec *r)
 {
-    rec *r = user;
-    if (r->ne >= MAXS) return DTH_ENOMEM;
-    memcpy(r->ze + (size_t)r->ne * r->N, s->z, r->N * sizeof *r->ze);
-    r->edir[r->ne] = s->direction;
-    r->eidx[r->ne] = s->event;
-    r->ne++;
-    return 0;
+    dth_run_config c;
+    dth_run_config_default(&c);
+    c.has_t_end = steps == 0;
+    c.t_end = steps == 0 ? t_end : 0;
+    c.steps = steps;
+    c.t0 = 0;
+    c.sample = on_sample;
+    c.on_event = on_event;
+    c.user = r;
+    return c;
+}
+
+/* Run `it` as c says from a fresh loop state (st). */
+static void run(dth_integrator *it, const dth_run_config *c, dth_run_state *st)
+{
+    dth_run_state_init(st);
+    CU_ASSERT_FATAL(dth_run(it, c, st) == DTH_OK);
 }
 
 static dth_integrator *start(const dth_model *m, double h, dth_start mode, const double *q0, const double *p0, double t0)
@@ -157,19 +172,12 @@ static double dense_error(const dth_model *m, const double *q0, const double *p0
     dth_integrator *it = start(m, h, DTH_START_MIDPOINT, q0, p0, 0);
     rec r;
     rec_init(&r, N);
-    dth_run_config c;
-    dth_run_config_default(&c);
-    c.has_t_end = 1;
-    c.t_end = times[nt - 1];
-    c.t0 = 0;
+    dth_run_config c = config(times[nt - 1], 0, &r);
     c.points = DTH_POINTS_TIMES;
     c.times = times;
     c.ntimes = nt;
-    c.sample = on_sample;
-    c.user = &r;
     dth_run_state st;
-    dth_run_state_init(&st);
-    CU_ASSERT_FATAL(dth_run(it, &c, &st) == DTH_OK);
+    run(it, &c, &st);
     CU_ASSERT(r.ns == (long)nt);
     double y0[2 * 3 + 1], y[2 * 3 + 1], err = 0;
     memcpy(y0, q0, n * sizeof *y0);
@@ -232,16 +240,9 @@ static void test_exact_end(void)
         dth_integrator *it = start(m, h, DTH_START_MIDPOINT, &q0, &p0, 0);
         rec r;
         rec_init(&r, 4);
-        dth_run_config c;
-        dth_run_config_default(&c);
-        c.has_t_end = 1;
-        c.t_end = t_end;
-        c.t0 = 0;
-        c.sample = on_sample;
-        c.user = &r;
+        dth_run_config c = config(t_end, 0, &r);
         dth_run_state st;
-        dth_run_state_init(&st);
-        CU_ASSERT_FATAL(dth_run(it, &c, &st) == DTH_OK);
+        run(it, &c, &st);
         CU_ASSERT(st.stop == DTH_RUN_END);
         /* every vertex before t_end, then the end at exactly t_end */
         CU_ASSERT(r.kind[r.ns - 1] == DTH_SAMPLE_END);
@@ -260,17 +261,11 @@ static void test_exact_end(void)
     dth_integrator *it = start(m, 0.05, DTH_START_MIDPOINT, &q0, &p0, 0);
     rec r;
     rec_init(&r, 4);
-    dth_run_config c;
-    dth_run_config_default(&c);
-    c.steps = 3;
-    c.t0 = 0;
+    dth_run_config c = config(0, 3, &r);
     c.points = DTH_POINTS_TIMES;
     c.dt = 0.03;
-    c.sample = on_sample;
-    c.user = &r;
     dth_run_state st;
-    dth_run_state_init(&st);
-    CU_ASSERT_FATAL(dth_run(it, &c, &st) == DTH_OK);
+    run(it, &c, &st);
     CU_ASSERT(r.ns == 5); /* 0, 0.03, ..., 0.12 <= t_3 = 0.125 */
     CU_ASSERT(r.z[0] == 1 && r.z[1] == 0 && r.z[2] == 0);
     rec_free(&r);
@@ -286,16 +281,10 @@ static void midpoint_energy(const char *name, const dth_model *m, const double *
     dth_integrator *it = start(m, h, DTH_START_MIDPOINT, q0, p0, 0);
     rec r;
     rec_init(&r, N);
-    dth_run_config c;
-    dth_run_config_default(&c);
-    c.steps = 2000;
-    c.t0 = 0;
+    dth_run_config c = config(0, 2000, &r);
     c.points = DTH_POINTS_MIDPOINTS;
-    c.sample = on_sample;
-    c.user = &r;
     dth_run_state st;
-    dth_run_state_init(&st);
-    CU_ASSERT_FATAL(dth_run(it, &c, &st) == DTH_OK);
+    run(it, &c, &st);
     CU_ASSERT(r.ns == 2000);
     double E0, E, worst = 0, *y = calloc(N, sizeof *y);
     memcpy(y, q0, n * sizeof *y);
@@ -330,10 +319,8 @@ static void test_midpoints(void)
     q[0] = 0.4, q[1] = 0, p[0] = 0, p[1] = 2;
     midpoint_energy("kepler", m, q, p, 0.01);
     dth_model_free(m);
-    dth_model *mc = NULL;
-    char err[256];
     dth_kv kv[] = {{"preset", "chain"}, {"size", "4"}, {"dim", "1"}};
-    CU_ASSERT_FATAL(dth_model_new(&dth_model_coupled, kv, 3, 4, NULL, &mc, err, sizeof err) == DTH_OK);
+    dth_model *mc = model(&dth_model_coupled, kv, 3, 4);
     double qc[4] = {0, 1.2, 2, 3.1}, pc[4] = {0.1, 0, -0.2, 0.1};
     midpoint_energy("coupled chain", mc, qc, pc, 0.05);
     dth_model_free(mc);
@@ -358,18 +345,12 @@ static double kepler_events(const dth_model *m, double h)
     rec r;
     rec_init(&r, 6);
     dth_event ev[2] = {{radial, NULL, +1, 0}, {radial, NULL, -1, 0}};
-    dth_run_config c;
-    dth_run_config_default(&c);
-    c.has_t_end = 1;
-    c.t_end = 5.5 * PI;
-    c.t0 = 0;
+    dth_run_config c = config(5.5 * PI, 0, &r);
+    c.sample = NULL; /* events only */
     c.events = ev;
     c.nevents = 2;
-    c.on_event = on_event;
-    c.user = &r;
     dth_run_state st;
-    dth_run_state_init(&st);
-    CU_ASSERT_FATAL(dth_run(it, &c, &st) == DTH_OK);
+    run(it, &c, &st);
     /* pericentres at pi, 3 pi, 5 pi; apocentres at 2 pi, 4 pi (the start, an apocentre, is no crossing) */
     CU_ASSERT_FATAL(r.ne == 5);
     double worst_t = 0, worst_g = 0;
@@ -414,19 +395,11 @@ static void test_events_direction_terminal(void)
     rec_init(&r, 4);
     dth_event_spec cross = {0, 0.0, NULL, 0};
     dth_event ev[1] = {{dth_event_coordinate, &cross, +1, 0}};
-    dth_run_config c;
-    dth_run_config_default(&c);
-    c.has_t_end = 1;
-    c.t_end = 20;
-    c.t0 = 0;
+    dth_run_config c = config(20, 0, &r);
     c.events = ev;
     c.nevents = 1;
-    c.on_event = on_event;
-    c.sample = on_sample;
-    c.user = &r;
     dth_run_state st;
-    dth_run_state_init(&st);
-    CU_ASSERT_FATAL(dth_run(it, &c, &st) == DTH_OK);
+    run(it, &c, &st);
     CU_ASSERT(r.ne == 3); /* 4.71, 10.99, 17.28 */
     for (long e = 0; e < r.ne; e++) {
         CU_ASSERT(r.edir[e] == 1);
@@ -444,8 +417,7 @@ static void test_events_direction_terminal(void)
     dth_event_spec dist = {0, 0.5, NULL, 0};
     dth_event ev2[1] = {{dth_event_distance, &dist, -1, 1}};
     c.events = ev2;
-    dth_run_state_init(&st);
-    CU_ASSERT_FATAL(dth_run(it, &c, &st) == DTH_OK);
+    run(it, &c, &st);
     CU_ASSERT(st.stop == DTH_RUN_EVENT);
     CU_ASSERT(r.ne == 1);
     CU_ASSERT(fabs(st.t_stop - PI / 3) < 1e-4);
@@ -486,11 +458,7 @@ static void run_pendulum(dth_points pts, double t_end, saver *sv, dth_integrator
 {
     static dth_event_spec sec = {2, 0.0, NULL, 0}; /* p = 0 */
     static dth_event ev[1] = {{dth_event_coordinate, &sec, 0, 0}};
-    dth_run_config c;
-    dth_run_config_default(&c);
-    c.has_t_end = 1;
-    c.t_end = t_end;
-    c.t0 = 0;
+    dth_run_config c = config(t_end, 0, sv->r);
     c.points = pts;
     c.dt = 0.07;
     c.events = ev;
