@@ -163,7 +163,8 @@ static void test_edomain(void)
 
 /* ---- DTH_ESINGULAR: H_phys = 0 makes the bordering row grad H^T vanish ---- */
 
-static int flat_create(const dth_model_args *a, void **self, dth_model_info *info)
+/* Stateless, autonomous, separable, one degree of freedom (flat and fickle below). */
+static int one_dof_create(const dth_model_args *a, void **self, dth_model_info *info)
 {
     (void)a;
     *self = NULL;
@@ -180,7 +181,7 @@ static int flat_eval(const void *self, const double *y, unsigned what, double *H
     return 0;
 }
 
-static const dth_model_type flat_type = {.name = "flat", .doc = "H_phys = 0", .create = flat_create,
+static const dth_model_type flat_type = {.name = "flat", .doc = "H_phys = 0", .create = one_dof_create,
                                          .eval = flat_eval};
 
 static void test_esingular(void)
@@ -295,14 +296,6 @@ static void test_shipped_regularizers(void)
 /* A harmonic oscillator whose energy alone (DTH_EVAL_H by itself) cannot be evaluated for
  * 0.25 < q < 0.35 while its derivatives can: a failure the integrator meets only after it has
  * committed a regularizer's segment (the carried vertex offset evaluated afresh). */
-static int fickle_create(const dth_model_args *a, void **self, dth_model_info *info)
-{
-    (void)a;
-    *self = NULL;
-    *info = (dth_model_info){.n = 1, .autonomous = 1, .separable = 1};
-    return DTH_OK;
-}
-
 static int fickle_eval(const void *self, const double *y, unsigned what, double *H, double *g, double *h)
 {
     (void)self;
@@ -322,7 +315,7 @@ static int fickle_eval(const void *self, const double *y, unsigned what, double 
 }
 
 static const dth_model_type fickle_type = {.name = "fickle", .doc = "oscillator, H alone fails at 0.25 < q < 0.35",
-                                           .create = fickle_create, .eval = fickle_eval};
+                                           .create = one_dof_create, .eval = fickle_eval};
 
 /* A regularizer that replaces every step and counts its calls (state a checkpoint keeps). Its
  * action, by mode: 0 a segment to q = 0.3, where the energy alone fails (after the commit);
