@@ -14,15 +14,8 @@
 #include <string.h>
 #include "cu_main.h"
 #include "dth/dth.h"
+#include "test_util.h"
 #include "../docs/examples/henon_heiles.h"
-
-static dth_model *model(const dth_model_type *t, const dth_kv *kv, size_t nkv, size_t n)
-{
-    dth_model *m = NULL;
-    char err[256];
-    CU_ASSERT_EQUAL_FATAL(dth_model_new(t, kv, nkv, n, NULL, &m, err, sizeof err), DTH_OK);
-    return m;
-}
 
 /* Run `steps` steps (or to t_end > 0) with MEGNO updated after every step; the indicators into r. */
 static void follow(const dth_model *m, const double *q, const double *p, double h, double t_end,
@@ -47,7 +40,11 @@ static void follow(const dth_model *m, const double *q, const double *p, double 
         int rc = dth_integrator_step(it, &info);
         CU_ASSERT_EQUAL_FATAL(rc, DTH_OK);
         CU_ASSERT_EQUAL_FATAL(dth_megno_update(g, it), DTH_OK);
+        dth_megno_result r0, r1;
+        dth_megno_get(g, &r0);
         CU_ASSERT_EQUAL(dth_megno_update(g, it), DTH_OK); /* no new step: nothing happens */
+        dth_megno_get(g, &r1);
+        CU_ASSERT(r1.steps == r0.steps && memcmp(&r1.megno, &r0.megno, sizeof r0.megno) == 0);
     }
     dth_megno_get(g, r);
     dth_megno_free(g);

@@ -13,6 +13,7 @@
 #include <string.h>
 #include "cu_main.h"
 #include "dth/dth.h"
+#include "test_util.h"
 
 /* ---- the whole serialised state (dth_checkpoint_save: every field of the step state, the
  * options, the regularizer's own state), compared bitwise ---- */
@@ -56,16 +57,6 @@ static int step_until_failure(dth_integrator *it, long max, long *at)
     return DTH_OK;
 }
 
-static dth_model *new_model(const dth_model_type *t, const dth_kv *kv, size_t nkv, size_t n)
-{
-    dth_model *m = NULL;
-    char err[256];
-    int rc = dth_model_new(t, kv, nkv, n, NULL, &m, err, sizeof err);
-    if (rc) fprintf(stderr, "dth_model_new(%s): %s\n", t->name, err);
-    CU_ASSERT_FATAL(rc == DTH_OK);
-    return m;
-}
-
 static dth_integrator *new_integrator(const dth_model *m, double h, dth_start start, int max_iter)
 {
     dth_options o;
@@ -82,7 +73,7 @@ static dth_integrator *new_integrator(const dth_model *m, double h, dth_start st
 
 static void test_enoconv(void)
 {
-    dth_model *m = new_model(&dth_model_pendulum, NULL, 0, 1);
+    dth_model *m = model(&dth_model_pendulum, NULL, 0, 1);
     dth_integrator *it = new_integrator(m, 0.1, DTH_START_VERTEX, 1);
     double q = 0.8, p = 0.3;
     CU_ASSERT_FATAL(dth_integrator_start(it, &q, &p, 0) == DTH_OK);
@@ -146,7 +137,7 @@ static void test_edomain(void)
 {
     static const dth_kv nan_kv[] = {{"nan", "1"}};
     for (int mode = 0; mode < 2; mode++) {
-        dth_model *m = new_model(&wall_type, nan_kv, (size_t)mode, 1);
+        dth_model *m = model(&wall_type, nan_kv, (size_t)mode, 1);
         for (int start = 0; start < 2; start++) {
             dth_integrator *it = new_integrator(m, 0.05, start ? DTH_START_VERTEX : DTH_START_MIDPOINT, 30);
             double q = 0, p = 1;
@@ -172,7 +163,8 @@ static void test_edomain(void)
 
 /* ---- DTH_ESINGULAR: H_phys = 0 makes the bordering row grad H^T vanish ---- */
 
-static int flat_create(const dth_model_args *a, void **self, dth_model_info *info)
+/* Stateless, autonomous, separable, one degree of freedom (flat and fickle below). */
+static int one_dof_create(const dth_model_args *a, void **self, dth_model_info *info)
 {
     (void)a;
     *self = NULL;
@@ -189,12 +181,12 @@ static int flat_eval(const void *self, const double *y, unsigned what, double *H
     return 0;
 }
 
-static const dth_model_type flat_type = {.name = "flat", .doc = "H_phys = 0", .create = flat_create,
+static const dth_model_type flat_type = {.name = "flat", .doc = "H_phys = 0", .create = one_dof_create,
                                          .eval = flat_eval};
 
 static void test_esingular(void)
 {
-    dth_model *m = new_model(&flat_type, NULL, 0, 1);
+    dth_model *m = model(&flat_type, NULL, 0, 1);
     {
         /* no vertex offset gives a first step of h here: the vertex start is refused, naming h */
         dth_integrator *it = new_integrator(m, 0.1, DTH_START_VERTEX, 30);
@@ -232,7 +224,7 @@ static void test_esingular(void)
 
 static void test_rotating_pendulum_termination(void)
 {
-    dth_model *m = new_model(&dth_model_pendulum, NULL, 0, 1);
+    dth_model *m = model(&dth_model_pendulum, NULL, 0, 1);
     dth_integrator *it = new_integrator(m, 0.05, DTH_START_VERTEX, 30);
     double q = 0, p = 2.2;
     CU_ASSERT_FATAL(dth_integrator_start(it, &q, &p, 0) == DTH_OK);
@@ -267,7 +259,7 @@ static dth_integrator *new_integrator_reg(const dth_model *m, double h, dth_star
  * none, and prescribed on the pendulum with a step too large for a kicked segment. */
 static void test_shipped_regularizers(void)
 {
-    dth_model *kep = new_model(&dth_model_kepler, NULL, 0, 2), *pen = new_model(&dth_model_pendulum, NULL, 0, 1);
+    dth_model *kep = model(&dth_model_kepler, NULL, 0, 2), *pen = model(&dth_model_pendulum, NULL, 0, 1);
     static const dth_kv nofb[] = {{"fallback", "no"}};
     struct {
         const dth_model *m;
@@ -304,14 +296,6 @@ static void test_shipped_regularizers(void)
 /* A harmonic oscillator whose energy alone (DTH_EVAL_H by itself) cannot be evaluated for
  * 0.25 < q < 0.35 while its derivatives can: a failure the integrator meets only after it has
  * committed a regularizer's segment (the carried vertex offset evaluated afresh). */
-static int fickle_create(const dth_model_args *a, void **self, dth_model_info *info)
-{
-    (void)a;
-    *self = NULL;
-    *info = (dth_model_info){.n = 1, .autonomous = 1, .separable = 1};
-    return DTH_OK;
-}
-
 static int fickle_eval(const void *self, const double *y, unsigned what, double *H, double *g, double *h)
 {
     (void)self;
@@ -331,7 +315,7 @@ static int fickle_eval(const void *self, const double *y, unsigned what, double 
 }
 
 static const dth_model_type fickle_type = {.name = "fickle", .doc = "oscillator, H alone fails at 0.25 < q < 0.35",
-                                           .create = fickle_create, .eval = fickle_eval};
+                                           .create = one_dof_create, .eval = fickle_eval};
 
 /* A regularizer that replaces every step and counts its calls (state a checkpoint keeps). Its
  * action, by mode: 0 a segment to q = 0.3, where the energy alone fails (after the commit);
@@ -396,7 +380,7 @@ static const dth_regularizer_type tricky_type = {
 
 static void test_regularizer_failures(void)
 {
-    dth_model *m = new_model(&fickle_type, NULL, 0, 1);
+    dth_model *m = model(&fickle_type, NULL, 0, 1);
     const char *modes[] = {"0", "1", "2", "3"};
     const int want[] = {DTH_EDOMAIN, DTH_EREFUSED, DTH_EREFUSED, DTH_EREFUSED};
     const char *says[] = {"", "against the direction", "unknown action", "changes wp"};
@@ -469,7 +453,7 @@ static void test_absurd_sizes(void)
 static void test_domain_check(void)
 {
     static const dth_kv nan_kv[] = {{"nan", "1"}};
-    dth_model *w = new_model(&wall_type, NULL, 0, 1), *wn = new_model(&wall_type, nan_kv, 1, 1);
+    dth_model *w = model(&wall_type, NULL, 0, 1), *wn = model(&wall_type, nan_kv, 1, 1);
     char why[200];
     double in[3] = {0.2, 0, 1}, out[3] = {0.7, 0, 1}, inf[3] = {0.2, INFINITY, 1};
     CU_ASSERT(dth_model_domain_check(w, in, why, sizeof why) == DTH_OK && why[0] == '\0');
@@ -479,7 +463,7 @@ static void test_domain_check(void)
     CU_ASSERT(strstr(why, "H is not finite") != NULL);
     CU_ASSERT(dth_model_domain_check(w, inf, why, sizeof why) == DTH_EDOMAIN);
     CU_ASSERT(strstr(why, "t = inf") != NULL);
-    dth_model *k = new_model(&dth_model_kepler, NULL, 0, 2);
+    dth_model *k = model(&dth_model_kepler, NULL, 0, 2);
     double y[5] = {0, 0, 0, 0.5, 0.5};
     CU_ASSERT(dth_model_domain_check(k, y, why, sizeof why) == DTH_EDOMAIN);
     CU_ASSERT(strstr(why, "q1 = 0, q2 = 0") != NULL);
@@ -597,7 +581,7 @@ static int finite_vec(const double *x, size_t n)
 static void test_fuzz_start_overflow(void)
 {
     static const dth_kv kv[] = {{"n", "1"}, {"mass", "9.8931899965962e-309"}, {"omega", "3.6455616209129865e-304"}};
-    dth_model *m = new_model(&dth_model_harmonic, kv, 3, 1);
+    dth_model *m = model(&dth_model_harmonic, kv, 3, 1);
     dth_integrator *it = new_integrator(m, -3.2007034655896856e+231, DTH_START_MIDPOINT, 30);
     double q = 0.5, p = 0.5;
     int rc = dth_integrator_start(it, &q, &p, 0.5);
@@ -612,7 +596,7 @@ static void test_fuzz_step_overflow(void)
 {
     static const dth_kv kv[] = {{"preset", "chain"}, {"size", "2"}, {"dim", "1"}, {"k", "3.43519951892224e-310"},
                                 {"L", "3.2194903e-317"}, {"mass", "1.836709924525607e-39"}};
-    dth_model *m = new_model(&dth_model_coupled, kv, 6, 2);
+    dth_model *m = model(&dth_model_coupled, kv, 6, 2);
     size_t N = 2 * dth_model_dof(m) + 2;
     CU_ASSERT_FATAL(N == 6);
     dth_options o;

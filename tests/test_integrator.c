@@ -12,14 +12,7 @@
 #include "cu_main.h"
 #include "dth/dth.h"
 #include "dth_internal.h"
-
-static dth_model *new_model(const dth_model_type *t, const dth_kv *kv, size_t nkv, size_t n)
-{
-    dth_model *m = NULL;
-    char err[256];
-    if (dth_model_new(t, kv, nkv, n, NULL, &m, err, sizeof err) != DTH_OK) fprintf(stderr, "%s\n", err);
-    return m;
-}
+#include "test_util.h"
 
 static dth_integrator *new_integrator(const dth_model *m, double h, dth_start start)
 {
@@ -30,18 +23,6 @@ static dth_integrator *new_integrator(const dth_model *m, double h, dth_start st
     dth_integrator *it = NULL;
     CU_ASSERT_EQUAL(dth_integrator_new(m, &o, &it), DTH_OK);
     return it;
-}
-
-/* |wp + H_phys(zbar)| at the midpoint, in units of the round-off of its terms. */
-static double midpoint_energy_ulps(const dth_model *m, const double *zbar)
-{
-    size_t n = dth_model_dof(m), N = 2 * n + 2, d = N - 1;
-    double H, g[64];
-    CU_ASSERT_FATAL(d <= 64);
-    CU_ASSERT_FATAL(dth_model_eval(m, zbar, DTH_EVAL_H | DTH_EVAL_GRAD, &H, g, NULL) == DTH_OK);
-    double scale = fabs(zbar[N - 1]) + fabs(H);
-    for (size_t j = 0; j < d; j++) scale += fabs(g[j] * zbar[j]);
-    return fabs(zbar[N - 1] + H) / (DBL_EPSILON * scale);
 }
 
 /* Energy at every midpoint equals -wp to a few ulps over 10^5 steps; wp bit-identical. */
@@ -58,7 +39,7 @@ static void energy_run(const dth_model *m, const double *q0, const double *p0, d
             failed = 1;
             break;
         }
-        double u = midpoint_energy_ulps(m, dth_integrator_midpoint(it));
+        double u = energy_ulps(m, dth_integrator_midpoint(it));
         if (u > worst) worst = u;
         if (memcmp(&dth_integrator_vertex(it)[N - 1], &wp0, sizeof wp0) != 0) wp_changed = 1;
     }
@@ -72,7 +53,7 @@ static void energy_run(const dth_model *m, const double *q0, const double *p0, d
 
 static void test_energy_pendulum(void)
 {
-    dth_model *m = new_model(&dth_model_pendulum, NULL, 0, 1);
+    dth_model *m = model(&dth_model_pendulum, NULL, 0, 1);
     double q = 1.0, p = 0.0;
     energy_run(m, &q, &p, 0.05);
     dth_model_free(m);
@@ -81,7 +62,7 @@ static void test_energy_pendulum(void)
 static void test_energy_harmonic(void)
 {
     dth_kv kv[] = {{"omega", "1,1.7,0.3"}, {"mass", "1,2,0.5"}};
-    dth_model *m = new_model(&dth_model_harmonic, kv, 2, 3);
+    dth_model *m = model(&dth_model_harmonic, kv, 2, 3);
     double q[3] = {1, -0.5, 0.2}, p[3] = {0.3, 0.1, -1};
     energy_run(m, q, p, 0.02);
     dth_model_free(m);
@@ -125,7 +106,7 @@ static double fit_order(const dth_model *m, const double *y0, double h0, double 
 
 static void test_order_pendulum(void)
 {
-    dth_model *m = new_model(&dth_model_pendulum, NULL, 0, 1);
+    dth_model *m = model(&dth_model_pendulum, NULL, 0, 1);
     double y0[3] = {1.0, 0.0, 0.0}; /* libration, amplitude 1 rad */
     double s = fit_order(m, y0, 0.1, 10.0);
     CU_ASSERT(s > 1.9 && s < 2.1);
@@ -138,7 +119,7 @@ static void test_order_pendulum(void)
 static void test_order_harmonic(void)
 {
     dth_kv kv[] = {{"omega", "1,2.5"}, {"mass", "1,3"}};
-    dth_model *m = new_model(&dth_model_harmonic, kv, 2, 2);
+    dth_model *m = model(&dth_model_harmonic, kv, 2, 2);
     double y0[5] = {1.0, 0.2, 0.0, 0.0, -0.7};
     double s = fit_order(m, y0, 0.05, 8.0);
     CU_ASSERT(s > 1.9 && s < 2.1);
@@ -169,31 +150,16 @@ static void roundtrip(const dth_model *m, const double *q0, const double *p0, do
 
 static void test_reversibility(void)
 {
-    dth_model *m = new_model(&dth_model_pendulum, NULL, 0, 1);
+    dth_model *m = model(&dth_model_pendulum, NULL, 0, 1);
     double q = 1.2, p = 0.4;
     roundtrip(m, &q, &p, 0.05, 2000, DTH_START_MIDPOINT);
     roundtrip(m, &q, &p, 0.05, 2000, DTH_START_VERTEX);
     dth_model_free(m);
     dth_kv kv[] = {{"omega", "1,1.3"}};
-    m = new_model(&dth_model_harmonic, kv, 1, 2);
+    m = model(&dth_model_harmonic, kv, 1, 2);
     double q2[2] = {1, 0.5}, p2[2] = {0, -0.3};
     roundtrip(m, q2, p2, 0.03, 2000, DTH_START_MIDPOINT);
     dth_model_free(m);
-}
-
-/* M^T J M - J for the extended J (positions q, t; momenta p, wp). */
-static double symplectic_defect(size_t n, const double *M)
-{
-    size_t N = 2 * n + 2, h = n + 1;
-    double worst = 0;
-    for (size_t i = 0; i < N; i++)
-        for (size_t j = 0; j < N; j++) {
-            double s = 0;
-            for (size_t a = 0; a < h; a++) s += M[a * N + i] * M[(a + h) * N + j] - M[(a + h) * N + i] * M[a * N + j];
-            double Jij = (j == i + h) ? 1.0 : (i == j + h) ? -1.0 : 0.0;
-            worst = fmax(worst, fabs(s - Jij));
-        }
-    return worst;
 }
 
 /* The step map z_k -> z_{k+1} as a function of the vertex (vertex set exactly). */
@@ -223,7 +189,7 @@ static void check_tangent(const dth_model *m, const double *q0, const double *p0
         CU_ASSERT_FATAL(dth_integrator_step(it, NULL) == DTH_OK);
         double lam = dth_integrator_lambda(it);
         CU_ASSERT_FATAL(dth_integrator_tangent(it, M) == DTH_OK);
-        double def = symplectic_defect(n, M), mmax = 0;
+        double def = symplectic_defect(n, M, 0), mmax = 0;
         for (size_t i = 0; i < N * N; i++) mmax = fmax(mmax, fabs(M[i]));
         CU_ASSERT(def <= 1e-10 * mmax * mmax);
         if (def > 1e-10 * mmax * mmax) printf("  [k=%d defect %.3g, max|M| %.3g]\n", k, def, mmax);
@@ -250,14 +216,14 @@ static void check_tangent(const dth_model *m, const double *q0, const double *p0
 
 static void test_symplectic(void)
 {
-    dth_model *m = new_model(&dth_model_pendulum, NULL, 0, 1);
+    dth_model *m = model(&dth_model_pendulum, NULL, 0, 1);
     double q = 0.8, p = 0.9;
     check_tangent(m, &q, &p, 0.1, 40);
     q = 0.0; p = 2.2; /* rotation, before the first psi = 0 crossing */
     check_tangent(m, &q, &p, 0.05, 10);
     dth_model_free(m);
     dth_kv kv[] = {{"omega", "1,1.9"}, {"mass", "2,1"}};
-    m = new_model(&dth_model_harmonic, kv, 2, 2);
+    m = model(&dth_model_harmonic, kv, 2, 2);
     double q2[2] = {1, -0.3}, p2[2] = {0.2, 0.5};
     check_tangent(m, q2, p2, 0.05, 30);
     dth_model_free(m);
@@ -267,7 +233,7 @@ static void test_symplectic(void)
  * exactly, and the first step is exactly h. */
 static void test_midpoint_start(void)
 {
-    dth_model *m = new_model(&dth_model_pendulum, NULL, 0, 1);
+    dth_model *m = model(&dth_model_pendulum, NULL, 0, 1);
     dth_integrator *it = new_integrator(m, 0.07, DTH_START_MIDPOINT);
     double q = 0.4, p = -0.9;
     CU_ASSERT_FATAL(dth_integrator_start(it, &q, &p, 2.0) == DTH_OK);
@@ -297,7 +263,7 @@ static void test_midpoint_start(void)
  */
 static void test_vertex_start(void)
 {
-    dth_model *m = new_model(&dth_model_pendulum, NULL, 0, 1);
+    dth_model *m = model(&dth_model_pendulum, NULL, 0, 1);
     dth_integrator *it = new_integrator(m, 0.05, DTH_START_VERTEX);
     double q = 0.0, p = 2.2, h = 0.05;
     CU_ASSERT_FATAL(dth_integrator_start(it, &q, &p, 0.0) == DTH_OK);
@@ -311,7 +277,7 @@ static void test_vertex_start(void)
     dth_integrator_free(it);
 
     dth_kv kv[] = {{"omega", "100"}};
-    dth_model *hm = new_model(&dth_model_harmonic, kv, 1, 1);
+    dth_model *hm = model(&dth_model_harmonic, kv, 1, 1);
     dth_options o;
     dth_options_default(&o);
     o.h = 1.9 / 100;
@@ -373,7 +339,7 @@ static const dth_model_type forced = {
 
 static void test_nonautonomous(void)
 {
-    dth_model *m = new_model(&forced, NULL, 0, 1);
+    dth_model *m = model(&forced, NULL, 0, 1);
     CU_ASSERT_FATAL(m != NULL);
     dth_model_check_report rep;
     double y[3] = {0.3, 0.7, -0.2};
@@ -392,7 +358,7 @@ static void test_nonautonomous(void)
             if (rc) printf("  [forced: %s at t = %g: %s]\n", dth_status_name(rc), z[1], dth_integrator_errmsg(it));
             CU_ASSERT_FATAL(rc == DTH_OK);
             memcpy(z, dth_integrator_vertex(it), sizeof z);
-            worst = fmax(worst, midpoint_energy_ulps(m, dth_integrator_midpoint(it)));
+            worst = fmax(worst, energy_ulps(m, dth_integrator_midpoint(it)));
         }
         CU_ASSERT(worst <= 4.0);
         CU_ASSERT(z[3] != wp0); /* wp, minus the energy, changes when H depends on t */
@@ -416,7 +382,7 @@ static int nan_eval(const void *s, const double *y, unsigned what, double *H, do
 
 static void test_failures(void)
 {
-    dth_model *m = new_model(&dth_model_pendulum, NULL, 0, 1);
+    dth_model *m = model(&dth_model_pendulum, NULL, 0, 1);
     dth_options o;
     dth_options_default(&o);
     dth_integrator *it = NULL;
@@ -452,7 +418,7 @@ static void test_failures(void)
     dth_model_type nanpend = dth_model_pendulum;
     nanpend.eval = nan_eval;
     nanpend.third = NULL;
-    m = new_model(&nanpend, NULL, 0, 1);
+    m = model(&nanpend, NULL, 0, 1);
     dth_options_default(&o);
     o.h = 0.1;
     CU_ASSERT_FATAL(dth_integrator_new(m, &o, &it) == DTH_OK);
@@ -494,7 +460,7 @@ static void test_interpolate(void)
 /* Harmonic oscillator: psi > 0 and psi' = 0 everywhere, so every vertex is in region I. */
 static void test_regions(void)
 {
-    dth_model *m = new_model(&dth_model_harmonic, NULL, 0, 1);
+    dth_model *m = model(&dth_model_harmonic, NULL, 0, 1);
     double z[4] = {0.7, 0, -0.2, -0.3}, w[64];
     dth_diag dg;
     CU_ASSERT_FATAL(dth_diagnose(m, z, 0.1, 0, &dg, w) == DTH_OK);

@@ -18,6 +18,7 @@
 #include "dth/dth.h"
 #include "dth_internal.h"
 #include "integrator_impl.h"
+#include "test_util.h"
 
 /* ---- a forced oscillator (non-autonomous: t and wp are Newton unknowns) ---- */
 
@@ -105,17 +106,24 @@ static dth_integrator *make(const dth_model *m, double h, dth_linsolve ls, const
     return it;
 }
 
+/* What dth__band_mode reports: the banded path of the last factorization (lib/banded.c). */
+enum { BAND_SCHUR_CHOL = 1, BAND_SCHUR_LU, BAND_GENERAL };
+
 /*
  * `steps` steps of the reference (dense) integrator; before each, the other is set to the
  * reference's vertex. Returns the largest difference relative to the conditioning bound.
+ * want_mode: the banded path every step after the first (which solves nothing) must take
+ * (dth__band_mode), 0: not checked.
  */
-static double compare(const dth_model *m, double h, dth_linsolve ls, const double *q, const double *p, int steps)
+static double compare(const dth_model *m, double h, dth_linsolve ls, const double *q, const double *p, int steps,
+                      int want_mode)
 {
     size_t n = dth_model_dof(m), N = 2 * n + 2;
     dth_integrator *ref = make(m, h, DTH_LINSOLVE_DENSE, q, p), *oth = make(m, h, ls, q, p);
     double *g = calloc(N, sizeof *g), *w = calloc(dth_model_work_size(m), sizeof *w);
     double *Mr = calloc(N * N, sizeof *Mr), *Mo = calloc(N * N, sizeof *Mo), *zc = calloc(N, sizeof *zc);
     double worst = 0, tworst = 0;
+    int other_mode = 0;
     for (int k = 0; k < steps; k++) {
         if (k > 0) {
             memcpy(zc, dth_integrator_vertex(ref), N * sizeof *zc);
@@ -132,6 +140,7 @@ static double compare(const dth_model *m, double h, dth_linsolve ls, const doubl
         dth_step_info sr, so;
         CU_ASSERT_EQUAL_FATAL(dth_integrator_step(ref, &sr), DTH_OK);
         CU_ASSERT_EQUAL_FATAL(dth_integrator_step(oth, &so), DTH_OK);
+        if (want_mode && k > 0 && dth__band_mode(oth->band) != want_mode) other_mode++;
         double lam = sr.lambda, kappa = DBL_EPSILON * sc / (fabs(psi) * lam * lam / 8);
         if (k == 0) kappa = DBL_EPSILON; /* the exact first step of a midpoint start: no solve */
         double dl = fabs(so.lambda - lam) / fabs(lam), dz = 0;
@@ -156,18 +165,11 @@ static double compare(const dth_model *m, double h, dth_linsolve ls, const doubl
            worst, tworst);
     CU_ASSERT(worst <= 4);
     CU_ASSERT(tworst <= 1e-11);
+    CU_ASSERT_EQUAL(other_mode, 0);
     dth_integrator_free(ref);
     dth_integrator_free(oth);
     free(g), free(w), free(Mr), free(Mo), free(zc);
     return worst;
-}
-
-static dth_model *model(const dth_model_type *t, const dth_kv *kv, size_t nkv, size_t n)
-{
-    dth_model *m = NULL;
-    char err[256];
-    CU_ASSERT_EQUAL_FATAL(dth_model_new(t, kv, nkv, n, NULL, &m, err, sizeof err), DTH_OK);
-    return m;
 }
 
 /* After one ordinary step: did the small path's last factorization take its Schur complement? */
@@ -185,9 +187,9 @@ static void test_small(void)
 {
     dth_model *pen = model(&dth_model_pendulum, NULL, 0, 1);
     double q1 = 1.0, p1 = 0.3;
-    compare(pen, 0.1, DTH_LINSOLVE_SMALL, &q1, &p1, 200);
-    compare(pen, 0.1, DTH_LINSOLVE_SMALL_LU, &q1, &p1, 200);
-    compare(pen, 0.1, DTH_LINSOLVE_AUTO, &q1, &p1, 50);
+    compare(pen, 0.1, DTH_LINSOLVE_SMALL, &q1, &p1, 200, 0);
+    compare(pen, 0.1, DTH_LINSOLVE_SMALL_LU, &q1, &p1, 200, 0);
+    compare(pen, 0.1, DTH_LINSOLVE_AUTO, &q1, &p1, 50, 0);
     CU_ASSERT(schur_used(pen, 0.1, DTH_LINSOLVE_AUTO, &q1, &p1));
     CU_ASSERT(!schur_used(pen, 0.1, DTH_LINSOLVE_SMALL_LU, &q1, &p1));
     /* near the top with a large step (branch_check off: the roots taken are far out, lambda ~ 200)
@@ -221,31 +223,32 @@ static void test_small(void)
     /* Kepler 2-D (n = 2) and an inclined 3-D orbit (n = 3) */
     dth_model *k2 = model(&dth_model_kepler, NULL, 0, 2);
     double q2[2] = {0.4, 0}, p2[2] = {0, 2};
-    compare(k2, 0.01, DTH_LINSOLVE_SMALL, q2, p2, 300);
-    compare(k2, 0.01, DTH_LINSOLVE_SMALL_LU, q2, p2, 300);
+    compare(k2, 0.01, DTH_LINSOLVE_SMALL, q2, p2, 300, 0);
+    compare(k2, 0.01, DTH_LINSOLVE_SMALL_LU, q2, p2, 300, 0);
     CU_ASSERT(schur_used(k2, 0.01, DTH_LINSOLVE_SMALL, q2, p2));
     dth_model_free(k2);
     dth_model *k3 = model(&dth_model_kepler, NULL, 0, 3);
     double q3[3] = {0.3, 0.1, 0.05}, p3[3] = {0.1, 1.6, 0.9};
-    compare(k3, 0.01, DTH_LINSOLVE_SMALL, q3, p3, 300);
-    compare(k3, 0.01, DTH_LINSOLVE_SMALL_LU, q3, p3, 300);
+    compare(k3, 0.01, DTH_LINSOLVE_SMALL, q3, p3, 300, 0);
+    compare(k3, 0.01, DTH_LINSOLVE_SMALL_LU, q3, p3, 300, 0);
     CU_ASSERT(schur_used(k3, 0.01, DTH_LINSOLVE_SMALL, q3, p3));
     dth_model_free(k3);
     /* separable, T'' not diagonal: the small path factors the whole bordered matrix */
     dth_model *mm = model(&mass_type, NULL, 0, 2);
     double qm[2] = {0.7, -0.3}, pm[2] = {0.2, 0.5};
-    compare(mm, 0.05, DTH_LINSOLVE_SMALL, qm, pm, 200);
+    compare(mm, 0.05, DTH_LINSOLVE_SMALL, qm, pm, 200, 0);
     CU_ASSERT(!schur_used(mm, 0.05, DTH_LINSOLVE_SMALL, qm, pm));
     dth_model_free(mm);
     /* the generic small LU (m = 5, not instantiated: non-autonomous) */
     dth_model *f = model(&forced_type, NULL, 0, 1);
     double qf = 0.5, pf = 0.2;
-    compare(f, 0.05, DTH_LINSOLVE_SMALL, &qf, &pf, 200);
+    compare(f, 0.05, DTH_LINSOLVE_SMALL, &qf, &pf, 200, 0);
     dth_model_free(f);
 }
 
 /* A chain in `dim` = 2 or 3 dimensions; `compress` scales the initial spacing (1: at rest length). */
-static void chain_dim(size_t dim, size_t Np, double compress, double spring_k, dth_linsolve ls, double h, int steps)
+static void chain_dim(size_t dim, size_t Np, double compress, double spring_k, dth_linsolve ls, double h, int steps,
+                      int want_mode)
 {
     char size[32], kk[32], dd[8];
     snprintf(size, sizeof size, "%zu", Np);
@@ -265,25 +268,27 @@ static void chain_dim(size_t dim, size_t Np, double compress, double spring_k, d
             p[dim * i + 2] = 0.15 * sin(2.0 + (double)i);
         }
     }
-    compare(m, h, ls, q, p, steps);
+    compare(m, h, ls, q, p, steps, want_mode);
     free(q), free(p);
     dth_model_free(m);
 }
 
-static void chain(size_t Np, double compress, double spring_k, dth_linsolve ls, double h, int steps)
+static void chain(size_t Np, double compress, double spring_k, dth_linsolve ls, double h, int steps, int want_mode)
 {
-    chain_dim(2, Np, compress, spring_k, ls, h, steps);
+    chain_dim(2, Np, compress, spring_k, ls, h, steps, want_mode);
 }
 
 static void test_banded(void)
 {
-    chain(10, 1.0, 1.0, DTH_LINSOLVE_BANDED, 0.05, 100); /* the written-out LDL^T of K (half-bandwidth 3) */
+    /* the Schur complement K by Cholesky: the written-out LDL^T of K (half-bandwidth 3) */
+    chain(10, 1.0, 1.0, DTH_LINSOLVE_BANDED, 0.05, 100, BAND_SCHUR_CHOL);
     band_lapack = 1;
-    chain(10, 1.0, 1.0, DTH_LINSOLVE_BANDED, 0.05, 100); /* LAPACK's dpbtrf */
+    chain(10, 1.0, 1.0, DTH_LINSOLVE_BANDED, 0.05, 100, BAND_SCHUR_CHOL); /* LAPACK's dpbtrf */
     band_lapack = 0;
-    chain_dim(3, 8, 1.0, 1.0, DTH_LINSOLVE_BANDED, 0.05, 100); /* half-bandwidth 5: the LDL^T's general loops */
-    chain(10, 1.0, 1.0, DTH_LINSOLVE_BANDED_LU, 0.05, 100);
-    chain(10, 1.0, 1.0, DTH_LINSOLVE_SMALL, 0.05, 30); /* the written-out LU at m = 41 */
+    /* half-bandwidth 5: the LDL^T's general loops */
+    chain_dim(3, 8, 1.0, 1.0, DTH_LINSOLVE_BANDED, 0.05, 100, BAND_SCHUR_CHOL);
+    chain(10, 1.0, 1.0, DTH_LINSOLVE_BANDED_LU, 0.05, 100, BAND_GENERAL); /* the banded LU of the whole matrix */
+    chain(10, 1.0, 1.0, DTH_LINSOLVE_SMALL, 0.05, 30, 0); /* the written-out LU at m = 41 */
 }
 
 /* Compressed stiff springs and a large step make T''^-1 + (lambda^2/4) V'' indefinite: the
@@ -303,12 +308,12 @@ static void test_schur_indefinite(void)
     dth_step_info si;
     CU_ASSERT_EQUAL(dth_integrator_step(it, &si), DTH_OK);
     int rc = dth_integrator_step(it, &si);
-    if (rc == DTH_OK) CU_ASSERT_EQUAL(dth__band_mode(it->band), 2); /* SCHUR_LU */
+    if (rc == DTH_OK) CU_ASSERT_EQUAL(dth__band_mode(it->band), BAND_SCHUR_LU);
     printf("\n    compressed stiff chain: step %s, banded mode %d (2: LU of the Schur complement)",
            dth_strerror(rc), dth__band_mode(it->band));
     CU_ASSERT_EQUAL(rc, DTH_OK);
     dth_integrator_free(it);
-    compare(m, 0.15, DTH_LINSOLVE_BANDED, q, p, 3); /* omega h = 3: the fourth step has no root */
+    compare(m, 0.15, DTH_LINSOLVE_BANDED, q, p, 3, 0); /* omega h = 3: the fourth step has no root */
     dth_model_free(m);
 }
 

@@ -13,6 +13,7 @@
 #include <string.h>
 #include "cu_main.h"
 #include "dth/dth.h"
+#include "test_util.h"
 
 #define PI 3.14159265358979323846
 
@@ -54,17 +55,6 @@ static void close_run(setup *s)
     dth_integrator_free(s->it);
     dth_regularizer_free(s->r);
     dth_model_free(s->m);
-}
-
-/* |wp + H_phys(zbar)| in units of the round-off of its terms. */
-static double energy_ulps(const dth_model *m, const double *zb)
-{
-    size_t n = dth_model_dof(m), N = 2 * n + 2;
-    double H, g[32];
-    CU_ASSERT_FATAL(dth_model_eval(m, zb, DTH_EVAL_H | DTH_EVAL_GRAD, &H, g, NULL) == DTH_OK);
-    double s = fabs(zb[N - 1]) + fabs(H);
-    for (size_t j = 0; j + 1 < N; j++) s += fabs(g[j] * zb[j]);
-    return fabs(zb[N - 1] + H) / (DBL_EPSILON * s);
 }
 
 /* |u| over (q, p) at y. */

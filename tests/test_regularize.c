@@ -12,14 +12,7 @@
 #include "cu_main.h"
 #include "dth/dth.h"
 #include "dth_internal.h"
-
-static dth_model *model(const dth_model_type *t, size_t n)
-{
-    dth_model *m = NULL;
-    char err[256];
-    if (dth_model_new(t, NULL, 0, n, NULL, &m, err, sizeof err)) fprintf(stderr, "%s\n", err);
-    return m;
-}
+#include "test_util.h"
 
 static dth_regularizer *regul(const dth_regularizer_type *t, const dth_kv *kv, size_t nkv, const dth_model *m)
 {
@@ -44,17 +37,6 @@ static dth_integrator *pendulum_run(const dth_model *m, dth_regularizer *r)
     CU_ASSERT_FATAL(dth_integrator_new(m, &o, &it) == DTH_OK);
     CU_ASSERT_FATAL(dth_integrator_start(it, &q0, &p0, 0.0) == DTH_OK);
     return it;
-}
-
-/* |wp + H_phys(zbar)| in units of the round-off of its terms. */
-static double energy_ulps(const dth_model *m, const double *zb)
-{
-    size_t n = dth_model_dof(m), N = 2 * n + 2;
-    double H, g[16];
-    CU_ASSERT_FATAL(dth_model_eval(m, zb, DTH_EVAL_H | DTH_EVAL_GRAD, &H, g, NULL) == DTH_OK);
-    double s = fabs(zb[N - 1]) + fabs(H);
-    for (size_t j = 0; j + 1 < N; j++) s += fabs(g[j] * zb[j]);
-    return fabs(zb[N - 1] + H) / (DBL_EPSILON * s);
 }
 
 /* The cubic's root is a root, is on the asked side, and no smaller one exists there. */
@@ -87,7 +69,7 @@ static void test_cubic_root(void)
  * end with -lambda has the same midpoint (reversal symmetry); Kepler's L exact. */
 static void kicked_case(const dth_model_type *t, size_t n, const double *z, double lambda)
 {
-    dth_model *m = model(t, n);
+    dth_model *m = model(t, NULL, 0, n);
     CU_ASSERT_FATAL(m != NULL);
     size_t N = 2 * n + 2;
     double work[4096], d[8] = {0}, d2[8] = {0}, zb[8], zbar[8], zbar2[8], mu = 0, mu2 = 0, res;
@@ -177,7 +159,7 @@ static void test_registry(void)
     CU_ASSERT_EQUAL(dth_registry_add_regularizer(reg, &dth_reg_none), DTH_EINVAL); /* duplicate */
     dth_registry_free(reg);
     /* unknown and bad parameters name the key */
-    dth_model *m = model(&dth_model_pendulum, 1);
+    dth_model *m = model(&dth_model_pendulum, NULL, 0, 1);
     dth_regularizer *r = NULL;
     char err[256] = "";
     dth_kv bad = {"nosuch", "1"}, badv = {"inner", "-1"};
@@ -192,7 +174,7 @@ static void test_registry(void)
 /* none: raw DTH ends at vertex 15 with the branch status, state untouched. */
 static void test_none_ends(void)
 {
-    dth_model *m = model(&dth_model_pendulum, 1);
+    dth_model *m = model(&dth_model_pendulum, NULL, 0, 1);
     dth_regularizer *r = regul(&dth_reg_none, NULL, 0, m);
     dth_integrator *it = pendulum_run(m, r);
     dth_step_info inf;

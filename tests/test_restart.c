@@ -180,7 +180,6 @@ static void test_every_step(void)
     const char *sc = getenv("DTH_RESTART_SCALE");
     double scale = sc ? atof(sc) : 4.0;
     if (!(scale > 0)) scale = 4.0;
-    long total_bad = 0;
     for (size_t i = 0; i < sizeof models / sizeof models[0]; i++) {
         const model_case *mc = &models[i];
         dth_model *m = NULL;
@@ -194,11 +193,9 @@ static void test_every_step(void)
                 printf("  [%-17s %-20s bc=%d: %5ld steps, %3ld crossings, %ld restart points differ]\n", mc->name,
                        regs[j].label, bc, ran, cr, bad);
                 CU_ASSERT(bad == 0);
-                if (bad > 0) total_bad += bad;
             }
         dth_model_free(m);
     }
-    CU_ASSERT(total_bad == 0);
 }
 
 static CU_TestInfo restart_tests[] = {

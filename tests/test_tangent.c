@@ -6,7 +6,7 @@
  * models, at the library's own step and at the step re-solved in long double. The library's tangent
  * map must match the first to 1e-13, the second within the step's own conditioning, and be
  * symplectic (M^T J M = J) to 1e-13, on the pendulum, a 3-D inclined Kepler orbit and a
- * user-written Henon-Heiles model.
+ * user-written Henon-Heiles model (docs/examples/henon_heiles.c).
  */
 #include <float.h>
 #include <math.h>
@@ -16,6 +16,8 @@
 #include "cu_main.h"
 #include "dth/dth.h"
 #include "integrator_impl.h"
+#include "test_util.h"
+#include "../docs/examples/henon_heiles.h"
 
 enum { MAXN = 3, MAXZ = 2 * MAXN + 2, MAXM = 2 * MAXN + 1 };
 typedef long double ld;
@@ -50,7 +52,8 @@ static void ld_kepler3(const ld *y, ld *H, ld *g, ld *h)
     }
 }
 
-/* Henon-Heiles: H = (px^2 + py^2)/2 + (x^2 + y^2)/2 + x^2 y - y^3/3 */
+/* Henon-Heiles (the example user model, docs/examples/henon_heiles.c, at lambda = 1):
+ * H = (px^2 + py^2)/2 + (x^2 + y^2)/2 + x^2 y - y^3/3 */
 static void ld_henon(const ld *y, ld *H, ld *g, ld *h)
 {
     ld x = y[0], yy = y[1], px = y[3], py = y[4];
@@ -60,33 +63,6 @@ static void ld_henon(const ld *y, ld *H, ld *g, ld *h)
     g[0] = x + 2 * x * yy, g[1] = yy + x * x - yy * yy, g[3] = px, g[4] = py;
     h[0] = 1 + 2 * yy, h[1] = h[5] = 2 * x, h[6] = 1 - 2 * yy, h[18] = h[24] = 1;
 }
-
-/* the same Henon-Heiles in double, as a user model of the library */
-static int hh_create(const dth_model_args *a, void **self, dth_model_info *info)
-{
-    (void)a;
-    *self = NULL;
-    *info = (dth_model_info){.n = 2, .autonomous = 1, .separable = 1};
-    return DTH_OK;
-}
-
-static int hh_eval(const void *self, const double *y, unsigned what, double *H, double *g, double *h)
-{
-    (void)self;
-    double x = y[0], yy = y[1], px = y[3], py = y[4];
-    if (what & DTH_EVAL_H) *H = 0.5 * (px * px + py * py) + 0.5 * (x * x + yy * yy) + x * x * yy - yy * yy * yy / 3;
-    if (what & DTH_EVAL_GRAD) {
-        memset(g, 0, 5 * sizeof *g);
-        g[0] = x + 2 * x * yy, g[1] = yy + x * x - yy * yy, g[3] = px, g[4] = py;
-    }
-    if (what & DTH_EVAL_HESS) {
-        memset(h, 0, 25 * sizeof *h);
-        h[0] = 1 + 2 * yy, h[1] = h[5] = 2 * x, h[6] = 1 - 2 * yy, h[18] = h[24] = 1;
-    }
-    return 0;
-}
-
-static const dth_model_type hh_type = {.name = "henon-heiles", .doc = "Henon-Heiles", .create = hh_create, .eval = hh_eval};
 
 /* ---- the step and its derivative in long double ---- */
 
@@ -119,13 +95,6 @@ static void ld_solve(int m, ld *A, int nrhs, ld *b)
         }
 }
 
-/* u = J grad H over z (q, t, p, wp) from the gradient over y (autonomous: dH/dt = 0). */
-static void ld_flow(int n, const ld *g, ld *u)
-{
-    for (int i = 0; i < n; i++) u[i] = g[n + 1 + i], u[n + 1 + i] = -g[i];
-    u[n] = 1, u[2 * n + 1] = 0;
-}
-
 /* The bordered Jacobian over (d_q, d_p, lambda) at the midpoint with gradient g and Hessian h. */
 static void ld_jacobian(int n, ld lam, const ld *g, const ld *h, ld *A)
 {
@@ -153,7 +122,7 @@ static void ld_jacobian(int n, ld lam, const ld *g, const ld *h, ld *A)
 static int ld_step_tangent(ld_model f, int n, const ld *z, const ld *d0, ld lam0, int solve, ld *M, ld *lam_out)
 {
     int N = 2 * n + 2, d = 2 * n + 1, m = 2 * n + 1;
-    ld x[MAXM], zb[MAXZ], H, g[MAXM], h[MAXM * MAXM], A[MAXM * MAXM], F[MAXM], u[MAXZ];
+    ld x[MAXM], zb[MAXZ], H, g[MAXM], h[MAXM * MAXM], A[MAXM * MAXM], F[MAXM];
     for (int i = 0; i < n; i++) x[i] = d0[i], x[n + i] = d0[n + 1 + i];
     x[2 * n] = lam0;
     int it;
@@ -186,7 +155,6 @@ static int ld_step_tangent(ld_model f, int n, const ld *z, const ld *d0, ld lam0
     ld lam = x[2 * n];
     *lam_out = lam;
     ld_jacobian(n, lam, g, h, A);
-    ld_flow(n, g, u);
     ld B[MAXM * MAXZ];
     for (int l = 0; l < N; l++) {
         for (int i = 0; i < n; i++) {
@@ -205,23 +173,7 @@ static int ld_step_tangent(ld_model f, int n, const ld *z, const ld *d0, ld lam0
             M[(n + 1 + i) * N + l] += 2 * B[(n + i) * N + l];
         }
     for (int l = 0; l < N; l++) M[n * N + l] += B[2 * n * N + l];
-    (void)u;
     return 0;
-}
-
-/* |M^T J M - J| max, J extended: [[0, I], [-I, 0]] with I of size n + 1. */
-static double symplectic_defect(int n, const double *M)
-{
-    int N = 2 * n + 2, h = n + 1;
-    double worst = 0;
-    for (int a = 0; a < N; a++)
-        for (int b = 0; b < N; b++) {
-            ld s = 0;
-            for (int k = 0; k < h; k++) s += (ld)M[k * N + a] * M[(h + k) * N + b] - (ld)M[(h + k) * N + a] * M[k * N + b];
-            ld j = (a < h && b == a + h) ? 1 : (a >= h && b == a - h) ? -1 : 0;
-            worst = fmax(worst, (double)fabsl(s - j));
-        }
-    return worst;
 }
 
 /*
@@ -266,7 +218,7 @@ static void check(const dth_model *m, ld_model f, const double *q0, const double
         worst = fmax(worst, e / mm);
         wre = fmax(wre, er / mm);
         wlam = fmax(wlam, dlam);
-        wsym = fmax(wsym, symplectic_defect(n, M) / (mm * mm));
+        wsym = fmax(wsym, symplectic_defect((size_t)n, M, 1) / (mm * mm));
     }
     printf("\n    %-12s h = %g: |M - M_ld| / |M| <= %.2e at its own step, %.2e at the re-solved step (|dlambda / lambda| "
            "<= %.1e); |M^T J M - J| / |M|^2 <= %.2e",
@@ -276,17 +228,9 @@ static void check(const dth_model *m, ld_model f, const double *q0, const double
     dth_integrator_free(it);
 }
 
-static dth_model *model(const dth_model_type *t, size_t n)
-{
-    dth_model *m = NULL;
-    char err[256];
-    CU_ASSERT_EQUAL_FATAL(dth_model_new(t, NULL, 0, n, NULL, &m, err, sizeof err), DTH_OK);
-    return m;
-}
-
 static void test_pendulum(void)
 {
-    dth_model *m = model(&dth_model_pendulum, 1);
+    dth_model *m = model(&dth_model_pendulum, NULL, 0, 1);
     double q = 1.2, p = 0.4;
     check(m, ld_pendulum, &q, &p, 0.1, 400, 7);
     check(m, ld_pendulum, &q, &p, 0.01, 2000, 37);
@@ -295,7 +239,7 @@ static void test_pendulum(void)
 
 static void test_kepler3(void)
 {
-    dth_model *m = model(&dth_model_kepler, 3);
+    dth_model *m = model(&dth_model_kepler, NULL, 0, 3);
     /* e = 0.7, inclined */
     double e = 0.7, v = sqrt((1 + e) / (1 - e)), c = cos(0.5), s = sin(0.5);
     double q[3] = {1 - e, 0, 0}, p[3] = {0, v * c, v * s};
@@ -305,7 +249,7 @@ static void test_kepler3(void)
 
 static void test_henon(void)
 {
-    dth_model *m = model(&hh_type, 2);
+    dth_model *m = model(&example_henon_heiles, NULL, 0, 2);
     double q[2] = {0.1, -0.2}, p[2] = {0.3, 0.25}; /* E ~ 0.1 */
     check(m, ld_henon, q, p, 0.05, 2000, 31);
     dth_model_free(m);

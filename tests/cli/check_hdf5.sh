@@ -19,6 +19,9 @@ for s in "pendulum.ini -s output.diagnostics=yes" "kepler-e06.ini -s events.sect
     "$DTH" run "$SC/$@" -o "$T/$name.csv" 2>/dev/null || fail "$name: CSV run"
     "$DTH" run "$SC/$@" -o "$T/sub/$name.h5" 2>"$T/err" || fail "$name: HDF5 run: $(cat "$T/err")"
     "$H5CMP" "$T/sub/$name.h5" trajectory "$T/$name.csv" || fail "$name: trajectory differs"
+    case "$s" in
+        *events.*) [ -f "$T/$name-events.csv" ] || fail "$name: no events CSV ($name-events.csv)" ;;
+    esac
     if [ -f "$T/$name-events.csv" ]; then
         "$H5CMP" "$T/sub/$name.h5" events "$T/$name-events.csv" || fail "$name: events differ"
     fi

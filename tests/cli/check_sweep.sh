@@ -44,7 +44,7 @@ if [ -n "$MPIRUN" ]; then
     ok "2 MPI ranks (dynamic, static; 1 and 2 threads each) byte-identical to 1 thread"
     # the MPI test stops here; the rest runs in the test without MPIRUN
     [ $fails -eq 0 ] && echo "check_sweep (MPI): all passed"
-    exit $fails
+    exit $((fails != 0))
 fi
 HDR="run,initial.q,initial.p,status,steps,t,energy_error,psi_crossings,regularized_share,events,megno,lyapunov,megno_t"
 [ "$(head -1 "$T/s1.csv")" = "$HDR" ] || fail "header: $(head -1 "$T/s1.csv")"
@@ -131,4 +131,4 @@ expect2 "$SC/pendulum.ini" --vary initial.q=0:1:3 -o /dev/null/x.csv
 ok "usage errors"
 
 [ $fails -eq 0 ] && echo "check_sweep: all passed"
-exit $fails
+exit $((fails != 0))

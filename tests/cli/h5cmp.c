@@ -77,6 +77,9 @@ int main(int argc, char **argv)
         if (r >= dims[0]) return fprintf(stderr, "h5cmp: the CSV has more rows than %llu\n", (unsigned long long)dims[0]), 1;
         size_t j = 0;
         for (char *p = line;; j++) {
+            if (j >= dims[1])
+                return fprintf(stderr, "h5cmp: row %llu has more than %llu fields\n", (unsigned long long)r,
+                               (unsigned long long)dims[1]), 1;
             size_t l = strcspn(p, ",");
             char fld[64];
             snprintf(fld, sizeof fld, "%.*s", (int)l, p);
