@@ -716,14 +716,8 @@ int cli_cmd_run(int argc, char **argv)
 
     /* ---- the run (run.h) */
     dth_run_config cfg;
-    dth_run_config_default(&cfg);
-    cfg.has_t_end = rs.has_t_end;
-    cfg.t_end = rs.t_end;
-    cfg.steps = rs.steps;
-    cfg.t0 = rs.t0;
+    dth_run_config_from_setup(&cfg, &rs);
     cfg.points = rs.points;
-    cfg.events = rs.events;
-    cfg.nevents = rs.nevents;
     cfg.on_event = on_event;
     cfg.every = rs.every;
     cfg.dt = rs.dt;

@@ -525,13 +525,7 @@ static void run_one(const sweep *sw, long i, double *rec)
         goto done;
     }
     dth_run_config cfg;
-    dth_run_config_default(&cfg);
-    cfg.has_t_end = rs.has_t_end;
-    cfg.t_end = rs.t_end;
-    cfg.steps = rs.steps;
-    cfg.t0 = rs.t0;
-    cfg.events = rs.events;
-    cfg.nevents = rs.nevents;
+    dth_run_config_from_setup(&cfg, &rs);
     cfg.user = &c;
     cfg.alloc = &al;
     cfg.progress = on_progress;

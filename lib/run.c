@@ -7,6 +7,7 @@
 #include <math.h>
 #include <string.h>
 #include "dth/run.h"
+#include "dth/scene.h"
 #include "integrator_impl.h"
 
 void dth_run_state_init(dth_run_state *st)
@@ -21,6 +22,19 @@ void dth_run_config_default(dth_run_config *cfg)
     cfg->t0 = NAN;
     cfg->points = DTH_POINTS_VERTICES;
     cfg->every = 1;
+}
+
+void dth_run_config_from_setup(dth_run_config *cfg, const dth_run_setup *rs)
+{
+    if (!cfg) return;
+    dth_run_config_default(cfg);
+    if (!rs) return;
+    cfg->has_t_end = rs->has_t_end;
+    cfg->t_end = rs->t_end;
+    cfg->steps = rs->steps;
+    cfg->t0 = rs->t0;
+    cfg->events = rs->events;
+    cfg->nevents = rs->nevents;
 }
 
 /* ---------------------------------------------------------------- dense output */

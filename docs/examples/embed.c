@@ -103,11 +103,7 @@ int main(int argc, char **argv)
     double H;
     if (dth_model_eval(rs.model, y, DTH_EVAL_H, &H, NULL, NULL) == DTH_OK) o.E0 = H;
     dth_run_config c;
-    dth_run_config_default(&c);
-    c.has_t_end = rs.has_t_end;
-    c.t_end = rs.t_end;
-    c.steps = rs.steps;
-    c.t0 = rs.t0;
+    dth_run_config_from_setup(&c, &rs); /* its length, start and [events] (a terminal one ends the run) */
     c.points = rs.points;
     c.every = rs.every;
     c.dt = rs.dt;

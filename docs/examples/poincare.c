@@ -61,13 +61,7 @@ int main(int argc, char **argv)
         goto out;
     }
     dth_run_config c;
-    dth_run_config_default(&c);
-    c.has_t_end = rs.has_t_end;
-    c.t_end = rs.t_end;
-    c.steps = rs.steps;
-    c.t0 = rs.t0;
-    c.events = rs.events;
-    c.nevents = rs.nevents;
+    dth_run_config_from_setup(&c, &rs); /* its length, start and [events] */
     c.on_event = on_event;
     c.user = &rs;
     dth_run_state st;

@@ -179,6 +179,15 @@ typedef struct dth_run_config {
 /** Defaults: steps = 0, t0 = NAN, points = VERTICES, every = 1, nothing else. */
 DTH_API void dth_run_config_default(dth_run_config *cfg);
 
+struct dth_run_setup; /* scene.h */
+
+/**
+ * The defaults, plus what a scene's run setup (scene.h) says about the run's extent and events:
+ * has_t_end, t_end, steps, t0, events and nevents (borrowed from rs). The samples (points, every,
+ * dt) and the callbacks stay at their defaults: the caller sets those it wants.
+ */
+DTH_API void dth_run_config_from_setup(dth_run_config *cfg, const struct dth_run_setup *rs);
+
 /**
  * Run the DTH integrator `it` (started, or restored from a checkpoint) as `cfg` says, from the
  * loop state `st` (zeroed: a fresh run; else one saved by an earlier call, whose vertex the
