@@ -356,12 +356,13 @@ void cli_usage_run(FILE *f)
                "                        output is the rows the run had written plus the rest, bit for bit\n");
 }
 
-int cli_cmd_run(int argc, char **argv)
+/* The command, with room in `sets` for the -s overrides (argc entries). */
+static int run_cmd(int argc, char **argv, const char **sets)
 {
     const char *scene_path = NULL, *out_opt = NULL, *ckpt_path = NULL, *resume_path = NULL, *ev_opt = NULL;
     long ckpt_every = 1000;
     char err[1024];
-    int roundtrip = 0, want_progress = 0, model_check = 1;
+    int roundtrip = 0, want_progress = 0, model_check = 1, nsets = 0;
     double progress_s = 5;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
@@ -375,7 +376,8 @@ int cli_cmd_run(int argc, char **argv)
                 return CLI_USAGE;
             }
             const char *v = argv[++i];
-            if (!strcmp(a, "-o")) out_opt = v;
+            if (!strcmp(a, "-s")) sets[nsets++] = v;
+            else if (!strcmp(a, "-o")) out_opt = v;
             else if (!strcmp(a, "--checkpoint")) ckpt_path = v;
             else if (!strcmp(a, "--resume")) resume_path = v;
             else if (!strcmp(a, "--events")) ev_opt = v;
@@ -461,13 +463,7 @@ int cli_cmd_run(int argc, char **argv)
     } else if (!rc) {
         rc = dth_scene_load(scene, scene_path, err, sizeof err);
     }
-    for (int i = 1; !rc && i < argc; i++) {
-        if (!strcmp(argv[i], "-o") || !strcmp(argv[i], "--checkpoint") || !strcmp(argv[i], "--resume") ||
-            !strcmp(argv[i], "--checkpoint-every") || !strcmp(argv[i], "--events"))
-            i++;
-        else if (!strcmp(argv[i], "-s"))
-            rc = dth_scene_set(scene, argv[++i], err, sizeof err);
-    }
+    for (int i = 0; !rc && i < nsets; i++) rc = dth_scene_set(scene, sets[i], err, sizeof err);
     /* a resume continues the checkpointed run: only its length and the output names may change */
     if (!rc && saved && cli_ckpt_check_scene(saved, scene, err, sizeof err)) rc = DTH_EINVAL;
     if (!rc) rc = dth_scene_setup(scene, reg, &rs, err, sizeof err);
@@ -867,5 +863,17 @@ done:
     dth_run_setup_clear(&rs);
     dth_scene_free(scene);
     dth_registry_free(reg);
+    return status;
+}
+
+int cli_cmd_run(int argc, char **argv)
+{
+    const char **sets = calloc((size_t)argc, sizeof *sets);
+    if (!sets) {
+        cli_error("out of memory");
+        return CLI_FAIL;
+    }
+    int status = run_cmd(argc, argv, sets);
+    free(sets);
     return status;
 }
