@@ -136,6 +136,20 @@ static int header(run *r)
     return r->h5 ? 0 : cli_out_line(&r->out, r->line, r->len);
 }
 
+/* The columns q, p, wp, H, E of the extended state z into v; returns how many. */
+static size_t state_columns(const run *r, const double *z, double *v)
+{
+    size_t n = r->n, N = r->N, c = 0;
+    double Hp;
+    if (dth_model_eval(r->model, z, DTH_EVAL_H, &Hp, NULL, NULL) != DTH_OK) Hp = NAN;
+    for (size_t i = 0; i < n; i++) v[c++] = z[i];
+    for (size_t i = 0; i < n; i++) v[c++] = z[n + 1 + i];
+    v[c++] = z[N - 1];
+    v[c++] = z[N - 1] + Hp;
+    v[c++] = Hp;
+    return c;
+}
+
 /*
  * One row at the point z. `in` is the step that arrived there (or the step whose segment holds
  * it); lambda_root a known root of the step constraint at z (for the local K estimate) and K a
@@ -143,17 +157,12 @@ static int header(run *r)
  */
 static int row(run *r, long k, const double *z, const dth_step_info *in, double lambda_root, double K)
 {
-    size_t n = r->n, N = r->N, c = 0;
-    double *v = r->vals, Hp;
-    if (dth_model_eval(r->model, z, DTH_EVAL_H, &Hp, NULL, NULL) != DTH_OK) Hp = NAN;
+    size_t c = 0;
+    double *v = r->vals;
     v[c++] = (double)k;
-    v[c++] = z[n];
+    v[c++] = z[r->n];
     v[c++] = in->lambda;
-    for (size_t i = 0; i < n; i++) v[c++] = z[i];
-    for (size_t i = 0; i < n; i++) v[c++] = z[n + 1 + i];
-    v[c++] = z[N - 1];
-    v[c++] = z[N - 1] + Hp;
-    v[c++] = Hp;
+    c += state_columns(r, z, v + c);
     if (r->rs->regularizer) v[c++] = (in->flags & DTH_STEP_REGULARIZED) ? 0 : 1;
     if (r->rs->diagnostics) {
         if (r->ninv && dth_model_invariants(r->model, z, r->inv) != DTH_OK)
@@ -217,19 +226,14 @@ static int on_sample(void *user, const dth_sample *s)
 static int on_event(void *user, const dth_sample *s)
 {
     run *r = user;
-    size_t n = r->n, N = r->N, c = 0;
-    double *v = r->vals, Hp;
-    if (dth_model_eval(r->model, s->z, DTH_EVAL_H, &Hp, NULL, NULL) != DTH_OK) Hp = NAN;
+    size_t c = 0;
+    double *v = r->vals;
     v[c++] = (double)s->index;
     v[c++] = (double)s->event;
     v[c++] = s->direction;
     v[c++] = (double)s->k;
-    v[c++] = s->z[n];
-    for (size_t i = 0; i < n; i++) v[c++] = s->z[i];
-    for (size_t i = 0; i < n; i++) v[c++] = s->z[n + 1 + i];
-    v[c++] = s->z[N - 1];
-    v[c++] = s->z[N - 1] + Hp;
-    v[c++] = Hp;
+    v[c++] = s->z[r->n];
+    state_columns(r, s->z, v + c);
     if (emit_row(r, 1, v)) return DTH_EIO;
     if (!r->h5) cli_out_maybe_flush(&r->ev);
     return 0;
