@@ -446,18 +446,16 @@ static int run_cmd(int argc, char **argv, const char **sets)
     char *ev_path = NULL;
     void *ck = NULL;
     size_t cklen = 0;
-    const cli_ckpt *ckc = NULL;
-    cli_ckpt ckc_data; /* the checkpoint's run state (cli/ckpt.c) */
-    memset(&ckc_data, 0, sizeof ckc_data);
+    cli_ckpt ckc; /* --resume: the checkpoint's run state (cli/ckpt.c) */
+    memset(&ckc, 0, sizeof ckc);
     dth_scene *saved = NULL; /* the scene as the checkpointed run had it */
     if (!reg) return CLI_FAIL;
     int rc = dth_scene_new(NULL, &scene);
     if (!rc && resume_path) {
         const char *text;
         size_t tlen;
-        rc = cli_ckpt_read(resume_path, &ck, &cklen, &text, &tlen, &ckc_data, err, sizeof err);
+        rc = cli_ckpt_read(resume_path, &ck, &cklen, &text, &tlen, &ckc, err, sizeof err);
         if (!rc) {
-            ckc = &ckc_data;
             char name[1100];
             snprintf(name, sizeof name, "%s(scene)", resume_path);
             rc = dth_scene_load_mem(scene, name, text, tlen, err, sizeof err);
@@ -471,7 +469,7 @@ static int run_cmd(int argc, char **argv, const char **sets)
     /* a resume continues the checkpointed run: only its length and the output names may change */
     if (!rc && saved && cli_ckpt_check_scene(saved, scene, err, sizeof err)) rc = DTH_EINVAL;
     if (!rc) rc = dth_scene_setup(scene, reg, &rs, err, sizeof err);
-    if (!rc && ckc && cli_ckpt_check_length(ckc, &rs, err, sizeof err)) rc = DTH_EINVAL;
+    if (!rc && resume_path && cli_ckpt_check_length(&ckc, &rs, err, sizeof err)) rc = DTH_EINVAL;
     if (rc) {
         cli_error("%s", rc == DTH_ENOMEM ? "out of memory" : err);
         status = rc == DTH_ENOMEM ? CLI_FAIL : CLI_USAGE;
@@ -522,9 +520,9 @@ static int run_cmd(int argc, char **argv, const char **sets)
     r.ckpt_path = ckpt_path;
     if (is_dth) {
         rc = dth_integrator_new(rs.model, &rs.opt, &it);
-        if (!rc && ck) rc = dth_checkpoint_restore(it, ck, cklen, err, sizeof err);
+        if (!rc && resume_path) rc = dth_checkpoint_restore(it, ck, cklen, err, sizeof err);
         else if (!rc) rc = dth_integrator_start(it, rs.q0, rs.p0, rs.t0);
-        if (rc && ck && it) {
+        if (rc && resume_path && it) {
             cli_error("%s", err);
             goto done;
         }
@@ -540,7 +538,7 @@ static int run_cmd(int argc, char **argv, const char **sets)
     if (rc) {
         /* a start the step size spoils (a first vertex that overflows, no offset that gives h): name h */
         char hh[96] = "";
-        if (rc > 0 && !ck) snprintf(hh, sizeof hh, "; integrator.h = %.6g may be too large for this model", rs.opt.h);
+        if (rc > 0 && !resume_path) snprintf(hh, sizeof hh, "; integrator.h = %.6g may be too large for this model", rs.opt.h);
         cli_error("%s: cannot start at the initial state: %s (%s)%s", scene_path, dth_strerror(rc),
                   it ? dth_integrator_errmsg(it) : fx ? dth_fixed_errmsg(fx) : "creating the integrator", hh);
         status = rc < 0 && rc != DTH_EINVAL ? CLI_FAIL : CLI_USAGE;
@@ -566,7 +564,7 @@ static int run_cmd(int argc, char **argv, const char **sets)
         goto done;
     }
     const char *path = out_opt ? (strcmp(out_opt, "-") ? out_opt : NULL) : rs.out_file;
-    if (!out_opt && !rs.out_file && ckc && ckc->out.path[0]) path = ckc->out.path;
+    if (!out_opt && !rs.out_file && resume_path && ckc.out.path[0]) path = ckc.out.path;
     if (ckpt_path && !path) {
         cli_error("--checkpoint needs an output file (-o FILE or [output] file=): standard output cannot be resumed");
         goto done;
@@ -679,14 +677,9 @@ static int run_cmd(int argc, char **argv, const char **sets)
     } else if (cli_out_open(&r.out, path)) {
         goto done; /* CLI_USAGE: the output cannot be written */
     }
-    if (r.has_ev && cli_out_open(&r.ev, ev_path)) {
-        cli_out_abort(&r.out);
-        goto done;
-    }
-    if (ckc && resume_prefix(&r, ckc, resume_path, ev_path)) {
+    if (r.has_ev && cli_out_open(&r.ev, ev_path)) goto done;
+    if (resume_path && resume_prefix(&r, &ckc, resume_path, ev_path)) {
         status = r.out.failed || r.ev.failed ? CLI_FAIL : CLI_USAGE;
-        cli_out_abort(&r.out);
-        if (r.has_ev) cli_out_abort(&r.ev);
         goto done;
     }
     cli_catch_signals();
@@ -698,13 +691,13 @@ static int run_cmd(int argc, char **argv, const char **sets)
         memcpy(zstart, dth_fixed_state(fx), (N - 1) * sizeof *zstart);
     }
     double hmin;
-    if (is_dth && !ck && dth_step_floor(rs.model, zstart, 1e-6, &hmin, r.work) == DTH_OK && fabs(rs.opt.h) < hmin)
+    if (is_dth && !resume_path && dth_step_floor(rs.model, zstart, 1e-6, &hmin, r.work) == DTH_OK && fabs(rs.opt.h) < hmin)
         cli_error("warning: |h| = %.3g is below the conditioning limit %.3g at the start: the step size is "
                   "known only to about 1e-6 relative or worse (docs/performance.md)", fabs(rs.opt.h), hmin);
 
     /* ---- a vertex start: the energy the run conserves (every midpoint's) against the initial
      * state's; an explicit wp: the first step it encodes against h (checked at the first sample) */
-    if (is_dth && !ck && rs.opt.start == DTH_START_VERTEX) {
+    if (is_dth && !resume_path && rs.opt.start == DTH_START_VERTEX) {
         double H0, E = dth_integrator_energy(it);
         if (!dth_model_eval(rs.model, zstart, DTH_EVAL_H, &H0, NULL, NULL) && fabs(E - H0) > 0.01 * fabs(H0))
             cli_error("warning: a vertex start conserves the energy %.10g at every midpoint; the initial state has "
@@ -732,11 +725,11 @@ static int run_cmd(int argc, char **argv, const char **sets)
     r.t_start = r.last_progress = cli_now();
     dth_run_state S;
     dth_run_state_init(&S);
-    if (ckc) S = ckc->S;
+    if (resume_path) S = ckc.S;
     r.k_begin = S.k;
-    r.t_begin = ck ? dth_integrator_vertex(it)[n] : zstart[n];
+    r.t_begin = zstart[n];
     int werr = 0;
-    if (!ckc && (header(&r) || (r.has_ev && ev_header(&r)))) werr = 1;
+    if (!resume_path && (header(&r) || (r.has_ev && ev_header(&r)))) werr = 1;
     /* the checkpoint path is tried before the first step: a checkpoint of the start (or of the
      * resumed state), so a run never learns only at its first checkpoint that it cannot write one */
     if (!werr && ckpt_path && on_checkpoint(&r, &S)) {
@@ -750,7 +743,7 @@ static int run_cmd(int argc, char **argv, const char **sets)
     }
     /* temporaries of runs that were killed: once this run's own checkpoint stands (a resume's rows
      * are in this run's temporary), or at once without checkpoints */
-    if (!werr && (ckpt_path || !ckc)) clean_stale(path, ev_path, ckpt_path, ckc);
+    if (!werr && (ckpt_path || !resume_path)) clean_stale(path, ev_path, ckpt_path, resume_path ? &ckc : NULL);
     rc = werr ? DTH_OK : it ? dth_run(it, &cfg, &S) : dth_run_fixed(fx, &cfg, &S);
     if (rc == DTH_EIO && S.stop == DTH_RUN_CALLBACK) werr = 1;
     /* --roundtrip: reverse in place and take as many steps back (paper, time reversibility) */
@@ -789,8 +782,6 @@ static int run_cmd(int argc, char **argv, const char **sets)
         if (r.ckpt_written)
             cli_error("the checkpoint '%s' of step %ld and the rows it needs are kept: dth run --resume %s continues "
                       "the run once the cause is fixed", ckpt_path, r.ckpt_k, ckpt_path);
-        if (r.out.buf) cli_out_abort(&r.out);
-        if (r.has_ev) cli_out_abort(&r.ev);
         status = CLI_FAIL;
         goto done;
     }
@@ -804,11 +795,10 @@ static int run_cmd(int argc, char **argv, const char **sets)
             goto done;
         }
     } else if (cli_out_finish(&r.out) || (r.has_ev && cli_out_finish(&r.ev))) {
-        if (r.has_ev && r.ev.buf) cli_out_abort(&r.ev);
         status = CLI_FAIL;
         goto done;
     }
-    if (ckc && !ckpt_path) clean_stale(path, ev_path, NULL, ckc); /* the resumed run's files are complete */
+    if (resume_path && !ckpt_path) clean_stale(path, ev_path, NULL, &ckc); /* the resumed run's files are complete */
     /* how the run ended: always when it could not go on, else for regularized runs and on a tty */
     char crossing[160] = "";
     if (S.crossings || S.regularized)
@@ -825,7 +815,7 @@ static int run_cmd(int argc, char **argv, const char **sets)
         status = 128 + sig;
     } else if (rc > 0) {
         char hint[256];
-        if (S.k - r.k_begin <= 1 && !ck) /* the first solved step failed: the step size is the key to change */
+        if (S.k - r.k_begin <= 1 && !resume_path) /* the first solved step failed: the step size is the key to change */
             snprintf(hint, sizeof hint, "; the first step failed: a smaller step may pass: -s integrator.h=%.6g",
                      rs.opt.h / 4);
         else if (is_dth)
@@ -860,7 +850,7 @@ done:
     free(r.work);
     free(zstart);
     dth_free(NULL, ck);
-    cli_ckpt_clear(&ckc_data);
+    cli_ckpt_clear(&ckc);
     dth_scene_free(saved);
     dth_integrator_free(it);
     dth_fixed_free(fx);
