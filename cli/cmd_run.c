@@ -55,6 +55,9 @@ typedef struct run {
     h5file *h5;            /* HDF5 output instead of CSV */
     h5table *h5traj, *h5ev;
     int check_wp;          /* an explicit wp: compare the first step it encodes with h */
+    int vk_set, vk_leg;    /* vertex_K's last value vk: of the step vk_k of leg vk_leg */
+    long vk_k;
+    double vk;
 } run;
 
 static void put(run *r, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
@@ -183,12 +186,18 @@ static int row(run *r, long k, const double *z, const dth_step_info *in, double 
     return emit_row(r, 0, v);
 }
 
-/* K that a vertex's diagnostics use: for rows interpolated inside its outgoing segment. */
-static double vertex_K(run *r, const double *z, double lambda_out)
+/* K that a vertex's diagnostics use: for rows interpolated inside its outgoing segment, the step
+ * k (z its start, lambda_out its length); computed once for all the rows of one step. */
+static double vertex_K(run *r, long k, const double *z, double lambda_out)
 {
-    dth_diag d;
-    if (dth_diagnose(r->model, z, lambda_out, r->rs->opt.K, &d, r->work) != DTH_OK) return 0;
-    return d.K;
+    if (!r->vk_set || r->vk_k != k || r->vk_leg != r->leg) {
+        dth_diag d;
+        r->vk = dth_diagnose(r->model, z, lambda_out, r->rs->opt.K, &d, r->work) != DTH_OK ? 0 : d.K;
+        r->vk_set = 1;
+        r->vk_k = k;
+        r->vk_leg = r->leg;
+    }
+    return r->vk;
 }
 
 /* The driver's sample callback: one row per sample. */
@@ -215,7 +224,7 @@ static int on_sample(void *user, const dth_sample *s)
     double lambda_root = 0, K = r->rs->opt.K;
     if (s->kind == DTH_SAMPLE_VERTEX) lambda_root = s->lambda_out;
     else if (!s->za) lambda_root = -s->step->lambda; /* the end is the last vertex itself */
-    else if (s->kind != DTH_SAMPLE_MIDPOINT && r->rs->diagnostics) K = vertex_K(r, s->za, s->step->lambda);
+    else if (s->kind != DTH_SAMPLE_MIDPOINT && r->rs->diagnostics) K = vertex_K(r, s->k, s->za, s->step->lambda);
     else if (s->kind == DTH_SAMPLE_MIDPOINT) lambda_root = 0;
     if (row(r, k, s->z, s->step, lambda_root, K)) return DTH_EIO;
     if (!r->h5) cli_out_maybe_flush(&r->out);
