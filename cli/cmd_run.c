@@ -4,7 +4,7 @@
  * baseline method, through the library's run driver (run.h), and write its samples (vertices,
  * midpoints or output times) as CSV, with optional diagnostics psi, psi', the region of section 5
  * and the branch taken. This file handles the command line and writes rows; it also checkpoints
- * and resumes runs bit for bit.
+ * runs and resumes them bit for bit (but for the step an earlier t_end cut: run.h).
  */
 #include <math.h>
 #include <stdarg.h>
@@ -358,15 +358,18 @@ void cli_usage_run(FILE *f)
                "                        creating missing folders; wins over [output] file=\n"
                "  --roundtrip           after the run, reverse and take as many steps back; rows get a column\n"
                "                        leg (1 forward, 2 back) and stderr the distance to the start\n"
-               "  --progress[=SECONDS]  a progress line on stderr every 5 s (or SECONDS): t, steps/s, ETA;\n"
-               "                        for runs whose stderr is not a terminal (a terminal shows a percentage)\n"
+               "  --progress[=SECONDS]  a progress line on stderr every 5 s (or SECONDS): t, steps/s, ETA\n"
+               "                        (without --progress, a terminal shows a percentage; other stderr nothing)\n"
                "  --events FILE         write the [events] rows to FILE (default: OUT-events.csv next to -o OUT.csv)\n"
                "  --no-model-check      skip the check of the model's derivatives at the start\n"
                "  --checkpoint FILE     save the full state to FILE (crash-safely) every N steps (default\n"
                "                        1000) and when the run ends; the CSV is flushed to disk first\n"
+               "  --checkpoint-every N  the N of --checkpoint: steps between checkpoints (an integer >= 1)\n"
                "  --resume CHECKPOINT   continue a checkpointed run: the scene comes from the checkpoint,\n"
                "                        -s may change steps/t_end (counted from the original start); the\n"
-               "                        output is the rows the run had written plus the rest, bit for bit\n");
+               "                        output is the rows the run had written plus the rest, bit for bit\n"
+               "                        (rows on the step an earlier t_end cut are rebuilt from its midpoint\n"
+               "                        and match a run made at once only to round-off)\n");
 }
 
 /* The command, with room in `sets` for the -s overrides (argc entries). */

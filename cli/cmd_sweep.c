@@ -119,7 +119,8 @@ static void usage_sweep(FILE *f)
             "  regularized step, which has no tangent map; see lib/include/dth/chaos.h). Empty: not available.\n"
             "threads: OMP_NUM_THREADS; ranks: mpirun -n N dth sweep ... (meson feature mpi). The output is the same\n"
             "bytes for any number of threads and ranks. Exit 0 when every run could be set up (a trajectory that\n"
-            "stops early is a status in its row), 2 for bad input, 1 for a hard error.\n");
+            "stops early is a status in its row), 2 for bad input, 1 for a hard error, 128 + signal when\n"
+            "interrupted (no summary is written).\n");
 }
 
 /* ---------------------------------------------------------------- parsing */

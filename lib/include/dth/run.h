@@ -8,8 +8,10 @@
  * methods.h) and hands every sample to the caller's callback: the driver prints nothing, writes
  * no file and keeps no global state, so separate integrators may run in separate threads.
  * Everything the loop carries from one step to the next is in dth_run_state, a plain struct: a
- * caller that saves it next to a checkpoint of the integrator (checkpoint.h) resumes the run bit
- * for bit by passing it back.
+ * caller that saves it next to a checkpoint of the integrator (checkpoint.h) resumes the run by
+ * passing it back, bit for bit but for one step: the samples and events on the segment the
+ * previous call's end cut (t_end, a terminal event) come from that segment rebuilt from its
+ * midpoint (z_(k-1) = 2 zbar - z_k), and match an uninterrupted run's to round-off.
  *
  * Dense output (dth_dense_eval): on the step from the vertex z_a to z_b the driver interpolates
  * with the cubic Hermite polynomial of the two vertices and the flow u = J grad H at both, and,
