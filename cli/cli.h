@@ -105,6 +105,18 @@ char *cli_abspath(const char *path);
 /* 1 if the two paths name the same file (existing: same inode; else the same absolute path). */
 int cli_same_file(const char *a, const char *b);
 
+/* A grid of n values from a to b, given as "a:b:n" (dth map's axes, dth sweep's --vary). */
+typedef struct cli_grid {
+    double a, b;
+    long n;
+} cli_grid;
+/* cli_parse_grid's failures: not of the form a:b:n, a or b not a finite number, n not in 1..max */
+enum { CLI_GRID_FORM = -1, CLI_GRID_BOUNDS = -2, CLI_GRID_COUNT = -3 };
+/* Parse "a:b:n" into g: 0 or a failure above (the caller prints its message). */
+int cli_parse_grid(const char *s, long max, cli_grid *g);
+/* Grid value i; symmetric in a and b, so a symmetric range has an exact 0 in the middle. */
+double cli_grid_at(const cli_grid *g, long i);
+
 /* Seconds on a monotonic clock. */
 double cli_now(void);
 

@@ -21,11 +21,6 @@
 /* Most steps of the overlaid trajectory. */
 #define MAP_MAX_STEPS 1000000L
 
-typedef struct axis {
-    double a, b;
-    long n;
-} axis;
-
 /* What one grid point gives. */
 typedef struct cell {
     double psi, dpsi;             /* at the vertex (NaN if the model cannot be evaluated there) */
@@ -41,7 +36,7 @@ typedef struct map {
     size_t n, dof;                /* degrees of freedom; the one mapped (0-based) */
     const double *q0, *p0;        /* the other degrees of freedom stay at these */
     double t0, h, L, K;
-    axis q, p;
+    cli_grid q, p;
 } map;
 
 /* One thread's workspace: root finders are not shared between threads. */
@@ -72,37 +67,16 @@ static void usage_map(FILE *f)
 }
 
 /* "a:b:n" into ax; prints the error. */
-static int parse_axis(const char *opt, const char *s, axis *ax)
+static int parse_axis(const char *opt, const char *s, cli_grid *ax)
 {
-    char buf[256];
-    size_t len = strlen(s);
-    const char *c1 = strchr(s, ':'), *c2 = c1 ? strchr(c1 + 1, ':') : NULL;
-    if (len >= sizeof buf || !c1 || !c2 || strchr(c2 + 1, ':')) {
+    int rc = cli_parse_grid(s, MAP_MAX_POINTS, ax);
+    if (rc == CLI_GRID_FORM)
         cli_error("%s: '%s' is not of the form a:b:n", opt, s);
-        return -1;
-    }
-    memcpy(buf, s, len + 1);
-    buf[c1 - s] = buf[c2 - s] = '\0';
-    char *end;
-    errno = 0;
-    long n = strtol(buf + (c2 - s) + 1, &end, 10);
-    if (dth_parse_double(buf, &ax->a) || dth_parse_double(buf + (c1 - s) + 1, &ax->b)) {
+    else if (rc == CLI_GRID_BOUNDS)
         cli_error("%s: '%s': the bounds must be finite numbers", opt, s);
-        return -1;
-    }
-    if (errno || end == buf + (c2 - s) + 1 || *end || n < 1 || n > MAP_MAX_POINTS) {
+    else if (rc)
         cli_error("%s: '%s': the number of points must be an integer from 1 to %ld", opt, s, MAP_MAX_POINTS);
-        return -1;
-    }
-    ax->n = n;
-    return 0;
-}
-
-/* Grid value i of an axis; symmetric in a and b, so a symmetric range has an exact 0 in the middle. */
-static double axis_at(const axis *ax, long i)
-{
-    if (ax->n == 1) return ax->a;
-    return ((double)(ax->n - 1 - i) * ax->a + (double)i * ax->b) / (double)(ax->n - 1);
+    return rc ? -1 : 0;
 }
 
 static void worker_free(worker *w)
@@ -187,8 +161,8 @@ static int write_map(cli_out *o, const map *mp, const cell *cells)
     for (long i = 0; i < mp->q.n; i++)
         for (long j = 0; j < mp->p.n; j++) {
             const cell *c = &cells[i * mp->p.n + j];
-            size_t len = (size_t)snprintf(line, sizeof line, "%.17g", axis_at(&mp->q, i));
-            len = put_num(line, len, sizeof line, axis_at(&mp->p, j));
+            size_t len = (size_t)snprintf(line, sizeof line, "%.17g", cli_grid_at(&mp->q, i));
+            len = put_num(line, len, sizeof line, cli_grid_at(&mp->p, j));
             len = put_num(line, len, sizeof line, c->psi);
             len = put_num(line, len, sizeof line, c->dpsi);
             if (c->status == DTH_OK)
@@ -254,7 +228,7 @@ int cli_cmd_map(int argc, char **argv)
     double L = 0;
     long dof1 = 1;
     char err[1024];
-    axis qa = {0, 0, 0}, pa = {0, 0, 0};
+    cli_grid qa = {0, 0, 0}, pa = {0, 0, 0};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
@@ -378,7 +352,7 @@ int cli_cmd_map(int argc, char **argv)
 #endif
         for (long k = 0; k < total; k++) {
             if (wrc || cli_signal_received()) continue;
-            map_point(&mp, &w, axis_at(&mp.q, k / pa.n), axis_at(&mp.p, k % pa.n), &cells[k]);
+            map_point(&mp, &w, cli_grid_at(&mp.q, k / pa.n), cli_grid_at(&mp.p, k % pa.n), &cells[k]);
         }
         worker_free(&w);
     }

@@ -4,7 +4,7 @@
  * baseline method, through the library's run driver (run.h), and write its samples (vertices,
  * midpoints or output times) as CSV, with optional diagnostics psi, psi', the region of section 5
  * and the branch taken. This file handles the command line and writes rows; it also checkpoints
- * and resumes runs bit for bit.
+ * runs and resumes them bit for bit (but for the step an earlier t_end cut: run.h).
  */
 #include <math.h>
 #include <stdarg.h>
@@ -55,6 +55,9 @@ typedef struct run {
     h5file *h5;            /* HDF5 output instead of CSV */
     h5table *h5traj, *h5ev;
     int check_wp;          /* an explicit wp: compare the first step it encodes with h */
+    int vk_set, vk_leg;    /* vertex_K's last value vk: of the step vk_k of leg vk_leg */
+    long vk_k;
+    double vk;
 } run;
 
 static void put(run *r, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
@@ -136,6 +139,20 @@ static int header(run *r)
     return r->h5 ? 0 : cli_out_line(&r->out, r->line, r->len);
 }
 
+/* The columns q, p, wp, H, E of the extended state z into v; returns how many. */
+static size_t state_columns(const run *r, const double *z, double *v)
+{
+    size_t n = r->n, N = r->N, c = 0;
+    double Hp;
+    if (dth_model_eval(r->model, z, DTH_EVAL_H, &Hp, NULL, NULL) != DTH_OK) Hp = NAN;
+    for (size_t i = 0; i < n; i++) v[c++] = z[i];
+    for (size_t i = 0; i < n; i++) v[c++] = z[n + 1 + i];
+    v[c++] = z[N - 1];
+    v[c++] = z[N - 1] + Hp;
+    v[c++] = Hp;
+    return c;
+}
+
 /*
  * One row at the point z. `in` is the step that arrived there (or the step whose segment holds
  * it); lambda_root a known root of the step constraint at z (for the local K estimate) and K a
@@ -143,17 +160,12 @@ static int header(run *r)
  */
 static int row(run *r, long k, const double *z, const dth_step_info *in, double lambda_root, double K)
 {
-    size_t n = r->n, N = r->N, c = 0;
-    double *v = r->vals, Hp;
-    if (dth_model_eval(r->model, z, DTH_EVAL_H, &Hp, NULL, NULL) != DTH_OK) Hp = NAN;
+    size_t c = 0;
+    double *v = r->vals;
     v[c++] = (double)k;
-    v[c++] = z[n];
+    v[c++] = z[r->n];
     v[c++] = in->lambda;
-    for (size_t i = 0; i < n; i++) v[c++] = z[i];
-    for (size_t i = 0; i < n; i++) v[c++] = z[n + 1 + i];
-    v[c++] = z[N - 1];
-    v[c++] = z[N - 1] + Hp;
-    v[c++] = Hp;
+    c += state_columns(r, z, v + c);
     if (r->rs->regularizer) v[c++] = (in->flags & DTH_STEP_REGULARIZED) ? 0 : 1;
     if (r->rs->diagnostics) {
         if (r->ninv && dth_model_invariants(r->model, z, r->inv) != DTH_OK)
@@ -174,12 +186,18 @@ static int row(run *r, long k, const double *z, const dth_step_info *in, double 
     return emit_row(r, 0, v);
 }
 
-/* K that a vertex's diagnostics use: for rows interpolated inside its outgoing segment. */
-static double vertex_K(run *r, const double *z, double lambda_out)
+/* K that a vertex's diagnostics use: for rows interpolated inside its outgoing segment, the step
+ * k (z its start, lambda_out its length); computed once for all the rows of one step. */
+static double vertex_K(run *r, long k, const double *z, double lambda_out)
 {
-    dth_diag d;
-    if (dth_diagnose(r->model, z, lambda_out, r->rs->opt.K, &d, r->work) != DTH_OK) return 0;
-    return d.K;
+    if (!r->vk_set || r->vk_k != k || r->vk_leg != r->leg) {
+        dth_diag d;
+        r->vk = dth_diagnose(r->model, z, lambda_out, r->rs->opt.K, &d, r->work) != DTH_OK ? 0 : d.K;
+        r->vk_set = 1;
+        r->vk_k = k;
+        r->vk_leg = r->leg;
+    }
+    return r->vk;
 }
 
 /* The driver's sample callback: one row per sample. */
@@ -206,7 +224,7 @@ static int on_sample(void *user, const dth_sample *s)
     double lambda_root = 0, K = r->rs->opt.K;
     if (s->kind == DTH_SAMPLE_VERTEX) lambda_root = s->lambda_out;
     else if (!s->za) lambda_root = -s->step->lambda; /* the end is the last vertex itself */
-    else if (s->kind != DTH_SAMPLE_MIDPOINT && r->rs->diagnostics) K = vertex_K(r, s->za, s->step->lambda);
+    else if (s->kind != DTH_SAMPLE_MIDPOINT && r->rs->diagnostics) K = vertex_K(r, s->k, s->za, s->step->lambda);
     else if (s->kind == DTH_SAMPLE_MIDPOINT) lambda_root = 0;
     if (row(r, k, s->z, s->step, lambda_root, K)) return DTH_EIO;
     if (!r->h5) cli_out_maybe_flush(&r->out);
@@ -217,19 +235,14 @@ static int on_sample(void *user, const dth_sample *s)
 static int on_event(void *user, const dth_sample *s)
 {
     run *r = user;
-    size_t n = r->n, N = r->N, c = 0;
-    double *v = r->vals, Hp;
-    if (dth_model_eval(r->model, s->z, DTH_EVAL_H, &Hp, NULL, NULL) != DTH_OK) Hp = NAN;
+    size_t c = 0;
+    double *v = r->vals;
     v[c++] = (double)s->index;
     v[c++] = (double)s->event;
     v[c++] = s->direction;
     v[c++] = (double)s->k;
-    v[c++] = s->z[n];
-    for (size_t i = 0; i < n; i++) v[c++] = s->z[i];
-    for (size_t i = 0; i < n; i++) v[c++] = s->z[n + 1 + i];
-    v[c++] = s->z[N - 1];
-    v[c++] = s->z[N - 1] + Hp;
-    v[c++] = Hp;
+    v[c++] = s->z[r->n];
+    state_columns(r, s->z, v + c);
     if (emit_row(r, 1, v)) return DTH_EIO;
     if (!r->h5) cli_out_maybe_flush(&r->ev);
     return 0;
@@ -345,23 +358,27 @@ void cli_usage_run(FILE *f)
                "                        creating missing folders; wins over [output] file=\n"
                "  --roundtrip           after the run, reverse and take as many steps back; rows get a column\n"
                "                        leg (1 forward, 2 back) and stderr the distance to the start\n"
-               "  --progress[=SECONDS]  a progress line on stderr every 5 s (or SECONDS): t, steps/s, ETA;\n"
-               "                        for runs whose stderr is not a terminal (a terminal shows a percentage)\n"
+               "  --progress[=SECONDS]  a progress line on stderr every 5 s (or SECONDS): t, steps/s, ETA\n"
+               "                        (without --progress, a terminal shows a percentage; other stderr nothing)\n"
                "  --events FILE         write the [events] rows to FILE (default: OUT-events.csv next to -o OUT.csv)\n"
                "  --no-model-check      skip the check of the model's derivatives at the start\n"
                "  --checkpoint FILE     save the full state to FILE (crash-safely) every N steps (default\n"
                "                        1000) and when the run ends; the CSV is flushed to disk first\n"
+               "  --checkpoint-every N  the N of --checkpoint: steps between checkpoints (an integer >= 1)\n"
                "  --resume CHECKPOINT   continue a checkpointed run: the scene comes from the checkpoint,\n"
                "                        -s may change steps/t_end (counted from the original start); the\n"
-               "                        output is the rows the run had written plus the rest, bit for bit\n");
+               "                        output is the rows the run had written plus the rest, bit for bit\n"
+               "                        (rows on the step an earlier t_end cut are rebuilt from its midpoint\n"
+               "                        and match a run made at once only to round-off)\n");
 }
 
-int cli_cmd_run(int argc, char **argv)
+/* The command, with room in `sets` for the -s overrides (argc entries). */
+static int run_cmd(int argc, char **argv, const char **sets)
 {
     const char *scene_path = NULL, *out_opt = NULL, *ckpt_path = NULL, *resume_path = NULL, *ev_opt = NULL;
     long ckpt_every = 1000;
     char err[1024];
-    int roundtrip = 0, want_progress = 0, model_check = 1;
+    int roundtrip = 0, want_progress = 0, model_check = 1, nsets = 0;
     double progress_s = 5;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
@@ -375,7 +392,8 @@ int cli_cmd_run(int argc, char **argv)
                 return CLI_USAGE;
             }
             const char *v = argv[++i];
-            if (!strcmp(a, "-o")) out_opt = v;
+            if (!strcmp(a, "-s")) sets[nsets++] = v;
+            else if (!strcmp(a, "-o")) out_opt = v;
             else if (!strcmp(a, "--checkpoint")) ckpt_path = v;
             else if (!strcmp(a, "--resume")) resume_path = v;
             else if (!strcmp(a, "--events")) ev_opt = v;
@@ -440,18 +458,16 @@ int cli_cmd_run(int argc, char **argv)
     char *ev_path = NULL;
     void *ck = NULL;
     size_t cklen = 0;
-    const cli_ckpt *ckc = NULL;
-    cli_ckpt ckc_data; /* the checkpoint's run state (cli/ckpt.c) */
-    memset(&ckc_data, 0, sizeof ckc_data);
+    cli_ckpt ckc; /* --resume: the checkpoint's run state (cli/ckpt.c) */
+    memset(&ckc, 0, sizeof ckc);
     dth_scene *saved = NULL; /* the scene as the checkpointed run had it */
     if (!reg) return CLI_FAIL;
     int rc = dth_scene_new(NULL, &scene);
     if (!rc && resume_path) {
         const char *text;
         size_t tlen;
-        rc = cli_ckpt_read(resume_path, &ck, &cklen, &text, &tlen, &ckc_data, err, sizeof err);
+        rc = cli_ckpt_read(resume_path, &ck, &cklen, &text, &tlen, &ckc, err, sizeof err);
         if (!rc) {
-            ckc = &ckc_data;
             char name[1100];
             snprintf(name, sizeof name, "%s(scene)", resume_path);
             rc = dth_scene_load_mem(scene, name, text, tlen, err, sizeof err);
@@ -461,17 +477,11 @@ int cli_cmd_run(int argc, char **argv)
     } else if (!rc) {
         rc = dth_scene_load(scene, scene_path, err, sizeof err);
     }
-    for (int i = 1; !rc && i < argc; i++) {
-        if (!strcmp(argv[i], "-o") || !strcmp(argv[i], "--checkpoint") || !strcmp(argv[i], "--resume") ||
-            !strcmp(argv[i], "--checkpoint-every") || !strcmp(argv[i], "--events"))
-            i++;
-        else if (!strcmp(argv[i], "-s"))
-            rc = dth_scene_set(scene, argv[++i], err, sizeof err);
-    }
+    for (int i = 0; !rc && i < nsets; i++) rc = dth_scene_set(scene, sets[i], err, sizeof err);
     /* a resume continues the checkpointed run: only its length and the output names may change */
     if (!rc && saved && cli_ckpt_check_scene(saved, scene, err, sizeof err)) rc = DTH_EINVAL;
     if (!rc) rc = dth_scene_setup(scene, reg, &rs, err, sizeof err);
-    if (!rc && ckc && cli_ckpt_check_length(ckc, &rs, err, sizeof err)) rc = DTH_EINVAL;
+    if (!rc && resume_path && cli_ckpt_check_length(&ckc, &rs, err, sizeof err)) rc = DTH_EINVAL;
     if (rc) {
         cli_error("%s", rc == DTH_ENOMEM ? "out of memory" : err);
         status = rc == DTH_ENOMEM ? CLI_FAIL : CLI_USAGE;
@@ -522,9 +532,9 @@ int cli_cmd_run(int argc, char **argv)
     r.ckpt_path = ckpt_path;
     if (is_dth) {
         rc = dth_integrator_new(rs.model, &rs.opt, &it);
-        if (!rc && ck) rc = dth_checkpoint_restore(it, ck, cklen, err, sizeof err);
+        if (!rc && resume_path) rc = dth_checkpoint_restore(it, ck, cklen, err, sizeof err);
         else if (!rc) rc = dth_integrator_start(it, rs.q0, rs.p0, rs.t0);
-        if (rc && ck && it) {
+        if (rc && resume_path && it) {
             cli_error("%s", err);
             goto done;
         }
@@ -540,7 +550,7 @@ int cli_cmd_run(int argc, char **argv)
     if (rc) {
         /* a start the step size spoils (a first vertex that overflows, no offset that gives h): name h */
         char hh[96] = "";
-        if (rc > 0 && !ck) snprintf(hh, sizeof hh, "; integrator.h = %.6g may be too large for this model", rs.opt.h);
+        if (rc > 0 && !resume_path) snprintf(hh, sizeof hh, "; integrator.h = %.6g may be too large for this model", rs.opt.h);
         cli_error("%s: cannot start at the initial state: %s (%s)%s", scene_path, dth_strerror(rc),
                   it ? dth_integrator_errmsg(it) : fx ? dth_fixed_errmsg(fx) : "creating the integrator", hh);
         status = rc < 0 && rc != DTH_EINVAL ? CLI_FAIL : CLI_USAGE;
@@ -566,7 +576,7 @@ int cli_cmd_run(int argc, char **argv)
         goto done;
     }
     const char *path = out_opt ? (strcmp(out_opt, "-") ? out_opt : NULL) : rs.out_file;
-    if (!out_opt && !rs.out_file && ckc && ckc->out.path[0]) path = ckc->out.path;
+    if (!out_opt && !rs.out_file && resume_path && ckc.out.path[0]) path = ckc.out.path;
     if (ckpt_path && !path) {
         cli_error("--checkpoint needs an output file (-o FILE or [output] file=): standard output cannot be resumed");
         goto done;
@@ -679,14 +689,9 @@ int cli_cmd_run(int argc, char **argv)
     } else if (cli_out_open(&r.out, path)) {
         goto done; /* CLI_USAGE: the output cannot be written */
     }
-    if (r.has_ev && cli_out_open(&r.ev, ev_path)) {
-        cli_out_abort(&r.out);
-        goto done;
-    }
-    if (ckc && resume_prefix(&r, ckc, resume_path, ev_path)) {
+    if (r.has_ev && cli_out_open(&r.ev, ev_path)) goto done;
+    if (resume_path && resume_prefix(&r, &ckc, resume_path, ev_path)) {
         status = r.out.failed || r.ev.failed ? CLI_FAIL : CLI_USAGE;
-        cli_out_abort(&r.out);
-        if (r.has_ev) cli_out_abort(&r.ev);
         goto done;
     }
     cli_catch_signals();
@@ -698,13 +703,13 @@ int cli_cmd_run(int argc, char **argv)
         memcpy(zstart, dth_fixed_state(fx), (N - 1) * sizeof *zstart);
     }
     double hmin;
-    if (is_dth && !ck && dth_step_floor(rs.model, zstart, 1e-6, &hmin, r.work) == DTH_OK && fabs(rs.opt.h) < hmin)
+    if (is_dth && !resume_path && dth_step_floor(rs.model, zstart, 1e-6, &hmin, r.work) == DTH_OK && fabs(rs.opt.h) < hmin)
         cli_error("warning: |h| = %.3g is below the conditioning limit %.3g at the start: the step size is "
                   "known only to about 1e-6 relative or worse (docs/performance.md)", fabs(rs.opt.h), hmin);
 
     /* ---- a vertex start: the energy the run conserves (every midpoint's) against the initial
      * state's; an explicit wp: the first step it encodes against h (checked at the first sample) */
-    if (is_dth && !ck && rs.opt.start == DTH_START_VERTEX) {
+    if (is_dth && !resume_path && rs.opt.start == DTH_START_VERTEX) {
         double H0, E = dth_integrator_energy(it);
         if (!dth_model_eval(rs.model, zstart, DTH_EVAL_H, &H0, NULL, NULL) && fabs(E - H0) > 0.01 * fabs(H0))
             cli_error("warning: a vertex start conserves the energy %.10g at every midpoint; the initial state has "
@@ -716,14 +721,8 @@ int cli_cmd_run(int argc, char **argv)
 
     /* ---- the run (run.h) */
     dth_run_config cfg;
-    dth_run_config_default(&cfg);
-    cfg.has_t_end = rs.has_t_end;
-    cfg.t_end = rs.t_end;
-    cfg.steps = rs.steps;
-    cfg.t0 = rs.t0;
+    dth_run_config_from_setup(&cfg, &rs);
     cfg.points = rs.points;
-    cfg.events = rs.events;
-    cfg.nevents = rs.nevents;
     cfg.on_event = on_event;
     cfg.every = rs.every;
     cfg.dt = rs.dt;
@@ -738,11 +737,11 @@ int cli_cmd_run(int argc, char **argv)
     r.t_start = r.last_progress = cli_now();
     dth_run_state S;
     dth_run_state_init(&S);
-    if (ckc) S = ckc->S;
+    if (resume_path) S = ckc.S;
     r.k_begin = S.k;
-    r.t_begin = ck ? dth_integrator_vertex(it)[n] : zstart[n];
+    r.t_begin = zstart[n];
     int werr = 0;
-    if (!ckc && (header(&r) || (r.has_ev && ev_header(&r)))) werr = 1;
+    if (!resume_path && (header(&r) || (r.has_ev && ev_header(&r)))) werr = 1;
     /* the checkpoint path is tried before the first step: a checkpoint of the start (or of the
      * resumed state), so a run never learns only at its first checkpoint that it cannot write one */
     if (!werr && ckpt_path && on_checkpoint(&r, &S)) {
@@ -756,7 +755,7 @@ int cli_cmd_run(int argc, char **argv)
     }
     /* temporaries of runs that were killed: once this run's own checkpoint stands (a resume's rows
      * are in this run's temporary), or at once without checkpoints */
-    if (!werr && (ckpt_path || !ckc)) clean_stale(path, ev_path, ckpt_path, ckc);
+    if (!werr && (ckpt_path || !resume_path)) clean_stale(path, ev_path, ckpt_path, resume_path ? &ckc : NULL);
     rc = werr ? DTH_OK : it ? dth_run(it, &cfg, &S) : dth_run_fixed(fx, &cfg, &S);
     if (rc == DTH_EIO && S.stop == DTH_RUN_CALLBACK) werr = 1;
     /* --roundtrip: reverse in place and take as many steps back (paper, time reversibility) */
@@ -795,8 +794,6 @@ int cli_cmd_run(int argc, char **argv)
         if (r.ckpt_written)
             cli_error("the checkpoint '%s' of step %ld and the rows it needs are kept: dth run --resume %s continues "
                       "the run once the cause is fixed", ckpt_path, r.ckpt_k, ckpt_path);
-        if (r.out.buf) cli_out_abort(&r.out);
-        if (r.has_ev) cli_out_abort(&r.ev);
         status = CLI_FAIL;
         goto done;
     }
@@ -810,11 +807,10 @@ int cli_cmd_run(int argc, char **argv)
             goto done;
         }
     } else if (cli_out_finish(&r.out) || (r.has_ev && cli_out_finish(&r.ev))) {
-        if (r.has_ev && r.ev.buf) cli_out_abort(&r.ev);
         status = CLI_FAIL;
         goto done;
     }
-    if (ckc && !ckpt_path) clean_stale(path, ev_path, NULL, ckc); /* the resumed run's files are complete */
+    if (resume_path && !ckpt_path) clean_stale(path, ev_path, NULL, &ckc); /* the resumed run's files are complete */
     /* how the run ended: always when it could not go on, else for regularized runs and on a tty */
     char crossing[160] = "";
     if (S.crossings || S.regularized)
@@ -831,7 +827,7 @@ int cli_cmd_run(int argc, char **argv)
         status = 128 + sig;
     } else if (rc > 0) {
         char hint[256];
-        if (S.k - r.k_begin <= 1 && !ck) /* the first solved step failed: the step size is the key to change */
+        if (S.k - r.k_begin <= 1 && !resume_path) /* the first solved step failed: the step size is the key to change */
             snprintf(hint, sizeof hint, "; the first step failed: a smaller step may pass: -s integrator.h=%.6g",
                      rs.opt.h / 4);
         else if (is_dth)
@@ -866,12 +862,24 @@ done:
     free(r.work);
     free(zstart);
     dth_free(NULL, ck);
-    cli_ckpt_clear(&ckc_data);
+    cli_ckpt_clear(&ckc);
     dth_scene_free(saved);
     dth_integrator_free(it);
     dth_fixed_free(fx);
     dth_run_setup_clear(&rs);
     dth_scene_free(scene);
     dth_registry_free(reg);
+    return status;
+}
+
+int cli_cmd_run(int argc, char **argv)
+{
+    const char **sets = calloc((size_t)argc, sizeof *sets);
+    if (!sets) {
+        cli_error("out of memory");
+        return CLI_FAIL;
+    }
+    int status = run_cmd(argc, argv, sets);
+    free(sets);
     return status;
 }

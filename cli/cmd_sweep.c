@@ -34,8 +34,7 @@
 typedef struct vkey {
     char sec[64], key[64];
     int elem;        /* 0: the whole value */
-    double a, b;     /* --vary: the grid a:b:n */
-    long n;
+    cli_grid g;      /* --vary: the grid a:b:n */
 } vkey;
 
 /* The numbers of one summary row (doubles, so that MPI moves them as one array). */
@@ -120,7 +119,8 @@ static void usage_sweep(FILE *f)
             "  regularized step, which has no tangent map; see lib/include/dth/chaos.h). Empty: not available.\n"
             "threads: OMP_NUM_THREADS; ranks: mpirun -n N dth sweep ... (meson feature mpi). The output is the same\n"
             "bytes for any number of threads and ranks. Exit 0 when every run could be set up (a trajectory that\n"
-            "stops early is a status in its row), 2 for bad input, 1 for a hard error.\n");
+            "stops early is a status in its row), 2 for bad input, 1 for a hard error, 128 + signal when\n"
+            "interrupted (no summary is written).\n");
 }
 
 /* ---------------------------------------------------------------- parsing */
@@ -158,36 +158,14 @@ static int parse_vary(const char *s, vkey *k)
         if (!eq) cli_error("--vary: '%s' is not of the form section.key=a:b:n", s);
         return -1;
     }
-    char buf[256];
-    const char *v = eq + 1;
-    size_t len = strlen(v);
-    const char *c1 = strchr(v, ':'), *c2 = c1 ? strchr(c1 + 1, ':') : NULL;
-    if (len >= sizeof buf || !c1 || !c2 || strchr(c2 + 1, ':')) {
+    int rc = cli_parse_grid(eq + 1, SWEEP_MAX_RUNS, &k->g);
+    if (rc == CLI_GRID_FORM)
         cli_error("--vary: '%s' is not of the form section.key=a:b:n", s);
-        return -1;
-    }
-    memcpy(buf, v, len + 1);
-    buf[c1 - v] = buf[c2 - v] = '\0';
-    char *e;
-    errno = 0;
-    long n = strtol(buf + (c2 - v) + 1, &e, 10);
-    if (dth_parse_double(buf, &k->a) || dth_parse_double(buf + (c1 - v) + 1, &k->b)) {
+    else if (rc == CLI_GRID_BOUNDS)
         cli_error("--vary: '%s': the bounds must be finite numbers", s);
-        return -1;
-    }
-    if (errno || e == buf + (c2 - v) + 1 || *e || n < 1 || n > SWEEP_MAX_RUNS) {
+    else if (rc)
         cli_error("--vary: '%s': the number of values must be an integer from 1 to %ld", s, SWEEP_MAX_RUNS);
-        return -1;
-    }
-    k->n = n;
-    return 0;
-}
-
-/* Grid value i of an axis (symmetric in a and b, as dth map's). */
-static double axis_at(const vkey *k, long i)
-{
-    if (k->n == 1) return k->a;
-    return ((double)(k->n - 1 - i) * k->a + (double)i * k->b) / (double)(k->n - 1);
+    return rc ? -1 : 0;
 }
 
 /* Split one CSV line into fields (double quotes group commas; "" is a quote). Trims spaces outside
@@ -313,8 +291,8 @@ static void value_text(const sweep *sw, long i, int j, char *buf, size_t cap)
         return;
     }
     long stride = 1;
-    for (int l = sw->nkeys - 1; l > j; l--) stride *= sw->keys[l].n;
-    dth_fmt_g17(axis_at(&sw->keys[j], (i / stride) % sw->keys[j].n), buf);
+    for (int l = sw->nkeys - 1; l > j; l--) stride *= sw->keys[l].g.n;
+    dth_fmt_g17(cli_grid_at(&sw->keys[j].g, (i / stride) % sw->keys[j].g.n), buf);
 }
 
 /* Set key k to text v in the scene (element k->elem of its list, or the whole value). */
@@ -525,13 +503,7 @@ static void run_one(const sweep *sw, long i, double *rec)
         goto done;
     }
     dth_run_config cfg;
-    dth_run_config_default(&cfg);
-    cfg.has_t_end = rs.has_t_end;
-    cfg.t_end = rs.t_end;
-    cfg.steps = rs.steps;
-    cfg.t0 = rs.t0;
-    cfg.events = rs.events;
-    cfg.nevents = rs.nevents;
+    dth_run_config_from_setup(&cfg, &rs);
     cfg.user = &c;
     cfg.alloc = &al;
     cfg.progress = on_progress;
@@ -900,11 +872,11 @@ int cli_cmd_sweep(int argc, char **argv)
     } else {
         sw.nruns = 1;
         for (int j = 0; j < sw.nkeys; j++) {
-            if (sw.nruns > SWEEP_MAX_RUNS / sw.keys[j].n) {
+            if (sw.nruns > SWEEP_MAX_RUNS / sw.keys[j].g.n) {
                 cli_error("the grid has more than %ld points", SWEEP_MAX_RUNS);
                 goto done;
             }
-            sw.nruns *= sw.keys[j].n;
+            sw.nruns *= sw.keys[j].g.n;
         }
     }
     sw.text = read_file(sw.scene_path, &sw.textlen);

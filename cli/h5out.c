@@ -1,16 +1,20 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * HDF5 output of dth run (meson feature 'hdf5'): tables of doubles, one row per sample, written
- * crash-safely like the CSV (FILE.tmp.PID, renamed when the run ends). Each table is a 2-D
+ * crash-safely like the CSV (a temporary FILE.tmp.PID.XXXXXX of lib/tempfile.h, fsync'ed and
+ * renamed when the run ends). Each table is a 2-D
  * dataset (rows x columns, chunked, extendible) with its column names as the attribute
  * "columns"; the file carries the scene text and the provenance as root attributes. The values
  * are the doubles the CSV prints, bit for bit.
  */
+#include <errno.h>
+#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 #include "h5out.h"
+#include "../lib/tempfile.h"
 
 #ifdef DTH_HAVE_HDF5
 #include <hdf5.h>
@@ -51,7 +55,8 @@ h5file *h5_open(const char *path, char *err, size_t errlen)
     h5file *f = calloc(1, sizeof *f);
     if (!f) return NULL;
     f->path = strdup(path);
-    f->tmp = malloc(strlen(path) + 32);
+    size_t tcap = strlen(path) + 48;
+    f->tmp = malloc(tcap);
     if (!f->path || !f->tmp) {
         free(f->path);
         free(f->tmp);
@@ -59,10 +64,16 @@ h5file *h5_open(const char *path, char *err, size_t errlen)
         snprintf(err, errlen, "out of memory");
         return NULL;
     }
-    snprintf(f->tmp, strlen(path) + 32, "%s.tmp.%ld", path, (long)getpid());
-    f->file = H5Fcreate(f->tmp, H5F_ACC_EXCL, H5P_DEFAULT, H5P_DEFAULT);
+    /* the name is the run's own (created empty, O_EXCL); HDF5 then writes the file there */
+    int fd = dth__open_unique_temp(path, f->tmp, tcap);
+    if (fd >= 0) close(fd);
+    f->file = fd < 0 ? -1 : H5Fcreate(f->tmp, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
     if (f->file < 0) {
-        snprintf(err, errlen, "cannot write '%s': HDF5 cannot create '%s'", path, f->tmp);
+        if (fd < 0)
+            snprintf(err, errlen, "cannot write '%s': %s", path, strerror(errno));
+        else
+            snprintf(err, errlen, "cannot write '%s': HDF5 cannot create '%s'", path, f->tmp);
+        if (fd >= 0) unlink(f->tmp);
         free(f->path);
         free(f->tmp);
         free(f);
@@ -151,6 +162,12 @@ int h5_finish(h5file *f, char *err, size_t errlen)
     }
     if (H5Fclose(f->file) < 0) rc = -1;
     f->file = -1;
+    /* the data reach the disk before the name does, as with the CSV */
+    if (!rc) {
+        int fd = open(f->tmp, O_RDONLY | O_CLOEXEC);
+        if (fd < 0 || (fsync(fd) && errno != EINVAL)) rc = -1;
+        if (fd >= 0) close(fd);
+    }
     if (!rc && rename(f->tmp, f->path)) rc = -1;
     if (rc) {
         snprintf(err, errlen, "cannot write '%s' (HDF5)", f->path);

@@ -8,7 +8,8 @@
 typedef struct h5file h5file;
 typedef struct h5table h5table;
 
-/* Create PATH.tmp.PID (renamed onto PATH by h5_finish); NULL with a message in err. */
+/* Create a temporary PATH.tmp.PID.XXXXXX (fsync'ed and renamed onto PATH by h5_finish); NULL with
+ * a message in err. */
 h5file *h5_open(const char *path, char *err, size_t errlen);
 /* A string attribute on the file's root group. 0 or -1. */
 int h5_attr(h5file *f, const char *name, const char *text);

@@ -10,50 +10,17 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <signal.h>
-#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
-#include <time.h>
 #include <unistd.h>
 #include "cli.h"
+#include "../lib/tempfile.h" /* the temporaries' names and the hash, as the library's checkpoints have them */
 
 enum { OUT_CAP = 1 << 16 };
 
-/* A temporary of the writer's own, "path.tmp.PID.XXXXXX", created with O_EXCL (so it gets the mode
- * any new file gets, where mkstemp's would be 0600); a name that exists is drawn again. */
-static int open_unique_temp(const char *path, char *tmp, size_t cap)
-{
-    static const char al[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789";
-    struct timespec ts;
-    clock_gettime(CLOCK_REALTIME, &ts);
-    uint64_t x = ((uint64_t)ts.tv_nsec << 20) ^ (uint64_t)ts.tv_sec ^ ((uint64_t)getpid() << 32) ^ (uint64_t)(uintptr_t)tmp;
-    for (int attempt = 0; attempt < 100; attempt++) {
-        char s[7];
-        for (int i = 0; i < 6; i++) {
-            x = x * 6364136223846793005ULL + 1442695040888963407ULL;
-            s[i] = al[(x >> 33) % 62];
-        }
-        s[6] = '\0';
-        snprintf(tmp, cap, "%s.tmp.%ld.%s", path, (long)getpid(), s);
-        int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-        if (fd >= 0 || errno != EEXIST) return fd;
-    }
-    errno = EEXIST;
-    return -1;
-}
-
-
-unsigned long long cli_fnv1a(unsigned long long h, const void *p, size_t n)
-{
-    const unsigned char *b = p;
-    for (size_t i = 0; i < n; i++) {
-        h ^= b[i];
-        h *= 1099511628211ULL;
-    }
-    return h;
-}
+unsigned long long cli_fnv1a(unsigned long long h, const void *p, size_t n) { return dth__fnv1a(h, p, n); }
 
 static int write_all(int fd, const char *p, size_t n)
 {
@@ -142,7 +109,7 @@ int cli_out_open(cli_out *o, const char *path)
         cli_out_abort(o);
         return -1;
     }
-    o->fd = open_unique_temp(path, o->tmp, len);
+    o->fd = dth__open_unique_temp(path, o->tmp, len);
     if (o->fd < 0) {
         cli_error("cannot write '%s': %s", path, strerror(errno));
         free(o->tmp);

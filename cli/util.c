@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: MIT */
-/* Helpers shared by the dth subcommands: error lines, the model registry, paths, signals. */
+/* Helpers shared by the dth subcommands: error lines, the model registry, grids, paths, signals. */
 #define _XOPEN_SOURCE 700 /* realpath */
 #include <errno.h>
 #include <fcntl.h>
@@ -35,6 +35,29 @@ dth_registry *cli_registry(void)
         return NULL;
     }
     return r;
+}
+
+int cli_parse_grid(const char *s, long max, cli_grid *g)
+{
+    char buf[256];
+    size_t len = strlen(s);
+    const char *c1 = strchr(s, ':'), *c2 = c1 ? strchr(c1 + 1, ':') : NULL;
+    if (len >= sizeof buf || !c1 || !c2 || strchr(c2 + 1, ':')) return CLI_GRID_FORM;
+    memcpy(buf, s, len + 1);
+    buf[c1 - s] = buf[c2 - s] = '\0';
+    char *end;
+    errno = 0;
+    long n = strtol(buf + (c2 - s) + 1, &end, 10);
+    if (dth_parse_double(buf, &g->a) || dth_parse_double(buf + (c1 - s) + 1, &g->b)) return CLI_GRID_BOUNDS;
+    if (errno || end == buf + (c2 - s) + 1 || *end || n < 1 || n > max) return CLI_GRID_COUNT;
+    g->n = n;
+    return 0;
+}
+
+double cli_grid_at(const cli_grid *g, long i)
+{
+    if (g->n == 1) return g->a;
+    return ((double)(g->n - 1 - i) * g->a + (double)i * g->b) / (double)(g->n - 1);
 }
 
 double cli_now(void)

@@ -15,25 +15,14 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
-#include <time.h>
 #include <unistd.h>
 #include "dth/checkpoint.h"
 #include "dth_internal.h"
 #include "integrator_impl.h"
+#include "tempfile.h"
 
 static const unsigned char MAGIC[8] = {'D', 'T', 'H', 'C', 'K', 'P', 'T', 0};
 enum { HEADER = 8 + 4 + 4 + 8, TRAILER = 8, MAX_NAME = 255 };
-
-/* FNV-1a 64 */
-static uint64_t fnv1a(const unsigned char *p, size_t n)
-{
-    uint64_t h = 14695981039346656037ULL;
-    for (size_t i = 0; i < n; i++) {
-        h ^= p[i];
-        h *= 1099511628211ULL;
-    }
-    return h;
-}
 
 /* ---- writer: counts only when buf is NULL or full ---- */
 
@@ -365,7 +354,7 @@ int dth_checkpoint_save(const dth_integrator *it, const dth_blob *blobs, size_t 
             w.cap = cap;
         }
     }
-    put_u64(&w, fnv1a(buf, w.len));
+    put_u64(&w, dth__fnv1a(DTH__FNV_OFFSET, buf, w.len));
     return DTH_OK;
 }
 
@@ -398,7 +387,7 @@ static int open_checked(rd *r, const void *buf, size_t len, char *err, size_t er
         return DTH_EPARSE;
     }
     rd t = {p + len - TRAILER, TRAILER, 0, 0};
-    if (get_u64(&t) != fnv1a(p, len - TRAILER)) {
+    if (get_u64(&t) != dth__fnv1a(DTH__FNV_OFFSET, p, len - TRAILER)) {
         dth__set_err(err, errlen, "checkpoint checksum mismatch (corrupted)");
         return DTH_EPARSE;
     }
@@ -578,29 +567,6 @@ int dth_checkpoint_model_name(const void *buf, size_t len, char *name, size_t na
     return DTH_OK;
 }
 
-/* A temporary of the writer's own, "path.tmp.PID.XXXXXX", created with O_EXCL (so it gets the mode
- * any new file gets, where mkstemp's would be 0600); a name that exists is drawn again. */
-static int open_unique_temp(const char *path, char *tmp, size_t cap)
-{
-    static const char al[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789";
-    struct timespec ts;
-    clock_gettime(CLOCK_REALTIME, &ts);
-    uint64_t x = ((uint64_t)ts.tv_nsec << 20) ^ (uint64_t)ts.tv_sec ^ ((uint64_t)getpid() << 32) ^ (uint64_t)(uintptr_t)tmp;
-    for (int attempt = 0; attempt < 100; attempt++) {
-        char s[7];
-        for (int i = 0; i < 6; i++) {
-            x = x * 6364136223846793005ULL + 1442695040888963407ULL;
-            s[i] = al[(x >> 33) % 62];
-        }
-        s[6] = '\0';
-        snprintf(tmp, cap, "%s.tmp.%ld.%s", path, (long)getpid(), s);
-        int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-        if (fd >= 0 || errno != EEXIST) return fd;
-    }
-    errno = EEXIST;
-    return -1;
-}
-
 int dth_checkpoint_write_file(const dth_integrator *it, const dth_blob *blobs, size_t nblobs,
                               const char *path, char *err, size_t errlen)
 {
@@ -620,7 +586,7 @@ int dth_checkpoint_write_file(const dth_integrator *it, const dth_blob *blobs, s
         return DTH_ENOMEM;
     }
     rc = dth_checkpoint_save(it, blobs, nblobs, buf, len, &len);
-    int fd = rc ? -1 : open_unique_temp(path, tmp, tcap);
+    int fd = rc ? -1 : dth__open_unique_temp(path, tmp, tcap);
     if (!rc && fd < 0) {
         dth__set_err(err, errlen, "cannot write checkpoint '%s': %s", path, strerror(errno));
         rc = DTH_EIO;

@@ -7,6 +7,7 @@
 #include <math.h>
 #include <string.h>
 #include "dth/run.h"
+#include "dth/scene.h"
 #include "integrator_impl.h"
 
 void dth_run_state_init(dth_run_state *st)
@@ -21,6 +22,19 @@ void dth_run_config_default(dth_run_config *cfg)
     cfg->t0 = NAN;
     cfg->points = DTH_POINTS_VERTICES;
     cfg->every = 1;
+}
+
+void dth_run_config_from_setup(dth_run_config *cfg, const dth_run_setup *rs)
+{
+    if (!cfg) return;
+    dth_run_config_default(cfg);
+    if (!rs) return;
+    cfg->has_t_end = rs->has_t_end;
+    cfg->t_end = rs->t_end;
+    cfg->steps = rs->steps;
+    cfg->t0 = rs->t0;
+    cfg->events = rs->events;
+    cfg->nevents = rs->nevents;
 }
 
 /* ---------------------------------------------------------------- dense output */
@@ -286,7 +300,6 @@ static int segment(drv *d, double lo, double hi, int lo_closed, double *stop_t, 
                 dth_sample s = {DTH_SAMPLE_EVENT, st->events++, d->kseg, d->zi, &d->seg, 0, d->za, d->zb, (int)best,
                                 d->dev[best]};
                 if (cfg->on_event) {
-                    s.index = st->events - 1;
                     if ((rc = cfg->on_event(cfg->user, &s)) != 0) {
                         d->cb_failed = 1;
                         return rc;
@@ -360,6 +373,19 @@ static void swap(double **a, double **b)
     *b = t;
 }
 
+/* Make za -> zb (the step `info` leaving vertex k, with midpoint mid, NULL if none) the current
+ * segment. Returns the top of its window: zb's time, or t_end if that comes first. */
+static double open_segment(drv *d, const dth_step_info *info, long k, const double *mid)
+{
+    d->use_mid = mid != NULL;
+    if (mid) memcpy(d->zm, mid, d->N * sizeof *d->zm);
+    d->seg = *info;
+    d->kseg = k;
+    d->have_seg = 1;
+    double hi = d->zb[d->n];
+    return d->cfg->has_t_end && before(d, d->cfg->t_end, hi) ? d->cfg->t_end : hi;
+}
+
 static int drive(drv *d)
 {
     const dth_run_config *cfg = d->cfg;
@@ -379,32 +405,23 @@ static int drive(drv *d)
     st->t = d->zb[n];
     st->stop = DTH_RUN_RUNNING;
     int lo_closed = st->samples == 0 && st->events == 0 && st->k == 0;
-    double t_done = st->t_stop; /* samples and events are handed out for times after this */
     for (size_t e = 0; e < cfg->nevents; e++)
         if ((rc = ev_eval(d, e, d->zb, &d->gb[e])) != 0) goto cb;
 
     /* a resumed run whose last segment was cut (by t_end or a terminal event): the rest of it,
      * on the segment rebuilt from the midpoint (round-off of z_(k-1) = 2 zbar - z_k) */
     const double *mid = d->it ? dth_integrator_midpoint(d->it) : NULL;
-    if (mid && st->k > 0 && before(d, t_done, st->t)) {
+    if (mid && st->k > 0 && before(d, st->t_stop, st->t)) {
         for (size_t j = 0; j < N; j++) d->za[j] = 2 * mid[j] - d->zb[j];
-        memcpy(d->zm, mid, N * sizeof *d->zm);
-        d->use_mid = 1;
         d->ua_ok = d->ub_ok = 0;
-        d->seg = st->in;
-        d->kseg = st->k - 1;
-        d->have_seg = 1;
+        double hi = open_segment(d, &st->in, st->k - 1, mid), stop_t;
         for (size_t e = 0; e < cfg->nevents; e++)
             if ((rc = ev_eval(d, e, d->za, &d->ga[e])) != 0) goto cb;
-        int pend = st->pending;
+        int pend = st->pending, stop_e;
         st->pending = 0; /* za's own sample went out before */
-        double hi = st->t, stop_t;
-        int stop_e;
-        if (cfg->has_t_end && before(d, cfg->t_end, hi)) hi = cfg->t_end;
-        if (before(d, t_done, hi) && (rc = segment(d, t_done, hi, 0, &stop_t, &stop_e)) != 0) goto cb;
+        if (before(d, st->t_stop, hi) && (rc = segment(d, st->t_stop, hi, 0, &stop_t, &stop_e)) != 0) goto cb;
         st->pending = pend;
-        t_done = hi;
-        st->t_stop = t_done;
+        st->t_stop = hi;
     }
 
     long since_ckpt = 0, since_prog = 0;
@@ -441,25 +458,18 @@ static int drive(drv *d)
         d->ua_ok = d->ub_ok;
         d->ub_ok = 0;
         vertex_now(d, d->zb);
-        mid = d->it ? dth_integrator_midpoint(d->it) : NULL;
-        d->use_mid = mid != NULL; /* a regularizer's segment has its midpoint too (z_k + d) */
-        if (d->use_mid) memcpy(d->zm, mid, N * sizeof *d->zm);
-        d->seg = info;
-        d->kseg = st->k;
-        d->have_seg = 1;
+        /* a regularizer's segment has its midpoint too (z_k + d) */
+        double hi = open_segment(d, &info, st->k, d->it ? dth_integrator_midpoint(d->it) : NULL);
         for (size_t e = 0; e < cfg->nevents; e++)
             if ((rc = ev_eval(d, e, d->zb, &d->gb[e])) != 0) goto cb;
-        double hi = d->zb[n];
-        if (cfg->has_t_end && before(d, cfg->t_end, hi)) hi = cfg->t_end;
-        rc = segment(d, t_done, hi, lo_closed, &t_stop, &stop_event);
+        rc = segment(d, st->t_stop, hi, lo_closed, &t_stop, &stop_event);
         lo_closed = 0;
         /* the step is taken whatever the samples said: the state moves on */
         st->in = info;
         st->k++;
         st->t = d->zb[n];
         st->pending = 1;
-        t_done = isnan(t_stop) ? hi : t_stop;
-        st->t_stop = t_done;
+        st->t_stop = isnan(t_stop) ? hi : t_stop;
         if (rc) goto cb;
         since_ckpt++;
         since_prog++;

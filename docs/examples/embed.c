@@ -70,11 +70,16 @@ int main(int argc, char **argv)
         fprintf(stderr, "%s\n", scene ? err : "out of memory");
         goto out;
     }
-    for (int i = 2; i + 1 < argc; i += 2)
+    for (int i = 2; i < argc; i += 2) {
+        if (i + 1 == argc) {
+            fprintf(stderr, "'%s' has no value (usage: %s SCENE.ini [-s section.key=value]...)\n", argv[i], argv[0]);
+            goto out;
+        }
         if (strcmp(argv[i], "-s") || dth_scene_set(scene, argv[i + 1], err, sizeof err)) {
             fprintf(stderr, "bad override: %s\n", argv[i + 1]);
             goto out;
         }
+    }
     if (dth_scene_setup(scene, reg, &rs, err, sizeof err)) {
         fprintf(stderr, "%s\n", err);
         goto out;
@@ -103,11 +108,7 @@ int main(int argc, char **argv)
     double H;
     if (dth_model_eval(rs.model, y, DTH_EVAL_H, &H, NULL, NULL) == DTH_OK) o.E0 = H;
     dth_run_config c;
-    dth_run_config_default(&c);
-    c.has_t_end = rs.has_t_end;
-    c.t_end = rs.t_end;
-    c.steps = rs.steps;
-    c.t0 = rs.t0;
+    dth_run_config_from_setup(&c, &rs); /* its length, start and [events] (a terminal one ends the run) */
     c.points = rs.points;
     c.every = rs.every;
     c.dt = rs.dt;

@@ -43,11 +43,16 @@ int main(int argc, char **argv)
         fprintf(stderr, "%s\n", scene ? err : "out of memory");
         goto out;
     }
-    for (int i = 2; i + 1 < argc; i += 2)
+    for (int i = 2; i < argc; i += 2) {
+        if (i + 1 == argc) {
+            fprintf(stderr, "'%s' has no value (usage: %s SCENE.ini [-s section.key=value]...)\n", argv[i], argv[0]);
+            goto out;
+        }
         if (strcmp(argv[i], "-s") || dth_scene_set(scene, argv[i + 1], err, sizeof err)) {
             fprintf(stderr, "bad override: %s\n", argv[i + 1]);
             goto out;
         }
+    }
     if (dth_scene_setup(scene, reg, &rs, err, sizeof err)) {
         fprintf(stderr, "%s\n", err);
         goto out;
@@ -61,13 +66,7 @@ int main(int argc, char **argv)
         goto out;
     }
     dth_run_config c;
-    dth_run_config_default(&c);
-    c.has_t_end = rs.has_t_end;
-    c.t_end = rs.t_end;
-    c.steps = rs.steps;
-    c.t0 = rs.t0;
-    c.events = rs.events;
-    c.nevents = rs.nevents;
+    dth_run_config_from_setup(&c, &rs); /* its length, start and [events] */
     c.on_event = on_event;
     c.user = &rs;
     dth_run_state st;

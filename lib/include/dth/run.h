@@ -8,8 +8,10 @@
  * methods.h) and hands every sample to the caller's callback: the driver prints nothing, writes
  * no file and keeps no global state, so separate integrators may run in separate threads.
  * Everything the loop carries from one step to the next is in dth_run_state, a plain struct: a
- * caller that saves it next to a checkpoint of the integrator (checkpoint.h) resumes the run bit
- * for bit by passing it back.
+ * caller that saves it next to a checkpoint of the integrator (checkpoint.h) resumes the run by
+ * passing it back, bit for bit but for one step: the samples and events on the segment the
+ * previous call's end cut (t_end, a terminal event) come from that segment rebuilt from its
+ * midpoint (z_(k-1) = 2 zbar - z_k), and match an uninterrupted run's to round-off.
  *
  * Dense output (dth_dense_eval): on the step from the vertex z_a to z_b the driver interpolates
  * with the cubic Hermite polynomial of the two vertices and the flow u = J grad H at both, and,
@@ -178,6 +180,15 @@ typedef struct dth_run_config {
 
 /** Defaults: steps = 0, t0 = NAN, points = VERTICES, every = 1, nothing else. */
 DTH_API void dth_run_config_default(dth_run_config *cfg);
+
+struct dth_run_setup; /* scene.h */
+
+/**
+ * The defaults, plus what a scene's run setup (scene.h) says about the run's extent and events:
+ * has_t_end, t_end, steps, t0, events and nevents (borrowed from rs). The samples (points, every,
+ * dt) and the callbacks stay at their defaults: the caller sets those it wants.
+ */
+DTH_API void dth_run_config_from_setup(dth_run_config *cfg, const struct dth_run_setup *rs);
 
 /**
  * Run the DTH integrator `it` (started, or restored from a checkpoint) as `cfg` says, from the
