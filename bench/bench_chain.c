@@ -4,7 +4,8 @@
  * chain of N particles (coupled model, L = 1): the banded solve through the Schur complement
  * (linsolve = banded, the default) next to the banded LU of the whole step matrix (banded-lu, the
  * path before the Schur complement) in the same run, their repeats interleaved, N = 10 .. 10^5, with
- * the bytes the model and integrator allocate per particle; then the dense solve (N <= 200).
+ * the bytes the model and integrator allocate per particle; then the dense solve (N <= 200); last,
+ * the bytes a regularizer (smooth, prescribed) allocates for N = 10 .. 1000 (untimed).
  * Usage: OPENBLAS_NUM_THREADS=1 bench_chain [max_dense_N [max_N]]   (defaults 200, 100000; median of 5), or
  *        bench_chain --only LINSOLVE N steps   (one untimed run of N particles with that solver: for
  *        instruction counts under callgrind; scripts/bench-instr.sh)
@@ -195,6 +196,29 @@ int main(int argc, char **argv)
         printf("\n");
         prev = r.us_step;
         prevN = Nd[i];
+    }
+    /* What a regularizer adds (not timed): the bytes its create() allocates, dominated by the
+     * kicked segment's dense Newton workspace, 2 (2n + 1)^2 doubles. */
+    printf("# regularizer workspace (bytes its create() allocates, untimed; N <= min(max_N, 1000))\n");
+    printf("# regularizer   N       n           bytes  kicked-segment bytes\n");
+    const dth_regularizer_type *regs[] = {&dth_reg_smooth, &dth_reg_prescribed};
+    for (size_t i = 0; i < 3 && Ns[i] <= max_n; i++) {
+        chain c;
+        if (chain_new(Ns[i], "auto", &c)) return 1;
+        for (int k = 0; k < 2; k++) {
+            dth_regularizer *rg;
+            char err[256];
+            live = peak = 0;
+            if (dth_regularizer_new(regs[k], NULL, 0, c.m, &counting, &rg, err, sizeof err)) {
+                fprintf(stderr, "%s\n", err);
+                chain_free(&c);
+                return 1;
+            }
+            printf("%-12s %6zu %7zu %15zu %21zu\n", regs[k]->name, Ns[i], 2 * Ns[i], peak,
+                   dth_kicked_segment_work_size(c.m) * sizeof(double));
+            dth_regularizer_free(rg);
+        }
+        chain_free(&c);
     }
     return 0;
 }

@@ -162,7 +162,8 @@ static void table_pendulum(double scale)
     printf("| h | revolutions | steps | crossings | non-symplectic steps | share | max |M^T J M - J| / |M|^2, ordinary steps | "
            "step ratio: max / at band edges | max midpoint energy error (rel. to its terms) | median step: revolution 1 / last | drift | s |\n");
     printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
-    double hs[3] = {0.05, 0.025, 0.0125};
+    double hs[3] = {0.05, 0.025, 0.0125}, dev_med[3] = {0}, dev_mean[3] = {0};
+    long nrevs[3] = {0};
     for (int i = 0; i < 3; i++) {
         double revs = (i == 0 ? 1e4 : 1e3) * scale;
         if (revs < 3) revs = 3;
@@ -189,6 +190,31 @@ static void table_pendulum(double scale)
             if (k >= kl0 && t < last0 + T) lastv[nl++] = lam[k];
         }
         double m1 = median(first, k1), ml = median(lastv, nl);
+        /* every full revolution's median and mean step: their largest relative deviation from the
+         * average over the revolutions (revolution j: the steps ending in [j T, (j + 1) T)) */
+        long nfull = (long)floor(s.t / T), kk = 0;
+        double *med = malloc((size_t)(nfull + 1) * sizeof *med), *mean = malloc((size_t)(nfull + 1) * sizeof *mean);
+        double *rv = malloc((size_t)(s.steps + 1) * sizeof *rv), smed = 0, smean = 0;
+        t = 0;
+        for (long j = 0; j < nfull; j++) {
+            long nr = 0;
+            double sum = 0;
+            while (kk < s.steps && kk < cap && t + lam[kk] < (j + 1) * T) {
+                t += lam[kk];
+                sum += lam[kk];
+                rv[nr++] = lam[kk++];
+            }
+            med[j] = median(rv, nr), mean[j] = nr ? sum / (double)nr : NAN;
+            smed += med[j], smean += mean[j];
+        }
+        for (long j = 0; j < nfull; j++) {
+            dev_med[i] = fmax(dev_med[i], fabs(med[j] / (smed / (double)nfull) - 1));
+            dev_mean[i] = fmax(dev_mean[i], fabs(mean[j] / (smean / (double)nfull) - 1));
+        }
+        nrevs[i] = nfull;
+        free(med);
+        free(mean);
+        free(rv);
         printf("| %.4f | %.0f | %ld | %ld | %ld | %.3f | %.1e | %.3f / %.3f | %.1e | %.5f / %.5f | %+.2f %% | %.1f |\n", hs[i],
                s.t / T, s.steps, s.crossings, s.reg, (double)s.reg / (double)s.steps, s.tangent, s.ratio, s.ratio_edge,
                s.emid, m1, ml, 100 * (ml / m1 - 1), s.secs);
@@ -197,6 +223,11 @@ static void table_pendulum(double scale)
         free(lastv);
         free(lam);
     }
+    printf("\nEvery full revolution's median step and mean step, against their averages over the revolutions:\n\n");
+    printf("| h | full revolutions | median step of a revolution: largest deviation | mean step of a revolution: largest deviation |\n"
+           "|---|---|---|---|\n");
+    for (int i = 0; i < 3; i++)
+        printf("| %.4f | %ld | %.2f %% | %.2f %% |\n", hs[i], nrevs[i], 100 * dev_med[i], 100 * dev_mean[i]);
     printf("\n");
 }
 

@@ -4,11 +4,8 @@
 # of bench/bench_symplectic (paper, section 7: regularized DTH against symplectic and projected methods).
 # Usage: scripts/plot-symplectic.sh [CSV_DIR [FIG_DIR]]   (defaults: bench-out, docs/figures)
 set -eu
-in=${1:-bench-out}
-out=${2:-docs/figures}
-mkdir -p "$out"
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
+. "$(dirname "$0")/plot-lib.sh"   # plot_init, render
+plot_init "$@"
 methods="none smooth prescribed gauss4 midpoint midpoint-proj"
 
 # one data file per (case, method): fput e1 series, time-averaged mode energies
@@ -24,18 +21,6 @@ awk -F, -v d="$tmp" 'NR > 1 { n[$1 "__" $2]++; x[$1 "__" $2, n[$1 "__" $2]] = $4
         for (i = 1; i <= w; i += s) print x[k, i] > (d "/early__" k ".dat");
         for (i = m - w + 1; i <= m; i += s) print x[k, i] > (d "/late__" k ".dat") } }' "$in/section_points.csv"
 awk -F, -v d="$tmp" 'NR > 1 { print $3, $4, $5 > (d "/dist__" $1 "__" $2 ".dat") }' "$in/section_dist.csv"
-
-render() { # $1 output base name, $2 size, $3 gnuplot commands
-    for term in png svg; do
-        if [ $term = png ]; then t="pngcairo size $2"; else t="svg size $2"; fi
-        gnuplot <<EOF
-set terminal $t
-set output "$out/$1.$term"
-set grid
-$3
-EOF
-    done
-}
 
 lines() { # $1 prefix, $2 case, $3 using, $4 style
     first=1

@@ -4,11 +4,8 @@
 # CSV files of bench/bench_wp (paper, section 1: DTH against symplectic and energy methods).
 # Usage: scripts/plot-wp.sh [CSV_DIR [FIG_DIR]]   (defaults: bench-out, docs/figures)
 set -eu
-in=${1:-bench-out}
-out=${2:-docs/figures}
-mkdir -p "$out"
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
+. "$(dirname "$0")/plot-lib.sh"   # plot_init, render
+plot_init "$@"
 floor=1e-17 # energy errors of exactly 0 (or below) are drawn at this floor on the log axes
 
 # Split wp.csv into one data file per (scene, method): x_global y_cpu x_energy (successful runs only).
@@ -30,30 +27,22 @@ plot_set() { # $1 file pattern prefix, $2 using, $3 title-strip prefix
     echo
 }
 
-render() { # $1 output base name, $2 gnuplot settings, $3 plot command
-    for term in png svg; do
-        if [ $term = png ]; then t='pngcairo size 900,650'; else t='svg size 900,650'; fi
-        gnuplot <<EOF
-set terminal $t
-set output "$out/$1.$term"
-set key outside right
-set grid
+wp_render() { # $1 output base name, $2 gnuplot settings, $3 plot command (900 x 650, key outside)
+    render "$1" "900,650" "set key outside right
 $2
-$3
-EOF
-    done
+$3"
 }
 
 for scene in $(awk -F, 'NR > 1 { print $1 }' "$in/wp.csv" | sort -u); do
-    render "wp_${scene}_global" "set logscale xy; set xlabel 'global error at the end (max norm)'; set ylabel 'CPU seconds'; set title '$scene: work-precision (global error)'" \
+    wp_render "wp_${scene}_global" "set logscale xy; set xlabel 'global error at the end (max norm)'; set ylabel 'CPU seconds'; set title '$scene: work-precision (global error)'" \
         "$(plot_set "${scene}__" 1:2 "${scene}__")"
-    render "wp_${scene}_energy" "set logscale xy; set xlabel 'largest energy error (DTH: at midpoints; floor $floor)'; set ylabel 'CPU seconds'; set title '$scene: work-precision (energy error)'" \
+    wp_render "wp_${scene}_energy" "set logscale xy; set xlabel 'largest energy error (DTH: at midpoints; floor $floor)'; set ylabel 'CPU seconds'; set title '$scene: work-precision (energy error)'" \
         "$(plot_set "${scene}__" 3:2 "${scene}__")"
 done
 for scene in $(awk -F, 'NR > 1 { print $1 }' "$in/energy_time.csv" | sort -u); do
-    render "energy_time_${scene}" "set logscale y; set xlabel 't'; set ylabel '|H - E0| (floor $floor)'; set title '$scene: energy error against time, h = 0.01'" \
+    wp_render "energy_time_${scene}" "set logscale y; set xlabel 't'; set ylabel '|H - E0| (floor $floor)'; set title '$scene: energy error against time, h = 0.01'" \
         "$(plot_set "et__${scene}__" 1:2 "et__${scene}__")"
 done
-render "dth_steps" "set logscale y; set xlabel 't'; set ylabel 'DTH step lambda'; set title 'DTH step size against time (midpoint start)'" \
+wp_render "dth_steps" "set logscale y; set xlabel 't'; set ylabel 'DTH step lambda'; set title 'DTH step size against time (midpoint start)'" \
     "$(plot_set "steps__" 1:2 "steps__")"
 echo "figures written to $out"

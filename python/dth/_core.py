@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: MIT
 """Scenes, runs through the library's driver dth_run, roots, checkpoints and user models (the
 Python face of lib/include/dth/*.h; see docs/python.md)."""
+import contextlib
 import json
 import math
 import numbers
@@ -13,9 +14,18 @@ __all__ = ["DthError", "OutsideDomain", "Scene", "Simulation", "Result", "Events
            "CModel", "load_model", "run", "roots", "map", "models", "strerror", "status_name"]
 
 _ERRLEN = 1024
-_STOP = {0: "running", 1: "end", 2: "event", 3: "callback", 4: "failed"}
-_KIND = {0: "vertex", 1: "midpoint", 2: "time", 3: "end", 4: "event"}
-DTH_EMODEL = -4
+
+
+def _enum_names(ctype, prefix):
+    """{value: name} of a C enum declared to cffi, the name without its prefix, in lower case (dth_run_stop:
+    DTH_RUN_END -> "end"); read from the declarations, so the library need not be loaded."""
+    return {v: k[len(prefix):].lower() for v, k in ffi.typeof(ctype).elements.items()}
+
+
+_STOP = _enum_names("dth_run_stop", "DTH_RUN_")          # 0: "running", 1: "end", ...
+_KIND = _enum_names("dth_sample_kind", "DTH_SAMPLE_")    # 0: "vertex", 1: "midpoint", ...
+_STATUS = ffi.typeof("dth_status").relements
+DTH_EMODEL = _STATUS["DTH_EMODEL"]
 
 # Exceptions raised inside callbacks that C called: re-raised once control is back in Python.
 _pending = []
@@ -308,6 +318,8 @@ class _PyModelType:
     def _callbacks(self):
         mc, live, spec_keys = self.cls, self._live, list(self.cls.params)
         ninv = len(mc.invariant_names)
+        L = lib()
+        _EVAL_H, _EVAL_GRAD, _EVAL_HESS = L.DTH_EVAL_H, L.DTH_EVAL_GRAD, L.DTH_EVAL_HESS
 
         @ffi.callback("int(const dth_model_args *, void **, dth_model_info *)", error=DTH_EMODEL, onerror=_onerror)
         def create(args, selfp, info):
@@ -358,14 +370,14 @@ class _PyModelType:
             inst, n, q, t, p = split(selfp, y)
             m = 2 * n + 1
             try:
-                if what & 1:
+                if what & _EVAL_H:
                     H[0] = float(inst.H(q, t, p))
-                if what & 2:
+                if what & _EVAL_GRAD:
                     g = np.ascontiguousarray(inst.grad(q, t, p), dtype=np.float64)
                     if g.shape != (m,):
                         raise ValueError("%s.grad returned shape %s, not (%d,)" % (mc.__name__, g.shape, m))
                     ffi.memmove(grad, g, 8 * m)
-                if what & 4:
+                if what & _EVAL_HESS:
                     h = np.ascontiguousarray(inst.hess(q, t, p), dtype=np.float64)
                     if h.shape != (m, m):
                         raise ValueError("%s.hess returned shape %s, not (%d, %d)" % (mc.__name__, h.shape, m, m))
@@ -402,7 +414,7 @@ def _args_error(args, msg):
     if args.err != ffi.NULL and args.errlen > 0:
         b = msg.encode()[: args.errlen - 1] + b"\0"
         ffi.memmove(args.err, b, len(b))
-    return -1  # DTH_EINVAL
+    return _STATUS["DTH_EINVAL"]
 
 
 class CModel:
@@ -540,13 +552,14 @@ class _Collect:
         self.rows, self.evs = [], []
 
     def energy(self, z):
-        rc = lib().dth_model_eval(self.model, z, 1, self.H, ffi.NULL, ffi.NULL)
+        L = lib()
+        rc = L.dth_model_eval(self.model, z, L.DTH_EVAL_H, self.H, ffi.NULL, ffi.NULL)
         return self.H[0] if rc == 0 else math.nan
 
     def sample(self, s):
         L, N = lib(), self.N
         z = s.z
-        k = s.index if s.kind == 2 or (s.kind == 3 and self.rs.dt > 0) else s.k
+        k = s.index if s.kind == L.DTH_SAMPLE_TIME or (s.kind == L.DTH_SAMPLE_END and self.rs.dt > 0) else s.k
         lam = getattr(s.step, "lambda")
         row = [k, s.kind, lam, ffi.unpack(z, N), self.energy(z), s.step.iters, int(s.step.branch), s.step.flags]
         if self.ninv:
@@ -557,11 +570,11 @@ class _Collect:
         if self.diag:
             # K and the root for the local K estimate as dth run's diagnostics take them
             lam_root, K = 0.0, self.rs.opt.K
-            if s.kind == 0:
+            if s.kind == L.DTH_SAMPLE_VERTEX:
                 lam_root = s.lambda_out
             elif s.za == ffi.NULL:
                 lam_root = -lam
-            elif s.kind != 1:
+            elif s.kind != L.DTH_SAMPLE_MIDPOINT:
                 if L.dth_diagnose(self.model, s.za, lam, K, self.d, self.work) == 0:
                     K = self.d.K
                 else:
@@ -592,7 +605,8 @@ class _Collect:
         r.t, r.q, r.p, r.wp = r.z[:, n], r.z[:, :n], r.z[:, n + 1:2 * n + 1], r.z[:, N - 1]
         r.H = r.wp + r.E
         # 1: the step is an ordinary (symplectic) DTH step, 0: a regularizer's (dth run's column ordinary)
-        r.ordinary = np.array([0 if x[7] & 1 else 1 for x in rows], dtype=np.int64)
+        reg = lib().DTH_STEP_REGULARIZED
+        r.ordinary = np.array([0 if x[7] & reg else 1 for x in rows], dtype=np.int64)
         r.invariant_names = list(self.inv_names)
         c = 8
         if self.ninv:
@@ -842,7 +856,7 @@ class Simulation:
                 if meg is not None:
                     meg.update()
                 if progress is not None and progress(st):
-                    return 10  # DTH_ESTOPPED
+                    return _STATUS["DTH_ESTOPPED"]
                 return 0
             cfg.progress, cfg.progress_every = on_progress, 1
         st = self._st
@@ -955,6 +969,24 @@ class Roots:
             len(self.lam), self.region, ", ".join("%s %.6g" % (c, x) for c, x in zip(self.cls, self.lam)))
 
 
+@contextlib.contextmanager
+def _rootfinder(rs):
+    """A root finder (dth_rootfinder_new) for a run setup's model, with dth_root_options_default and the
+    scene's K; freed when the with block ends."""
+    lb = lib()
+    ro = ffi.new("dth_root_options *")
+    lb.dth_root_options_default(ro)
+    ro.K = rs.opt.K
+    rfp = ffi.new("dth_rootfinder **")
+    rc = lb.dth_rootfinder_new(rs.model, ro, ffi.NULL, rfp)
+    if rc:
+        raise DthError(rc)
+    try:
+        yield rfp[0]
+    finally:
+        lb.dth_rootfinder_free(rfp[0])
+
+
 def roots(scene, set=None, models=(), L=None, z=None):
     """Classify the roots of the step at the scene's initial state taken as a vertex (as dth roots
     does: wp = -H_phys + psi h^2/8), or at the extended vertex z (2n+2 values), in [-L, L]
@@ -969,19 +1001,10 @@ def roots(scene, set=None, models=(), L=None, z=None):
             zz = ffi.new("double[]", [float(x) for x in z])
             if len(zz) != 2 * rs.n + 2:
                 raise ValueError("dth: z has %d values, not 2n+2 = %d" % (len(zz), 2 * rs.n + 2))
-        ro = ffi.new("dth_root_options *")
-        lb.dth_root_options_default(ro)
-        ro.K = rs.opt.K
-        rfp = ffi.new("dth_rootfinder **")
-        rc = lb.dth_rootfinder_new(rs.model, ro, ffi.NULL, rfp)
-        if rc:
-            raise DthError(rc)
         out = ffi.new("dth_root_set *")
-        try:
-            rc = lb.dth_find_roots(rfp[0], zz, float(L) if L else 16 * abs(rs.opt.h), out)
+        with _rootfinder(rs) as rf:
+            rc = lb.dth_find_roots(rf, zz, float(L) if L else 16 * abs(rs.opt.h), out)
             _raise_pending()
-        finally:
-            lb.dth_rootfinder_free(rfp[0])
         if rc:
             raise DthError(rc, "root search failed at the vertex: %s" % strerror(rc))
         r = Roots()
@@ -1028,13 +1051,6 @@ def map(scene, q, p, set=None, models=(), dof=1, L=None):  # noqa: A001  (the CL
         qs, ps = axis(float(q[0]), float(q[1]), int(q[2])), axis(float(p[0]), float(p[1]), int(p[2]))
         h = rs.opt.h
         LL = float(L) if L else 16 * abs(h)
-        ro = ffi.new("dth_root_options *")
-        lb.dth_root_options_default(ro)
-        ro.K = rs.opt.K
-        rfp = ffi.new("dth_rootfinder **")
-        rc = lb.dth_rootfinder_new(rs.model, ro, ffi.NULL, rfp)
-        if rc:
-            raise DthError(rc)
         z = ffi.new("double[]", 2 * n + 2)
         work = ffi.new("double[]", lb.dth_model_work_size(rs.model) + 1)
         H, psi, dpsi = ffi.new("double *"), ffi.new("double *"), ffi.new("double *")
@@ -1047,7 +1063,7 @@ def map(scene, q, p, set=None, models=(), dof=1, L=None):  # noqa: A001  (the CL
         m.nroots = np.zeros(shape, dtype=np.int64)
         m.status = np.zeros(shape, dtype=np.int64)
         m.region = [["" for _ in ps] for _ in qs]
-        try:
+        with _rootfinder(rs) as rf:
             for i, qv in enumerate(qs):
                 for j, pv in enumerate(ps):
                     ffi.memmove(z, rs.q0, 8 * n)
@@ -1055,13 +1071,13 @@ def map(scene, q, p, set=None, models=(), dof=1, L=None):  # noqa: A001  (the CL
                     ffi.memmove(z + n + 1, rs.p0, 8 * n)
                     z[dof - 1], z[n + dof] = qv, pv
                     psi[0] = dpsi[0] = math.nan
-                    rc = lb.dth_model_eval(rs.model, z, 1, H, ffi.NULL, ffi.NULL)
+                    rc = lb.dth_model_eval(rs.model, z, lb.DTH_EVAL_H, H, ffi.NULL, ffi.NULL)
                     if not rc:
                         rc = lb.dth_model_psi(rs.model, z, psi, dpsi, work)
                     m.psi[i, j], m.dpsi[i, j] = psi[0], dpsi[0]
                     if not rc:
                         z[2 * n + 1] = -H[0] + psi[0] * h * h / 8
-                        rc = lb.dth_find_roots(rfp[0], z, LL, out)
+                        rc = lb.dth_find_roots(rf, z, LL, out)
                     _raise_pending()
                     m.status[i, j] = rc
                     if rc:
@@ -1073,12 +1089,10 @@ def map(scene, q, p, set=None, models=(), dof=1, L=None):  # noqa: A001  (the CL
                     for k in range(out.count):
                         r = out.root[k]
                         lam = getattr(r, "lambda")
-                        if r.cls == 1:
+                        if r.cls == lb.DTH_BRANCH_MINUS:
                             m.lambda_minus[i, j] = lam
-                        elif r.cls == 2:
+                        elif r.cls == lb.DTH_BRANCH_PLUS:
                             m.lambda_plus[i, j] = lam
-                        elif r.cls == 3 and not abs(lam) >= abs(m.lambda_ghost[i, j]):
+                        elif r.cls == lb.DTH_BRANCH_GHOST and not abs(lam) >= abs(m.lambda_ghost[i, j]):
                             m.lambda_ghost[i, j] = lam
-        finally:
-            lb.dth_rootfinder_free(rfp[0])
         return m

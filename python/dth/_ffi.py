@@ -2,10 +2,12 @@
 """The C declarations of libdth that the Python package uses (cffi ABI mode), and where the library
 is found.
 
-ABI mode needs every struct declared exactly as the C headers lay it out. The meson test
-`python-layout` compiles a C program generated from these declarations (gen_layout.py) that
-compares every size and field offset with the compiler's, so a header change that is not mirrored
-here fails a test instead of corrupting memory.
+ABI mode needs every struct declared exactly as the C headers lay it out, every function with the
+headers' prototype and every constant with the headers' value. The meson test `python-layout`
+compiles a C program generated from these declarations (gen_layout.py) against the headers: it
+compares every struct size and field offset, every enumerator's value and every function's type
+with the compiler's, so a header change that is not mirrored here fails a test instead of
+corrupting memory.
 
 Where libdth.so is looked up, in order (the first that exists is used):
   1. the environment variable DTH_LIBRARY (a path to libdth.so; if set, nothing else is tried);
@@ -20,6 +22,12 @@ from cffi import FFI
 
 CDEF = r"""
 /* status.h */
+typedef enum dth_status {
+    DTH_OK = 0, DTH_ENOCONV = 1, DTH_ESINGULAR = 2, DTH_ENOROOT = 3, DTH_ENEGOFFSET = 4, DTH_EGHOST = 5,
+    DTH_EFOLD = 6, DTH_EDOMAIN = 7, DTH_EREFUSED = 8, DTH_ESTEPSIZE = 9, DTH_ESTOPPED = 10,
+    DTH_EINVAL = -1, DTH_ENOMEM = -2, DTH_ELAPACK = -3, DTH_EMODEL = -4, DTH_EIO = -5, DTH_EPARSE = -6,
+    DTH_ENOTFOUND = -7, DTH_EUNSUPPORTED = -8
+} dth_status;
 const char *dth_strerror(int status);
 const char *dth_status_name(int status);
 
@@ -42,6 +50,7 @@ typedef struct dth_model_args {
     size_t errlen;
 } dth_model_args;
 typedef enum dth_hess_kind { DTH_HESS_DENSE = 0, DTH_HESS_BANDED = 1 } dth_hess_kind;
+enum { DTH_EVAL_H = 1, DTH_EVAL_GRAD = 2, DTH_EVAL_HESS = 4 };
 typedef struct dth_model_info {
     size_t n;
     int autonomous;
@@ -136,6 +145,7 @@ typedef struct dth_step_info {
     dth_branch branch;
     unsigned flags;
 } dth_step_info;
+enum { DTH_STEP_REGULARIZED = 1, DTH_STEP_CROSSING = 2 };
 typedef struct dth_integrator dth_integrator;
 int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integrator **out);
 void dth_integrator_free(dth_integrator *it);
@@ -288,6 +298,7 @@ int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *
 void dth_run_setup_clear(dth_run_setup *rs);
 
 /* branch.h */
+enum { DTH_ROOT_DOUBLE = 1, DTH_ROOT_ZERO = 2, DTH_ROOT_UNPOLISHED = 4 };
 typedef struct dth_root {
     double lambda;
     double s;
