@@ -326,7 +326,7 @@ static void table_models(double scale)
                 /* the scene's six-digit values */
                 pb.q0[3 * j] = round(1e6 * pb.q0[3 * j]) / 1e6, pb.q0[3 * j + 1] = round(1e6 * pb.q0[3 * j + 1]) / 1e6;
                 pb.q0[3 * j + 2] = round(1e6 * 0.1 * sin(3 * a)) / 1e6;
-                pb.p0[3 * j] = 0.05 * j, pb.p0[3 * j + 1] = 0, pb.p0[3 * j + 2] = round(1e6 * 0.2 * cos(2 * a)) / 1e6;
+                pb.p0[3 * j] = round(1e6 * 0.05 * j) / 1e6, pb.p0[3 * j + 1] = 0, pb.p0[3 * j + 2] = round(1e6 * 0.2 * cos(2 * a)) / 1e6;
             } else {
                 pb.q0[3 * j + 2] = 0;
                 pb.p0[3 * j] = -0.3 * sin(a), pb.p0[3 * j + 1] = 0.3 * cos(a), pb.p0[3 * j + 2] = 0.2 * cos(2 * a);
