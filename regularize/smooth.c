@@ -40,7 +40,11 @@ typedef struct smooth {
     double K;          /* the law's constant in l^6 psi_e^2 = K (> 0 once fixed) */
     int K_fixed;       /* K set (parameter `invariant`, or from the first step): a constant after that */
     double inner, outer;
-    double *ks, *work, *d, *y, *g, *zb, *zc;
+    const dth_allocator *alloc;
+    size_t nks;        /* doubles of the kicked segment's dense Newton workspace, 2 (2n + 1)^2 */
+    double *ks;        /* that workspace, allocated at the first changeover step: ordinary steps need
+                        * only O(n), so a large banded model runs until it first needs a changeover */
+    double *work, *d, *y, *g, *zb, *zc;
     double wc, lc;     /* the weight and the law's step at the vertex zc, cached (the next step starts there) */
     int cache_ok;
 } smooth;
@@ -73,11 +77,12 @@ static int create(const dth_reg_args *a, void **self)
             return dth__reg_param_err(a, k, "a number");
     }
     if (!(r->outer > r->inner)) return dth__reg_param_err(a, "outer", "larger than inner");
-    r->ks = dth_calloc(a->alloc, nks + nw + 5 * N, sizeof(double));
-    if (!r->ks) return DTH_ENOMEM;
+    r->work = dth_calloc(a->alloc, nw + 5 * N, sizeof(double));
+    if (!r->work) return DTH_ENOMEM;
+    r->alloc = a->alloc;
+    r->nks = nks;
     r->model = a->model;
     r->n = n;
-    r->work = r->ks + nks;
     r->d = r->work + nw;
     r->y = r->d + N;
     r->g = r->y + N;
@@ -91,6 +96,7 @@ static void destroy(void *self, const dth_allocator *alloc)
     smooth *r = self;
     if (!r) return;
     dth_free(alloc, r->ks);
+    dth_free(alloc, r->work);
     dth_free(alloc, r);
 }
 
@@ -339,6 +345,10 @@ static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
     if (!(lam0 * ev->dir > 0)) {
         act->why = "no step to start the changeover from";
         return DTH_EREFUSED;
+    }
+    if (!r->ks && !(r->ks = dth_calloc(r->alloc, r->nks, sizeof(double)))) {
+        act->why = "no memory for the changeover's dense Newton workspace, 2 (2n + 1)^2 doubles";
+        return DTH_ENOMEM;
     }
     if (!r->K_fixed) {
         /* fix K so that the law gives lam0 at the (predicted) midpoint of the step now taken:

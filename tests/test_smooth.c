@@ -14,6 +14,7 @@
 #include <string.h>
 #include "cu_main.h"
 #include "dth/dth.h"
+#include "failing_alloc.h"
 #include "test_util.h"
 
 static int no_branch_check; /* test_branch_check_off sets it */
@@ -374,6 +375,65 @@ static void test_options(void)
 }
 
 /* Parameters: each bad value is refused with a message naming the key. */
+/* The dense changeover workspace is allocated at the first changeover, once: ordinary steps allocate
+ * nothing; a failed allocation fails that step with DTH_ENOMEM and leaves the state as it was; the
+ * step retried then goes on exactly as a run whose allocation never failed. */
+static void test_lazy_workspace(void)
+{
+    dth_model *m = model(&dth_model_pendulum, NULL, 0, 1);
+    char err[256];
+    failing_alloc fa;
+    dth_allocator al = failing_alloc_make(&fa, 0);
+    dth_regularizer *r = NULL, *ref = NULL;
+    CU_ASSERT_FATAL(dth_regularizer_new(&dth_reg_smooth, NULL, 0, m, &al, &r, err, sizeof err) == DTH_OK);
+    CU_ASSERT_FATAL(dth_regularizer_new(&dth_reg_smooth, NULL, 0, m, NULL, &ref, err, sizeof err) == DTH_OK);
+    long created = fa.count;
+    fa.fail_at = created + 1; /* the first allocation after create() fails */
+    /* a libration (no changeover): nothing allocated */
+    double q0 = 1, p0 = 0;
+    dth_integrator *lib = start(m, r, 0.05, &q0, &p0);
+    for (int k = 0; k < 2000; k++) CU_ASSERT_FATAL(dth_integrator_step(lib, NULL) == DTH_OK);
+    CU_ASSERT_EQUAL(fa.count, created);
+    dth_integrator_free(lib);
+    dth_regularizer_free(r);
+    fa.fail_at = 0;
+    /* the rotating pendulum (a fresh instance): its first changeover fails once, then the run is
+     * the reference's */
+    CU_ASSERT_FATAL(dth_regularizer_new(&dth_reg_smooth, NULL, 0, m, &al, &r, err, sizeof err) == DTH_OK);
+    created = fa.count;
+    fa.fail_at = created + 1;
+    q0 = 0, p0 = 2.2;
+    dth_integrator *a = start(m, r, 0.05, &q0, &p0), *b = start(m, ref, 0.05, &q0, &p0);
+    double before[4];
+    int enomem = 0, same = 1, untouched = 1;
+    long reg = 0;
+    for (int k = 0; k < 400 && same; k++) {
+        dth_step_info ia, ib;
+        memcpy(before, dth_integrator_vertex(a), sizeof before);
+        int rc = dth_integrator_step(a, &ia);
+        if (rc == DTH_ENOMEM) {
+            enomem++;
+            untouched &= !memcmp(before, dth_integrator_vertex(a), sizeof before);
+            rc = dth_integrator_step(a, &ia);
+        }
+        CU_ASSERT_FATAL(rc == DTH_OK);
+        CU_ASSERT_FATAL(dth_integrator_step(b, &ib) == DTH_OK);
+        reg += (ia.flags & DTH_STEP_REGULARIZED) != 0;
+        same = !memcmp(dth_integrator_vertex(a), dth_integrator_vertex(b), sizeof before) && ia.flags == ib.flags;
+    }
+    CU_ASSERT(reg > 10);
+    CU_ASSERT_EQUAL(enomem, 1);
+    CU_ASSERT(untouched);
+    CU_ASSERT(same);
+    CU_ASSERT_EQUAL(fa.count, created + 2); /* the failed attempt and the workspace, nothing after */
+    dth_integrator_free(a);
+    dth_integrator_free(b);
+    dth_regularizer_free(r);
+    dth_regularizer_free(ref);
+    CU_ASSERT_EQUAL(fa.live, 0);
+    dth_model_free(m);
+}
+
 static void test_params(void)
 {
     dth_model *m = model(&dth_model_pendulum, NULL, 0, 1);
@@ -410,6 +470,7 @@ static CU_TestInfo tests[] = {
     {"Kepler e = 0.9: crossings, L exact", test_kepler},
     {"region II fold (psi > 0): a stretched 3-D ring", test_region_two_fold},
     {"options: the law in the core, invariant, outer", test_options},
+    {"changeover workspace: allocated at the first changeover, once", test_lazy_workspace},
     {"parameters", test_params},
     CU_TEST_INFO_NULL,
 };

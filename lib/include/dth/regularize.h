@@ -88,11 +88,14 @@ typedef struct dth_regularizer_type {
     const char *doc;              /**< one-line description (what it preserves, what it gives up) */
     const dth_param_spec *params; /**< accepted parameters */
     size_t n_params;              /**< length of params */
-    /** Build an instance (allocate all workspace here); may be NULL if it needs no state. */
+    /** Build an instance (allocate its workspace here; workspace needed only by rare events may be
+     *  allocated once, at the first such event, with the allocator create was given, as `smooth`
+     *  does its dense changeover workspace); may be NULL if it needs no state. */
     int (*create)(const dth_reg_args *args, void **self);
     /** Release an instance (self may be NULL). */
     void (*destroy)(void *self, const dth_allocator *alloc);
-    /** Decide what to do at an event. Must not allocate. Return 0 or a status (ends the step). */
+    /** Decide what to do at an event. Must not allocate, but for the one-time workspace above
+     *  (DTH_ENOMEM if that fails). Return 0 or a status (ends the step). */
     int (*apply)(void *self, const dth_reg_event *ev, dth_reg_action *act);
     /**
      * Optional screen of an ordinary step za -> zb (time step lambda) that did not change the
