@@ -1,11 +1,14 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Benchmark (not a test): round trips of the DTH step (paper, Theorem "DTH Equations": the step is
- * its own reverse) against implicit midpoint on the same orbit, with the compensated constraint
- * (the default: the vertex offset carried from step to step, dth_options.compensate = 1) and
- * without it. S steps forward, reverse, S steps back; the distance to the start relative to the
- * state's size, and |t - t0| relative to the time span. A Henon-Heiles regular orbit (E = 1/12, a
- * user model) and the pendulum; raw DTH (no regularizer: psi > 0 on these orbits).
+ * its own reverse) against implicit midpoint on the same orbit. DTH with its three finishes
+ * (dth_options.compensate): 2, the reversible finish (the step and its reverse find the same root
+ * to about 2^-100: double-double unknowns and offset, the model read at a coarsened midpoint);
+ * 1, the compensated constraint (the default: the vertex offset carried from step to step); 0,
+ * the plain constraint. S steps forward, reverse, S steps back; the distance to the start
+ * relative to the state's size, and |t - t0| relative to the time span. Henon-Heiles regular
+ * orbits at E = 1/12 (a user model; x = 0, y = 0.1 and four values of p_x) and the pendulum; raw
+ * DTH (no regularizer: psi > 0 on these orbits).
  * Usage: bench_roundtrip [scale]   (scale 1: 10^4 and 10^6 steps; 0.01: 100 and 10^4)
  */
 #include <math.h>
@@ -86,31 +89,37 @@ int main(int argc, char **argv)
         fprintf(stderr, "%s\n", err);
         return 1;
     }
-    /* Henon-Heiles E = 1/12: x = 0, y = 0.1, px = 0.35, py from the energy */
-    double hq[2] = {0, 0.1}, hp[2] = {0.35, 0};
+    /* Henon-Heiles E = 1/12: x = 0, y = 0.1, px given, py from the energy */
+    double pxs[4] = {0.35, 0.3, 0.25, 0.2}, hq[2] = {0, 0.1}, hp[4][2];
     double V = 0.5 * 0.01 - 0.001 / 3;
-    hp[1] = sqrt(2 * (1.0 / 12 - V) - 0.35 * 0.35);
+    for (int i = 0; i < 4; i++) {
+        hp[i][0] = pxs[i];
+        hp[i][1] = sqrt(2 * (1.0 / 12 - V) - pxs[i] * pxs[i]);
+    }
     double pq = 1, pp = 0;
     printf("# bench_roundtrip %g: S steps forward, reverse, S back; |q, p| error relative to the state, |t| relative to the span\n\n", scale);
-    printf("| orbit | h | S | implicit midpoint: q, p / t | DTH compensated: q, p / t | DTH plain constraint: q, p / t | ratio DTH compensated / midpoint (q, p) |\n");
-    printf("|---|---|---|---|---|---|---|\n");
+    printf("| orbit | h | S | implicit midpoint: q, p / t | DTH reversible (compensate = 2): q, p / t | DTH compensated (1, default): q, p / t | DTH plain (0): q, p / t | ratio to midpoint (q, p): reversible, compensated |\n");
+    printf("|---|---|---|---|---|---|---|---|\n");
     long Ss[2] = {(long)fmax(100, 1e4 * scale), (long)fmax(1000, 1e6 * scale)};
     struct {
         const char *name;
         const dth_model *m;
         const double *q, *p;
         double h;
-    } orb[] = {{"Henon-Heiles E = 1/12", hh, hq, hp, 0.05}, {"pendulum, amplitude 1 rad", pend, &pq, &pp, 0.05},
-               {"pendulum, amplitude 1 rad", pend, &pq, &pp, 1e-3}};
+    } orb[] = {{"Henon-Heiles E = 1/12, p_x = 0.35", hh, hq, hp[0], 0.05}, {"Henon-Heiles E = 1/12, p_x = 0.30", hh, hq, hp[1], 0.05},
+               {"Henon-Heiles E = 1/12, p_x = 0.25", hh, hq, hp[2], 0.05}, {"Henon-Heiles E = 1/12, p_x = 0.20", hh, hq, hp[3], 0.05},
+               {"pendulum, amplitude 1 rad", pend, &pq, &pp, 0.05}, {"pendulum, amplitude 1 rad", pend, &pq, &pp, 1e-3}};
     for (size_t i = 0; i < sizeof orb / sizeof orb[0]; i++)
         for (int j = 0; j < 2; j++) {
             long S = Ss[j];
             if (orb[i].h < 0.01 && j == 1) continue;
             rt a = midpoint_roundtrip(orb[i].m, orb[i].q, orb[i].p, orb[i].h, S);
+            rt r = dth_roundtrip(orb[i].m, orb[i].q, orb[i].p, orb[i].h, S, 2);
             rt b = dth_roundtrip(orb[i].m, orb[i].q, orb[i].p, orb[i].h, S, 1);
             rt c = dth_roundtrip(orb[i].m, orb[i].q, orb[i].p, orb[i].h, S, 0);
-            printf("| %s | %g | %ld | %.1e / %.1e | %.1e / %.1e%s | %.1e / %.1e%s | %.0f |\n", orb[i].name, orb[i].h, S, a.dz, a.dt, b.dz, b.dt,
-                   b.rc ? " (stopped)" : "", c.dz, c.dt, c.rc ? " (stopped)" : "", b.dz / fmax(a.dz, 1e-300));
+            printf("| %s | %g | %ld | %.1e / %.1e | %.1e / %.1e%s | %.1e / %.1e%s | %.1e / %.1e%s | %.0f, %.0f |\n", orb[i].name, orb[i].h, S, a.dz,
+                   a.dt, r.dz, r.dt, r.rc ? " (stopped)" : "", b.dz, b.dt, b.rc ? " (stopped)" : "", c.dz, c.dt, c.rc ? " (stopped)" : "",
+                   r.dz / fmax(a.dz, 1e-300), b.dz / fmax(a.dz, 1e-300));
             fflush(stdout);
         }
     dth_model_free(hh);

@@ -160,7 +160,7 @@ enum { NOPT = sizeof opt_fields / sizeof opt_fields[0] };
 
 static optv options_of(const dth_integrator *it)
 {
-    optv o = {it->rf != NULL, it->opt.compensate != 0, it->opt.max_iter, (long)it->kind, it->opt.K};
+    optv o = {it->rf != NULL, it->opt.compensate, it->opt.max_iter, (long)it->kind, it->opt.K};
     return o;
 }
 

@@ -6,6 +6,7 @@
  */
 #include <math.h>
 #include <stdio.h>
+#include <stdint.h>
 #include <string.h>
 #include "dth_internal.h"
 #include "integrator_impl.h"
@@ -81,6 +82,8 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
         kind = banded_model ? DTH_LINSOLVE_BANDED : msz <= DTH__SMALL_MAX ? DTH_LINSOLVE_SMALL : DTH_LINSOLVE_DENSE;
     int dense = kind != DTH_LINSOLVE_BANDED && kind != DTH_LINSOLVE_BANDED_LU; /* banded: no O(n^2) buffers */
     if (dense && msz > (size_t)1 << 15) return DTH_EUNSUPPORTED; /* a dense m x m would not fit */
+    if (opt->compensate < 0 || opt->compensate > 2) return DTH_EINVAL;
+    if (opt->compensate == 2 && !dense) return DTH_EUNSUPPORTED; /* the reversible finish reads H'' (coarse_n) */
     const dth_allocator *al = opt->alloc;
     dth_integrator *it = dth_calloc(al, 1, sizeof *it);
     if (!it) return DTH_ENOMEM;
@@ -99,7 +102,7 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     /* one block of doubles, carved below */
     size_t sizes[] = {N, N, N, N, N, N, N, N, N, N, d, (size_t)dense * d * d, N, d, (size_t)dense * m * m, m, m, m,
                       dth_model_work_size(model), (size_t)dense * m * N,
-                      dth_model_get_type(model)->hdiff ? 0 : 2 * d, N}; /* hwork: dth__model_hdiff's rule only */
+                      dth_model_get_type(model)->hdiff ? 0 : 2 * d, N, m, N, N, N, N, N}; /* hwork: dth__model_hdiff's rule only */
     for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) nd += sizes[i];
     it->block = dth_calloc(al, nd, sizeof(double));
     it->piv = dth_calloc(al, 2 * m, sizeof(int));
@@ -110,7 +113,7 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     double *p = it->block;
     double **slots[] = {&it->st.z, &it->st.zlo, &it->st.zbar, &it->st.dprev, &it->st.dprev2, &it->st.dprev3, &it->dnew, &it->znew, &it->znewlo,
                         &it->zb, &it->grad, &it->hess, &it->u, &it->ybar, &it->A, &it->F, &it->x, &it->dx,
-                        &it->work, &it->B, &it->hwork, &it->zblo};
+                        &it->work, &it->B, &it->hwork, &it->zblo, &it->xlo, &it->yc, &it->ydel, &it->ygl, &it->vc, &it->yprev};
     for (size_t i = 0; i < sizeof slots / sizeof slots[0]; i++) {
         *slots[i] = sizes[i] ? p : NULL;
         p += sizes[i];
@@ -126,6 +129,7 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     it->act = it->piv + m;
     it->nsmall = auton && dense && dth__lu_small(kind, it->m) && n <= 3 ? (int)n : 0;
     it->small_schur = it->nsmall && kind != DTH_LINSOLVE_SMALL_LU && dth_model_get_info(model)->separable;
+    it->rev = opt->compensate == 2; /* the reversible finish (dense only, above) */
     it->meval = dth_model_get_type(model)->eval;
     it->mhdiff = dth_model_get_type(model)->hdiff;
     it->mself = dth__model_self(model);
@@ -190,15 +194,74 @@ static inline double two_sum(double a, double b, double *e)
     return s;
 }
 
-/* The vertex offset rho = H(z_k) evaluated directly (a start, or after a regularizer's step). */
+/*
+ * c = v coarsened over y = (q, t, p) (d = 2n + 1 entries): each entry truncated toward zero to a
+ * multiple of 2^(e - COARSE_BITS), e the binary exponent of its block's largest magnitude (the q
+ * block, t, the p block), so that a coarse cell spans 2^(52 - COARSE_BITS) ulps of the block's
+ * scale also for an entry near zero. A deterministic, odd function of v. Where the model is read:
+ * rho_from_mid_n, coarse_n.
+ */
+enum { COARSE_BITS = 28 };
+/* The rounding error of the product p = a b, exactly (Dekker: no fma call; |a|, |b| < 2^995). */
+static inline double prod_err(double a, double b, double p)
+{
+    double ca = 134217729.0 * a, ah = ca - (ca - a), al = a - ah;
+    double cb = 134217729.0 * b, bh = cb - (cb - b), bl = b - bh;
+    return ((ah * bh - p) + ah * bl + al * bh) + al * bl;
+}
+
+/* v truncated toward zero to a multiple of 2^qe (bit operations: exact, no library call). */
+static inline double trunc_to(double v, int qe)
+{
+    uint64_t b;
+    memcpy(&b, &v, sizeof b);
+    int ev = (int)((b >> 52) & 0x7ff);
+    if (ev == 0x7ff) return v; /* NaN, Inf */
+    int keep = ev - 1023 - qe; /* mantissa bits above the quantum (subnormals: below it) */
+    if (ev == 0 || keep < 0) return copysign(0.0, v);
+    if (keep >= 52) return v;
+    b &= ~(((uint64_t)1 << (52 - keep)) - 1);
+    memcpy(&v, &b, sizeof v);
+    return v;
+}
+
+/* The binary exponent of the largest |v[j]| over j = a, a + 1, ..., b - 1 (bit patterns compared
+ * as integers: no library call), -1075 if all are zero; NaN and Inf give 1024. */
+static inline int max_expo(const double *v, size_t a, size_t b)
+{
+    uint64_t m = 0;
+    for (size_t j = a; j < b; j++) {
+        uint64_t u;
+        memcpy(&u, &v[j], sizeof u);
+        u &= ~((uint64_t)1 << 63);
+        if (u > m) m = u;
+    }
+    int e = (int)(m >> 52);
+    return e == 0 ? (m == 0 ? -1075 : -1023) : e - 1023;
+}
+
+static void coarsen_y(size_t n, const double *v, double *c)
+{
+    int eq = max_expo(v, 0, n) - COARSE_BITS, et = max_expo(v, n, n + 1) - COARSE_BITS;
+    int ep = max_expo(v, n + 1, 2 * n + 1) - COARSE_BITS;
+    for (size_t i = 0; i < n; i++) {
+        c[i] = trunc_to(v[i], eq);
+        c[n + 1 + i] = trunc_to(v[n + 1 + i], ep);
+    }
+    c[n] = trunc_to(v[n], et);
+}
+
+/* The vertex offset rho = H(z_k) evaluated directly (a start, or after a regularizer's step),
+ * over y at the high part (rho_from_mid_n says why). */
 static int rho_direct(dth_integrator *it)
 {
     size_t N = it->N;
     double Hp;
-    for (size_t j = 0; j + 1 < N; j++) it->ybar[j] = it->st.z[j] + it->st.zlo[j];
-    int rc = dth_model_eval(it->model, it->ybar, DTH_EVAL_H, &Hp, NULL, NULL);
+    if (it->rev) coarsen_y(it->n, it->st.z, it->vc); /* the vertex point rho_from_mid_n reads */
+    else memcpy(it->vc, it->st.z, (N - 1) * sizeof *it->vc);
+    int rc = dth_model_eval(it->model, it->vc, DTH_EVAL_H, &Hp, NULL, NULL);
     if (rc) return rc;
-    it->st.rho = (it->st.z[N - 1] + it->st.zlo[N - 1]) + Hp;
+    it->st.rho = two_sum(it->st.z[N - 1], it->st.zlo[N - 1] + Hp, &it->st.rholo);
     return DTH_OK;
 }
 
@@ -210,35 +273,55 @@ int dth__integrator_rho_reset(dth_integrator *it) { return it->opt.compensate ? 
 #define AI static inline __attribute__((always_inline))
 
 /*
- * H(z + zlo) - H(zb + zblo) without cancellation, both points double-double (zblo may be NULL):
- * the wp difference, the model's hdiff over y between the high parts, and the low parts through
- * the gradient at the midpoint (grad: over y at zb). The midpoint's low part matters: a double
- * midpoint moves in steps of eps |zbar|, which changes H by eps S, the noise this avoids.
+ * The vertex offset's difference H(z) - H(zb + zblo) without cancellation, where the vertex z
+ * enters by its high part over y (and wp by both parts) and the midpoint is double-double (zblo may
+ * be NULL): the wp difference, the model's hdiff over y between the high parts, and the midpoint's
+ * low part through the gradient there (grad: over y at zb). The carried offset rho is thus
+ * H(q, t, p high parts; wp) at each vertex: a definition, exact to O(eps^2), that keeps the step's
+ * equations a function of (vertex, rho) alone, the same for the step and its reverse. The
+ * vertex's low part shows in the midpoint (zb + zblo carries it), where the gradient is the
+ * right one; read through the midpoint's gradient at the vertex it would err by |H''| |d| |zlo|,
+ * about eps |d| per step, the noise that random-walked the offset and the round trip's phase.
+ * The midpoint's low part matters: a double midpoint moves in steps of eps |zbar|, which changes
+ * H by eps S.
  */
-AI int rho_from_mid_n(dth_integrator *it, const size_t nc, const double *zb, const double *zblo, const double *grad,
-                     const double *z, const double *zlo, double *rho)
+AI int rho_from_mid_n(dth_integrator *it, const size_t nc, const double *zb, const double *dyh, const double *zblo,
+                     const double *grad, const double *gl, const double *z, const double *zlo, double *rho, double *rholo)
 {
     size_t d = nc ? 2 * nc + 1 : it->d, N = d + 1;
-    double dh;
+    double dh, *c = it->vc;
     int rc;
+    if (it->rev) coarsen_y(nc ? nc : it->n, z, c);
+    else memcpy(c, z, d * sizeof *z);
+    c[d] = z[d];
     if (it->mhdiff) { /* dth__model_hdiff without the call */
-        rc = it->mhdiff(it->mself, z, zb, &dh);
+        rc = it->mhdiff(it->mself, c, zb, &dh);
         if (rc) return rc > 0 ? DTH_EDOMAIN : DTH_EMODEL;
         if (!isfinite(dh)) return DTH_EDOMAIN;
     } else {
-        rc = dth__model_hdiff(it->model, z, zb, it->hwork, &dh);
+        rc = dth__model_hdiff(it->model, c, zb, it->hwork, &dh);
         if (rc) return rc;
     }
-    double lo = 0;
-    for (size_t j = 0; j < d; j++) lo += grad[j] * (zlo[j] - (zblo ? zblo[j] : 0));
-    *rho = ((z[N - 1] - zb[N - 1]) + (zlo[N - 1] - (zblo ? zblo[N - 1] : 0))) + (dh + lo);
+    /* minus (g + gl/2) (dyh + zblo): g dyh exactly (dyh is up to 2^-32 |zb|), in double-double */
+    double s = 0, e = 0, r = 0;
+    for (size_t j = 0; j < d; j++) {
+        double h = dyh ? dyh[j] : 0, l = zblo ? zblo[j] : 0, gj = grad[j], t;
+        if (h != 0) {
+            double p = gj * h, pe = prod_err(gj, h, p);
+            s = two_sum(s, p, &t);
+            e += t + pe;
+        }
+        r += gj * l + (gl ? 0.5 * gl[j] * (h + l) : 0);
+    }
+    double wpd = (z[N - 1] - zb[N - 1]) + (zlo[N - 1] - (zblo ? zblo[N - 1] : 0)), l1, h1 = two_sum(dh, -s, &l1);
+    *rho = two_sum(h1, l1 + (wpd - (e + r)), rholo);
     return DTH_OK;
 }
 
 static int rho_from_mid(dth_integrator *it, const double *zb, const double *zblo, const double *grad, const double *z,
-                        const double *zlo, double *rho)
+                        const double *zlo, double *rho, double *rholo)
 {
-    return rho_from_mid_n(it, 0, zb, zblo, grad, z, zlo, rho);
+    return rho_from_mid_n(it, 0, zb, NULL, zblo, grad, NULL, z, zlo, rho, rholo);
 }
 
 static void reset_history(dth_integrator *it)
@@ -368,7 +451,7 @@ int dth_integrator_start(dth_integrator *it, const double *q0, const double *p0,
         }
         if (it->opt.compensate) {
             /* H(zbar_0) = wp + H_phys = 0 exactly (wp = -H_phys) */
-            rc = rho_from_mid(it, it->st.zbar, NULL, it->grad, it->st.z, it->st.zlo, &it->st.rho);
+            rc = rho_from_mid(it, it->st.zbar, NULL, it->grad, it->st.z, it->st.zlo, &it->st.rho, &it->st.rholo);
             if (rc) {
                 seterr(it, "model evaluation failed at the first vertex");
                 return rc;
@@ -441,26 +524,37 @@ void dth_integrator_reverse(dth_integrator *it)
 AI double sum_lo(double a, double b, double *lo) { return lo ? two_sum(a, b, lo) : a + b; }
 
 /*
- * zbar = (z + zlo) + d for the unknowns x; passive t, wp in closed form (autonomous). zblo (NULL:
- * not wanted) gets the low part: zb + zblo = z + zlo + d exactly (to the rounding of zlo + d, far
- * below eps |zbar|).
+ * zbar = (z + zlo) + (x + xlo) for the unknowns x and their low part xlo (the finishing chord
+ * steps' roundings, newton.h; zero during the iterations); passive t, wp in closed form
+ * (autonomous). zblo (NULL: not wanted) gets the low part, zb + zblo = z + zlo + x + xlo to
+ * O(eps^2 |zbar|): the finishing midpoint is not quantized to the ulp of the offset d, which would
+ * leave an energy residual of eps |grad H| |d| at the midpoint (and a vertex offset that the
+ * reverse step does not reproduce). Without zblo, the double sum the iterations need.
  */
+AI double mid_dd(int rev, double z, double zlo, double x, double xlo, double *lo)
+{
+    if (!lo) return z + (zlo + x);
+    if (!rev) return two_sum(z, zlo + x, lo); /* to the rounding of zlo + x, far below eps |zbar| */
+    double e, s = two_sum(z, x, &e);
+    return two_sum(s, (zlo + xlo) + e, lo);
+}
+
 AI void midpoint_n(const dth_integrator *it, const size_t nc, const double *x, double *zb, double *zblo)
 {
     size_t n = nc ? nc : it->n, N = 2 * n + 2;
     int m = nc ? (int)(2 * nc + 1) : it->m;
-    const double *z = it->st.z, *zlo = it->st.zlo;
+    const double *z = it->st.z, *zlo = it->st.zlo, *xl = it->xlo;
     if (nc || it->auton) {
         /* unknowns (d_q, d_p, lambda) */
         for (size_t i = 0; i < n; i++) {
-            zb[i] = sum_lo(z[i], zlo[i] + x[i], zblo ? &zblo[i] : NULL);
-            zb[n + 1 + i] = sum_lo(z[n + 1 + i], zlo[n + 1 + i] + x[n + i], zblo ? &zblo[n + 1 + i] : NULL);
+            zb[i] = mid_dd(it->rev, z[i], zlo[i], x[i], xl[i], zblo ? &zblo[i] : NULL);
+            zb[n + 1 + i] = mid_dd(it->rev, z[n + 1 + i], zlo[n + 1 + i], x[n + i], xl[n + i], zblo ? &zblo[n + 1 + i] : NULL);
         }
-        zb[n] = sum_lo(z[n], zlo[n] + 0.5 * x[m - 1], zblo ? &zblo[n] : NULL);
+        zb[n] = mid_dd(it->rev, z[n], zlo[n], 0.5 * x[m - 1], 0.5 * xl[m - 1], zblo ? &zblo[n] : NULL);
         zb[N - 1] = sum_lo(z[N - 1], zlo[N - 1], zblo ? &zblo[N - 1] : NULL);
         return;
     }
-    for (int a = 0; a < m - 1; a++) zb[a] = sum_lo(z[a], zlo[a] + x[a], zblo ? &zblo[a] : NULL);
+    for (int a = 0; a < m - 1; a++) zb[a] = mid_dd(it->rev, z[a], zlo[a], x[a], xl[a], zblo ? &zblo[a] : NULL);
 }
 
 /* The Newton unknowns it->x from a step: the offset d (length N) over the active components, then
@@ -479,6 +573,8 @@ AI void unknowns_n(dth_integrator *it, const size_t nc, const double *d, double 
         for (int a = 0; a < m - 1; a++) x[a] = d[it->act[a]];
     }
     x[m - 1] = lam;
+    memset(it->xlo, 0, (size_t)m * sizeof *it->xlo);
+    it->ypinned = 0;
 }
 
 void dth__integrator_set_solution(dth_integrator *it, const double *d, double lam)
@@ -654,6 +750,41 @@ static const struct dth__linsolver *linsolver_of(dth_linsolve kind)
 }
 
 /*
+ * The point y where a compensated chord step evaluates the model, and dy = zbar - y (zbar = zb +
+ * zblo): y is the midpoint coarsened to 2^20 ulps of its blocks' scales (coarsen_y), and the step reads the model there with its
+ * Taylor terms to the midpoint, g(zbar) = g(y) + H''(y) dy and H(zbar) = H(y) + (g + H'' dy / 2) dy
+ * (dy <= 2^-32 |zbar|: the terms left out are below eps^2). Why not at zbar itself: the model's
+ * values carry their own rounding, eps |g|, different at every double point, and lambda amplifies
+ * a change of the equations by 1/lambda^2 (it is fixed at second order); where the chord steps
+ * move the double midpoint by an ulp, the equations jump and the step and its reverse settle at
+ * different roots. The coarse point is the same for both (the double-double midpoints agree to
+ * eps^2) but where zbar lies within eps^2 of a coarse boundary. Without a dense Hessian (banded)
+ * y = zb: no Taylor terms beyond the gradient.
+ */
+AI void coarse_n(dth_integrator *it, const size_t nc, const double *zb, double *dy)
+{
+    size_t d = nc ? 2 * nc + 1 : it->d;
+    if (!it->ypinned) coarsen_y(nc ? nc : it->n, zb, it->yc);
+    for (size_t j = 0; j < d; j++) {
+        double c = it->yc[j];
+        dy[j] = zb[j] - c; /* exact (c is zb with low bits cleared, or a neighbour's: pinned); zblo is the rest */
+    }
+    it->yc[d] = zb[d];
+    dy[d] = 0;
+}
+
+/*
+ * (x + xlo) - (hl + hlo) (u + ulh + ull) with one rounding at the end: the products hl u and hl ulh
+ * exactly (fma gives their errors), where ulh + ull = (J H''(y) (zbar - y))_j, up to 2^-32 |u|.
+ */
+AI double exact_row(double x, double xlo, double hl, double hlo, double u, double ulh, double ull)
+{
+    double ph = hl * u, pl = prod_err(hl, u, ph), qh = hl * ulh, ql = prod_err(hl, ulh, qh), e1, e2;
+    double s1 = two_sum(x, -ph, &e1), s2 = two_sum(s1, -qh, &e2);
+    return s2 + (((((xlo - pl) - ql) - hlo * u) - (hl * ull + hlo * ulh)) + (e1 + e2));
+}
+
+/*
  * The compensated finish of a step, as the residual of its chord steps (newton.h): the constraint
  * row from the carried vertex offset, E = rho_k + (H(zbar) - H(z_k)), the difference from the
  * model's hdiff: its error scales with the step instead of with the energy's size. The direct value
@@ -669,15 +800,60 @@ static const struct dth__linsolver *linsolver_of(dth_linsolve kind)
  */
 AI int compensated_n(dth_integrator *it, const size_t nc, const double *x, double *F)
 {
+    size_t n = nc ? nc : it->n;
     int m = nc ? (int)(2 * nc + 1) : it->m;
-    double dh;
-    int rc = rho_from_mid_n(it, nc, it->zb, it->zblo, it->grad, it->st.z, it->st.zlo, &dh); /* H(z_k) - H(zbar) */
+    /* the offset rows d - (lambda/2) u to O(eps^2 |d|), with the low parts of the unknowns: a
+     * residual rounded to eps |d| moves lambda by about eps |d| |grad H| / (|psi| lambda^2 / 4) (the
+     * constraint fixes lambda at second order), which the reverse step would not reproduce */
+    const double *xl = it->xlo, hl = 0.5 * x[m - 1], hlo = 0.5 * xl[m - 1], *dy = it->ydel;
+    size_t d = 2 * n + 1;
+    if (!it->rev) { /* the compensated constraint alone (the rows as assemble_n has them) */
+        double dh, dhlo;
+        int rc = rho_from_mid_n(it, nc, it->zb, NULL, it->zblo, it->grad, NULL, it->st.z, it->st.zlo, &dh, &dhlo);
+        if (rc) {
+            seterr(it, "model evaluation failed in the compensated constraint: %s", dth_strerror(rc));
+            return rc;
+        }
+        double ec = (it->st.rho - dh) + (it->st.rholo - dhlo), rd = F[m - 1];
+        double tau = 4 * DBL_EPSILON * h_scale_n(it, nc, it->zb, it->Hphys);
+        F[m - 1] = fabs(ec - rd) <= tau ? ec : rd;
+        return DTH_OK;
+    }
+    /* the gradient's change from y to the midpoint, gl = H''(y) (zbar - y), in double-double (the
+     * products with dy, up to 2^-32 |zbar|, exactly): its rounding would be noise in the rows */
+    double *gl = it->ygl, *gll = it->ybar;
+    for (size_t j = 0; j < d; j++) {
+        double a = 0, al = 0, t;
+        for (size_t k = 0; k < d; k++) {
+            double h = it->hess[j * d + k], p = h * dy[k];
+            a = two_sum(a, p, &t);
+            al += (t + prod_err(h, dy[k], p)) + h * it->zblo[k];
+        }
+        gl[j] = two_sum(a, al, &gll[j]);
+    }
+    if (nc || it->auton) {
+        for (size_t i = 0; i < n; i++) {
+            F[i] = exact_row(x[i], xl[i], hl, hlo, it->grad[n + 1 + i], gl[n + 1 + i], gll[n + 1 + i]);
+            F[n + i] = exact_row(x[n + i], xl[n + i], hl, hlo, -it->grad[i], -gl[i], -gll[i]);
+        }
+    } else {
+        for (int a = 0; a < m - 1; a++) {
+            size_t j = (size_t)it->act[a];
+            /* (J gl)_j, dth__flow_z */
+            double ulh = j < n ? gl[n + 1 + j] : j == n ? 0 : j < d ? -gl[j - n - 1] : -gl[n];
+            double ull = j < n ? gll[n + 1 + j] : j == n ? 0 : j < d ? -gll[j - n - 1] : -gll[n];
+            F[a] = exact_row(x[a], xl[a], hl, hlo, it->u[j], ulh, ull);
+        }
+    }
+    double dh, dhlo;
+    int rc = rho_from_mid_n(it, nc, it->yc, dy, it->zblo, it->grad, gl, it->st.z, it->st.zlo, &dh, &dhlo); /* H(z_k) - H(zbar) */
     if (rc) {
         seterr(it, "model evaluation failed in the compensated constraint: %s", dth_strerror(rc));
         return rc;
     }
-    double ec = it->st.rho - dh, rd = F[m - 1], tau = 4 * DBL_EPSILON * h_scale_n(it, nc, it->zb, it->Hphys);
-    F[m - 1] = fabs(ec - rd) <= tau ? ec : rd;
+    /* no fallback to the direct value here: the carried offset is what makes the step its own
+     * reverse (its random walk, eps |grad H| |d| per step, is the energy's) */
+    F[m - 1] = (it->st.rho - dh) + (it->st.rholo - dhlo);
     return DTH_OK;
 }
 
@@ -759,12 +935,16 @@ AI void schur_solve_n(const dth_integrator *it, const size_t n, double *b)
 AI int eval_n(dth_integrator *it, const size_t nc, const double *x, double *F, int jac)
 {
     int m = nc ? (int)(2 * nc + 1) : it->m;
-    /* a chord step's compensated constraint (compensated_n) needs the midpoint's low part */
-    midpoint_n(it, nc, x, it->zb, !jac && it->opt.compensate ? it->zblo : NULL);
+    /* a chord step's compensated constraint (compensated_n) needs the midpoint's low part, and
+     * evaluates the model at the coarsened midpoint y (coarse_n) */
+    int fin = !jac && it->opt.compensate;
+    midpoint_n(it, nc, x, it->zb, fin ? it->zblo : NULL);
     /* the model's outputs are not swept for NaN/Inf here (the Hessian alone is (2n+1)^2): a
      * non-finite value shows in the correction, and step_judge finds out why */
-    unsigned what = DTH_EVAL_H | DTH_EVAL_GRAD | (jac ? it->ls->hess : 0u);
-    int rc = it->meval(it->mself, it->zb, what, &it->Hphys, it->grad, it->hess);
+    unsigned what = DTH_EVAL_H | DTH_EVAL_GRAD | (jac || (fin && it->rev) ? it->ls->hess : 0u);
+    int at_y = fin && it->rev;
+    if (at_y) coarse_n(it, nc, it->zb, it->ydel);
+    int rc = it->meval(it->mself, at_y ? it->yc : it->zb, what, &it->Hphys, it->grad, it->hess);
     if (rc) {
         rc = rc > 0 ? DTH_EDOMAIN : DTH_EMODEL;
         seterr(it, "model evaluation failed at a trial midpoint (iteration %d): %s", it->nt.iter, dth_strerror(rc));
@@ -885,13 +1065,47 @@ static int step_judge(void *ctx, const double *x, const double *dx, const double
     return judge_n(ctx, 0, x, dx, F, tr, verdict);
 }
 
-/* One more compensated chord step where the last one moved lambda so far (a stalled Newton at tiny
- * steps) that the chord's own second-order error dlambda^2 / lambda is above eps lambda; at most 3. */
+/*
+ * One more compensated chord step where the last one moved the midpoint out of the coarse cell its
+ * evaluation point y stood for (coarse_n: a root is consistent, the reverse step finding the same
+ * one, only once the last evaluation's y is the converged midpoint's); where the root is not yet
+ * resolved to 2^-100 (the chord steps converge at the rate of the factors' distance to the root,
+ * about the last Newton correction, or of the solve's own round-off); or where the last one moved
+ * lambda so far (a stalled Newton at tiny steps) that the chord's own second-order error
+ * dlambda^2 / lambda is above eps lambda. Where the root sits at a cell boundary, so that each
+ * cell's gradient puts it in the other (the gradients' roundings differ), the chords alternate
+ * between two cells: y is then pinned to the componentwise lower of the two, which the reverse
+ * step picks as well. At most 6 chord steps.
+ */
 static int step_again(void *ctx, const double *x, const double *dx, int chords)
 {
-    const dth_integrator *it = ctx;
+    dth_integrator *it = ctx;
+    if (!it->opt.compensate || chords >= (it->rev ? 6 : 3)) return 0;
     double dl = dx[it->m - 1], l = x[it->m - 1];
-    return it->opt.compensate && chords < 3 && dl * dl > DBL_EPSILON * (l * l); /* (dl / l)^2 > eps */
+    if (dl * dl > DBL_EPSILON * (l * l)) return 1; /* (dl / l)^2 > eps */
+    if (!it->rev) return 0;
+    double e = 0, rate = fmax(it->nt.r, 1e-12);
+    for (int a = 0; a < it->m; a++)
+        if (x[a] != 0) e = fmax(e, fabs(dx[a] / x[a]));
+    int more = rate * e > 0x1p-100;
+    if (it->ypinned) return more;
+    double *zb = it->ybar, *lo = it->znewlo; /* scratch until the commit */
+    midpoint_n(it, 0, x, zb, lo);
+    int moved = 0, back = chords >= 2;
+    coarsen_y(it->n, zb, lo);
+    for (size_t j = 0; j < it->d; j++) {
+        moved |= lo[j] != it->yc[j];
+        back &= lo[j] == it->yprev[j];
+        zb[j] = lo[j];
+    }
+    if (!moved) return more;
+    if (back) { /* alternating: pin */
+        for (size_t j = 0; j < it->d; j++) it->yc[j] = fmin(it->yc[j], zb[j]);
+        it->ypinned = 1;
+        return 1;
+    }
+    memcpy(it->yprev, it->yc, it->d * sizeof *it->yc);
+    return 1;
 }
 
 static const dth__newton_ops step_ops = {step_eval, step_solve, step_judge};
@@ -931,7 +1145,7 @@ AI int newton_n(dth_integrator *it, const size_t nc, const dth__newton_ops *ops,
     sol->residual = NAN;
     midpoint_n(it, nc, x, zb, NULL);
     block_scales_n(it, nc, zb, it->bs);
-    int rc = dth__newton_iterate(ops, step_again, it, m, max_iter, x, it->F, it->dx, &it->nt);
+    int rc = dth__newton_iterate(ops, step_again, it, m, max_iter, x, it->rev ? it->xlo : NULL, it->F, it->dx, &it->nt);
     sol->iters = it->nt.iter;
     if (rc == DTH_ENOCONV && it->nt.verdict == DTH__NT_MAXITER)
         seterr(it, "Newton did not converge in %d iterations (last correction %.3g)", it->nt.iter, it->nt.r);
@@ -972,7 +1186,7 @@ AI int commit_n(dth_integrator *it, const size_t nc, double lam)
     int m = nc ? (int)(2 * nc + 1) : it->m;
     /* new vertex into scratch first (znew: the full offset d, then z + 2 d): a finite midpoint can
      * still give an overflowing vertex, and then the state stays untouched */
-    double *zn = it->znew, *zl = it->znewlo;
+    double *zn = it->znew, *zl = it->znewlo, *dl = zl; /* dl: the offset's low part (read before zl[j] is written) */
     if (nc || it->auton) {
         /* autonomous: t advances by lambda/2, wp stays */
         for (size_t i = 0; i < n; i++) {
@@ -981,14 +1195,25 @@ AI int commit_n(dth_integrator *it, const size_t nc, double lam)
         }
         zn[n] = 0.5 * lam;
         zn[N - 1] = 0;
+        for (size_t i = 0; i < n; i++) {
+            dl[i] = it->xlo[i];
+            dl[n + 1 + i] = it->xlo[n + i];
+        }
+        dl[n] = 0.5 * it->xlo[m - 1];
+        dl[N - 1] = 0;
     } else {
-        for (int a = 0; a < m - 1; a++) zn[it->act[a]] = it->x[a];
+        for (int a = 0; a < m - 1; a++) zn[it->act[a]] = it->x[a], dl[it->act[a]] = it->xlo[a];
     }
     double *d = it->dnew; /* scratch: becomes the newest history slot */
     int finite = 1;
     for (size_t j = 0; j < N; j++) {
         d[j] = zn[j];
-        zn[j] = two_sum(it->st.z[j], 2 * d[j] + it->st.zlo[j], &zl[j]);
+        if (it->rev) { /* z + zlo + 2 (d + dlo) in double-double */
+            double e, sj = two_sum(it->st.z[j], 2 * d[j], &e);
+            zn[j] = two_sum(sj, (it->st.zlo[j] + 2 * dl[j]) + e, &zl[j]);
+        } else { /* to the rounding of 2 d + zlo */
+            zn[j] = two_sum(it->st.z[j], 2 * d[j] + it->st.zlo[j], &zl[j]);
+        }
         finite &= isfinite(zn[j]) != 0;
     }
     if (!finite) {
@@ -1001,17 +1226,35 @@ AI int commit_n(dth_integrator *it, const size_t nc, double lam)
         zn[N - 1] = it->st.z[N - 1];
         zl[N - 1] = it->st.zlo[N - 1];
     }
-    double rho = it->st.rho;
+    double rho = it->st.rho, rholo = it->st.rholo;
     if (it->opt.compensate) {
         /* the new vertex's offset measured from this step's midpoint (it->grad is there) */
         /* the exact first step of a midpoint start has its midpoint exact in double */
-        int rc = rho_from_mid_n(it, nc, it->zb, it->st.pending_exact ? NULL : it->zblo, it->grad, zn, zl, &rho);
+        int rc;
+        if (it->st.pending_exact) {
+            rc = rho_from_mid_n(it, nc, it->zb, NULL, NULL, it->grad, NULL, zn, zl, &rho, &rholo);
+        } else if (!it->rev) {
+            rc = rho_from_mid_n(it, nc, it->zb, NULL, it->zblo, it->grad, NULL, zn, zl, &rho, &rholo);
+        } else {
+            /* from the last chord step's point y, with its gradient and Hessian (coarse_n) */
+            size_t nd = N - 1;
+            double *dy = it->ydel, *gl = it->ygl;
+            for (size_t j = 0; j < nd; j++) dy[j] = it->zb[j] - it->yc[j];
+            dy[nd] = 0;
+            for (size_t j = 0; j < nd; j++) {
+                double a = 0;
+                for (size_t k = 0; k < nd; k++) a += it->hess[j * nd + k] * dy[k] + it->hess[j * nd + k] * it->zblo[k];
+                gl[j] = a;
+            }
+            rc = rho_from_mid_n(it, nc, it->yc, dy, it->zblo, it->grad, gl, zn, zl, &rho, &rholo);
+        }
         if (rc) {
             seterr(it, "model evaluation failed at the new vertex: %s", dth_strerror(rc));
             return rc;
         }
     }
     it->st.rho = rho;
+    it->st.rholo = rholo;
     for (size_t j = 0; j < N; j++) {
         it->st.z[j] = zn[j];
         it->st.zlo[j] = zl[j];

@@ -29,6 +29,7 @@
     X(lam3, F64, FINITE, "lambda of the step before that")                                          \
     X(nhist, INT, NHIST, "consecutive ordinary steps in dprev, dprev2, dprev3")                     \
     X(rho, F64, FINITE, "carried vertex offset H(z_k) of the compensated constraint")              \
+    X(rholo, F64, FINITE, "its low part (double-double)")                                           \
     X(lam_hint, F64, FINITE, "step size to aim for when there is no history")                       \
     X(dir, F64, UNIT, "direction of travel")                                                        \
     X(h, F64, NONZERO, "the step option h as it stands (dth_integrator_reverse flips it)")         \
@@ -100,6 +101,12 @@ struct dth_integrator {
     double *hwork;    /* 2(2n+1) doubles for dth__model_hdiff (models without their own hdiff) */
     double *zblo;     /* low part of the midpoint of the compensated solution (it->zb + it->zblo) */
     double *znew, *znewlo, *zb, *grad, *hess, *u, *ybar, *A, *F, *x, *dx, *work, *B;
+    double *xlo; /* low part of the unknowns x from the finishing chord steps (newton.h) */
+    double *yc, *ydel, *ygl; /* a compensated chord step's evaluation point y, zbar - y, H''(y) (zbar - y) (coarse_n) */
+    double *vc;               /* the vertex coarsened, where the carried offset rho is H (rho_from_mid_n) */
+    double *yprev;            /* the evaluation point before yc (step_again: cells alternating) */
+    int ypinned;              /* yc is pinned for the rest of this solve (step_again) */
+    int rev;                  /* the reversible finish (opt.compensate == 2 on a dense path): coarse_n */
     double Hphys;     /* H_phys at it->zb after the last step evaluation */
     double bs[4];     /* block scales (q, t, p, wp) of the Newton solve in progress (step_judge) */
     double ibq, ibp;  /* 1 / bs[0], 1 / bs[2] */

@@ -12,5 +12,5 @@ int dth__newton_rate(double r, double r_prev, int iter, double tol) { return dth
 int dth__newton_run(const dth__newton_ops *ops, void *ctx, int m, int max_iter, double *x, double *F, double *dx,
                     dth__newton_track *tr)
 {
-    return dth__newton_iterate(ops, NULL, ctx, m, max_iter, x, F, dx, tr);
+    return dth__newton_iterate(ops, NULL, ctx, m, max_iter, x, NULL, F, dx, tr);
 }

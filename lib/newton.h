@@ -26,10 +26,16 @@ static inline __attribute__((always_inline)) int dth__newton_rate_inl(double r, 
     return DTH__NT_MORE;
 }
 
-/* dth__newton_run's loop; `again` (NULL: never) may ask for more than one finishing chord step. */
+/*
+ * dth__newton_run's loop; `again` (NULL: never) may ask for more than one finishing chord step.
+ * xlo (NULL: none) receives the finishing chord steps' updates in double-double, x + xlo (zero it
+ * before; the iterations leave it alone): a root resolved below the ulp of x, which the caller's
+ * residual must then read (the DTH step's compensated constraint, integrator.c).
+ */
 static inline __attribute__((always_inline)) int dth__newton_iterate(const dth__newton_ops *ops, dth__newton_again again,
                                                                      void *ctx, const int m, int max_iter, double *x,
-                                                                     double *F, double *dx, dth__newton_track *tr)
+                                                                     double *xlo, double *F, double *dx,
+                                                                     dth__newton_track *tr)
 {
     tr->iter = 0;
     tr->r = NAN;
@@ -55,7 +61,16 @@ static inline __attribute__((always_inline)) int dth__newton_iterate(const dth__
                 rc = ops->eval(ctx, x, dx, 0);
                 if (!rc) rc = ops->solve(ctx, dx);
                 if (rc) return rc;
-                for (int a = 0; a < m; a++) x[a] -= dx[a];
+                if (xlo) {
+                    for (int a = 0; a < m; a++) { /* x + xlo - dx by TwoSum, renormalized */
+                        double s = x[a] - dx[a], bb = s - x[a], e = (x[a] - (s - bb)) + (-dx[a] - bb);
+                        double t = xlo[a] + e, h = s + t, tt = h - s;
+                        xlo[a] = (s - (h - tt)) + (t - tt);
+                        x[a] = h;
+                    }
+                } else {
+                    for (int a = 0; a < m; a++) x[a] -= dx[a];
+                }
                 if (!again || !again(ctx, x, dx, chords)) return DTH_OK;
             }
         }

@@ -780,6 +780,11 @@ static int check_integrator(setup_ctx *c, dth_run_setup *rs, const entry *e)
     } else if (strcmp(k, "branch_check") == 0) {
         /* no: take whatever root Newton converges to, as raw DTH does (for comparison only) */
         if (parse_bool(v, &rs->opt.branch_check)) return bad(c->err, c->errlen, e, "'%s' is not one of yes, no", v);
+    } else if (strcmp(k, "reversible") == 0) {
+        /* yes: the reversible finish (dth_options.compensate = 2); no: the compensated constraint */
+        int rv;
+        if (parse_bool(v, &rv)) return bad(c->err, c->errlen, e, "'%s' is not one of yes, no", v);
+        rs->opt.compensate = rv ? 2 : 1;
     } else if (strcmp(k, "linsolve") == 0) {
         c->linsolve = e;
         dth_linsolve ls;
@@ -790,7 +795,7 @@ static int check_integrator(setup_ctx *c, dth_run_setup *rs, const entry *e)
         rs->opt.linsolve = ls;
     } else {
         return bad(c->err, c->errlen, e,
-                   "unknown key (known in [integrator]: method, start, h, steps, t_end, max_iter, K, branch_check, linsolve)");
+                   "unknown key (known in [integrator]: method, start, h, steps, t_end, max_iter, K, branch_check, reversible, linsolve)");
     }
     return DTH_OK;
 }

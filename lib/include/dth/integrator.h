@@ -77,12 +77,20 @@ typedef struct dth_options {
                                        (regularize.h); borrowed; NULL: raw DTH */
     dth_linsolve linsolve;      /**< linear solver of the Newton system (default AUTO) */
     int compensate;             /**< default 1: finish each step on the compensated constraint (the
-                                     vertex offset carried from step to step plus H(zbar) - H(z_k)
-                                     from the model's hdiff), whose round-off scales with the step
+                                     vertex offset H(z_k) (at its high part over q, t, p) carried
+                                     from step to step in double-double plus H(zbar) - H(z_k) from
+                                     the model's hdiff), whose round-off scales with the step
                                      rather than the energy's size; where it has drifted from the
                                      direct value wp + H_phys(zbar) by more than 4 eps S (S: the size
                                      of the terms of H at the midpoint) the step takes the direct
-                                     value; 0: the constraint wp + H_phys(zbar) as is */
+                                     value. 2: the reversible finish: as 1 without that fallback,
+                                     with double-double unknowns, exact residual rows and the model
+                                     read at a coarsened midpoint with its Taylor terms, so that a
+                                     step and the step back from its end find the same root to
+                                     about 2^-100 (round trips exact over 10^4 steps in
+                                     bench_roundtrip); needs a dense Hessian (a banded linsolve
+                                     refuses it: DTH_EUNSUPPORTED); about twice the step's cost on
+                                     the smallest models. 0: the direct value (plain constraint) */
 } dth_options;
 
 /** Fill `o` with defaults: h = 0.01, midpoint start, max_iter = 30, K = 0, branch_check = 1,
