@@ -3,8 +3,8 @@
  * dth run: integrate a scene with the DTH step (paper, Theorem "DTH Equations"), or a fixed-step
  * baseline method, through the library's run driver (run.h), and write its samples (vertices,
  * midpoints or output times) as CSV, with optional diagnostics psi, psi', the region of section 5
- * and the branch taken. This file handles the command line and writes rows; it also checkpoints
- * runs and resumes them bit for bit (but for the step an earlier t_end cut: run.h).
+ * and the branch taken. This file handles the command line (the rows: run_rows.c); it also
+ * checkpoints runs and resumes them bit for bit (but for the step an earlier t_end cut: run.h).
  */
 #include <math.h>
 #include <stdarg.h>
@@ -13,246 +13,8 @@
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
-#include "cli.h"
-#include "fmt.h"
-#include "h5out.h"
 #include "ckpt.h"
-
-/* ---------------------------------------------------------------- rows */
-
-/* At most this many rows within one step (output.dt far below the step: a full disk, not a trajectory). */
-enum { MAX_SAMPLES_PER_STEP = 1000000 };
-
-/* How a column is printed in CSV (HDF5 stores every column as a double: codes for the names). */
-enum { COL_DBL = 0, COL_INT, COL_REGION, COL_BRANCH, COL_EVENT };
-
-typedef struct run {
-    const dth_run_setup *rs;
-    const dth_model *model;
-    size_t n, N, ninv;
-    double *inv, *work;
-    char *line;
-    size_t linecap, len;
-    cli_out out;
-    int leg; /* --roundtrip: 1 forward, 2 return (a `leg` column); 0: no column */
-    /* checkpoints and progress */
-    const char *ckpt_path;
-    const dth_scene *scene;
-    dth_integrator *it;
-    int progress;          /* 1: '\r' percentage on a terminal; 2: a line every few seconds */
-    double t_start, last_progress, t_begin, progress_s;
-    long k_begin;
-    int sig;
-    int ckpt_written, ckpt_failed; /* a checkpoint was written (at step ckpt_k); one failed */
-    long ckpt_k;
-    long step_k, step_samples; /* samples within the current step (bounded) */
-    int too_many;
-    cli_out ev;            /* event rows ([events]) */
-    int has_ev;
-    double *vals;          /* one row's values */
-    unsigned char *kind, *ekind; /* column kinds of the trajectory and events tables */
-    size_t ncol, encol;
-    h5file *h5;            /* HDF5 output instead of CSV */
-    h5table *h5traj, *h5ev;
-    int check_wp;          /* an explicit wp: compare the first step it encodes with h */
-    int vk_set, vk_leg;    /* vertex_K's last value vk: of the step vk_k of leg vk_leg */
-    long vk_k;
-    double vk;
-} run;
-
-static void put(run *r, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-static void put(run *r, const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    int w = vsnprintf(r->line + r->len, r->linecap - r->len, fmt, ap);
-    va_end(ap);
-    if (w > 0) r->len += (size_t)w;
-    if (r->len >= r->linecap) r->len = r->linecap - 1; /* cannot happen: linecap is sized for the row */
-}
-
-/* Column names of the trajectory (ev = 0) or the events table (ev = 1), comma-separated, in r->line. */
-static void column_names(run *r, int ev)
-{
-    r->len = 0;
-    put(r, ev ? "i,event,direction,k,t" : "k,t,lambda");
-    for (size_t i = 0; i < r->n; i++) put(r, ",q%zu", i + 1);
-    for (size_t i = 0; i < r->n; i++) put(r, ",p%zu", i + 1);
-    put(r, ",wp,H,E");
-    if (!ev && r->rs->regularizer) put(r, ",ordinary"); /* 1: an ordinary (symplectic) DTH step, 0: a regularizer's */
-    if (!ev && r->rs->diagnostics) {
-        for (size_t i = 0; i < r->ninv; i++) put(r, ",%s", dth_model_invariant_name(r->model, i));
-        put(r, ",psi,dpsi,region,iters,branch");
-    }
-    if (!ev && r->leg) put(r, ",leg");
-}
-
-/* The kind of each column: how the CSV prints its value. */
-static void column_kinds(run *r, int ev, unsigned char *kind, size_t *ncol)
-{
-    size_t c = 0, n = r->n;
-    if (ev) {
-        kind[c++] = COL_INT, kind[c++] = COL_EVENT, kind[c++] = COL_INT, kind[c++] = COL_INT;
-    } else {
-        kind[c++] = COL_INT;
-    }
-    kind[c++] = COL_DBL; /* t */
-    if (!ev) kind[c++] = COL_DBL; /* lambda */
-    for (size_t i = 0; i < 2 * n + 3; i++) kind[c++] = COL_DBL; /* q, p, wp, H, E */
-    if (!ev && r->rs->regularizer) kind[c++] = COL_INT;   /* ordinary */
-    if (!ev && r->rs->diagnostics) {
-        for (size_t i = 0; i < r->ninv + 2; i++) kind[c++] = COL_DBL;
-        kind[c++] = COL_REGION, kind[c++] = COL_INT, kind[c++] = COL_BRANCH;
-    }
-    if (!ev && r->leg) kind[c++] = COL_INT;
-    *ncol = c;
-}
-
-/* Write the values v (columns of the given kinds) as one CSV line, or one HDF5 row. */
-static int emit_row(run *r, int ev, const double *v)
-{
-    if (r->h5) return h5_row(ev ? r->h5ev : r->h5traj, v) ? -1 : 0;
-    const unsigned char *kind = ev ? r->ekind : r->kind;
-    size_t ncol = ev ? r->encol : r->ncol;
-    char *p = r->line;
-    for (size_t c = 0; c < ncol; c++) {
-        if (c) *p++ = ',';
-        switch (kind[c]) {
-        case COL_INT: p += dth_fmt_long((long)v[c], p); break;
-        case COL_DBL: p += dth_fmt_g17(v[c], p); break;
-        default: {
-            const char *s = kind[c] == COL_REGION ? dth_region_name((dth_region)v[c])
-                            : kind[c] == COL_BRANCH ? dth_branch_name((dth_branch)v[c])
-                                                    : r->rs->event_names[(size_t)v[c]];
-            size_t l = strlen(s);
-            memcpy(p, s, l);
-            p += l;
-        }
-        }
-    }
-    return cli_out_line(ev ? &r->ev : &r->out, r->line, (size_t)(p - r->line));
-}
-
-static int header(run *r)
-{
-    column_names(r, 0);
-    return r->h5 ? 0 : cli_out_line(&r->out, r->line, r->len);
-}
-
-/* The columns q, p, wp, H, E of the extended state z into v; returns how many. */
-static size_t state_columns(const run *r, const double *z, double *v)
-{
-    size_t n = r->n, N = r->N, c = 0;
-    double Hp;
-    if (dth_model_eval(r->model, z, DTH_EVAL_H, &Hp, NULL, NULL) != DTH_OK) Hp = NAN;
-    for (size_t i = 0; i < n; i++) v[c++] = z[i];
-    for (size_t i = 0; i < n; i++) v[c++] = z[n + 1 + i];
-    v[c++] = z[N - 1];
-    v[c++] = z[N - 1] + Hp;
-    v[c++] = Hp;
-    return c;
-}
-
-/*
- * One row at the point z. `in` is the step that arrived there (or the step whose segment holds
- * it); lambda_root a known root of the step constraint at z (for the local K estimate) and K a
- * fixed K (> 0) or 0.
- */
-static int row(run *r, long k, const double *z, const dth_step_info *in, double lambda_root, double K)
-{
-    size_t c = 0;
-    double *v = r->vals;
-    v[c++] = (double)k;
-    v[c++] = z[r->n];
-    v[c++] = in->lambda;
-    c += state_columns(r, z, v + c);
-    if (r->rs->regularizer) v[c++] = (in->flags & DTH_STEP_REGULARIZED) ? 0 : 1;
-    if (r->rs->diagnostics) {
-        if (r->ninv && dth_model_invariants(r->model, z, r->inv) != DTH_OK)
-            for (size_t i = 0; i < r->ninv; i++) r->inv[i] = NAN;
-        for (size_t i = 0; i < r->ninv; i++) v[c++] = r->inv[i];
-        dth_diag d;
-        if (dth_diagnose(r->model, z, lambda_root, K, &d, r->work) != DTH_OK) {
-            d.psi = d.dpsi = NAN;
-            d.region = DTH_REGION_NONE;
-        }
-        v[c++] = d.psi;
-        v[c++] = d.dpsi;
-        v[c++] = (double)d.region;
-        v[c++] = (double)in->iters;
-        v[c++] = (double)in->branch;
-    }
-    if (r->leg) v[c++] = r->leg;
-    return emit_row(r, 0, v);
-}
-
-/* K that a vertex's diagnostics use: for rows interpolated inside its outgoing segment, the step
- * k (z its start, lambda_out its length); computed once for all the rows of one step. */
-static double vertex_K(run *r, long k, const double *z, double lambda_out)
-{
-    if (!r->vk_set || r->vk_k != k || r->vk_leg != r->leg) {
-        dth_diag d;
-        r->vk = dth_diagnose(r->model, z, lambda_out, r->rs->opt.K, &d, r->work) != DTH_OK ? 0 : d.K;
-        r->vk_set = 1;
-        r->vk_k = k;
-        r->vk_leg = r->leg;
-    }
-    return r->vk;
-}
-
-/* The driver's sample callback: one row per sample. */
-static int on_sample(void *user, const dth_sample *s)
-{
-    run *r = user;
-    /* a stop request, also between the samples of one step (dense output can hold many) */
-    if ((r->sig = cli_signal_received()) != 0) return DTH_ESTOPPED;
-    if (s->k != r->step_k) r->step_k = s->k, r->step_samples = 0;
-    if (++r->step_samples > MAX_SAMPLES_PER_STEP) {
-        r->too_many = 1;
-        return DTH_ESTOPPED;
-    }
-    if (r->check_wp && s->k == 0) {
-        double lam = s->kind == DTH_SAMPLE_VERTEX ? s->lambda_out : s->za ? s->step->lambda : 0;
-        if (lam != 0) {
-            r->check_wp = 0;
-            if (fabs(lam / r->rs->opt.h - 1) > 0.1)
-                cli_error("warning: the explicit [initial] wp encodes a first step of %.6g, not h = %.6g (without wp a "
-                          "vertex start solves for the wp whose first step is h)", lam, r->rs->opt.h);
-        }
-    }
-    long k = s->kind == DTH_SAMPLE_TIME || (s->kind == DTH_SAMPLE_END && r->rs->dt > 0) ? s->index : s->k;
-    double lambda_root = 0, K = r->rs->opt.K;
-    if (s->kind == DTH_SAMPLE_VERTEX) lambda_root = s->lambda_out;
-    else if (!s->za) lambda_root = -s->step->lambda; /* the end is the last vertex itself */
-    else if (s->kind != DTH_SAMPLE_MIDPOINT && r->rs->diagnostics) K = vertex_K(r, s->k, s->za, s->step->lambda);
-    else if (s->kind == DTH_SAMPLE_MIDPOINT) lambda_root = 0;
-    if (row(r, k, s->z, s->step, lambda_root, K)) return DTH_EIO;
-    if (!r->h5) cli_out_maybe_flush(&r->out);
-    return 0;
-}
-
-/* The driver's event callback: one row per located event in the events table. */
-static int on_event(void *user, const dth_sample *s)
-{
-    run *r = user;
-    size_t c = 0;
-    double *v = r->vals;
-    v[c++] = (double)s->index;
-    v[c++] = (double)s->event;
-    v[c++] = s->direction;
-    v[c++] = (double)s->k;
-    v[c++] = s->z[r->n];
-    state_columns(r, s->z, v + c);
-    if (emit_row(r, 1, v)) return DTH_EIO;
-    if (!r->h5) cli_out_maybe_flush(&r->ev);
-    return 0;
-}
-
-static int ev_header(run *r)
-{
-    column_names(r, 1);
-    return r->h5 ? 0 : cli_out_line(&r->ev, r->line, r->len);
-}
+#include "run_out.h"
 
 /* ---------------------------------------------------------------- checkpoints */
 
@@ -260,7 +22,7 @@ static int ev_header(run *r)
  * on disk. From the first one on, the temporaries it names are kept if the run fails. */
 static int on_checkpoint(void *user, const dth_run_state *st)
 {
-    run *r = user;
+    run_out *r = user;
     if (cli_out_sync(&r->out) || (r->has_ev && cli_out_sync(&r->ev))) return DTH_EIO;
     char err[1200];
     int rc = cli_ckpt_write(r->ckpt_path, r->it, r->scene, r->rs->has_t_end, st, &r->out, r->has_ev ? &r->ev : NULL,
@@ -281,7 +43,7 @@ static int on_checkpoint(void *user, const dth_run_state *st)
 
 static int on_progress(void *user, const dth_run_state *st)
 {
-    run *r = user;
+    run_out *r = user;
     if ((r->sig = cli_signal_received()) != 0) return DTH_ESTOPPED;
     if (!r->progress) return 0;
     double now = cli_now();
@@ -320,7 +82,7 @@ static void clean_stale(const char *path, const char *ev_path, const char *ckpt_
 
 /* The rows the checkpointed run had made final, into the new outputs: from its temporary file if it
  * was killed (or failed), else from the file it finished; the bytes must hash as recorded. */
-static int resume_prefix(run *r, const cli_ckpt *c, const char *ckpt, const char *ev_path)
+static int resume_prefix(run_out *r, const cli_ckpt *c, const char *ckpt, const char *ev_path)
 {
     const cli_ckpt_out *src[2] = {&c->out, &c->ev};
     cli_out *dst[2] = {&r->out, &r->ev};
@@ -450,7 +212,7 @@ static int run_cmd(int argc, char **argv, const char **sets)
     memset(&rs, 0, sizeof rs);
     dth_integrator *it = NULL;
     dth_fixed *fx = NULL;
-    run r;
+    run_out r;
     memset(&r, 0, sizeof r);
     r.out.fd = -1;
     r.ev.fd = -1;
@@ -581,8 +343,8 @@ static int run_cmd(int argc, char **argv, const char **sets)
         cli_error("--checkpoint needs an output file (-o FILE or [output] file=): standard output cannot be resumed");
         goto done;
     }
-    column_kinds(&r, 0, r.kind, &r.ncol);
-    column_kinds(&r, 1, r.ekind, &r.encol);
+    run_column_kinds(&r, 0, r.kind, &r.ncol);
+    run_column_kinds(&r, 1, r.ekind, &r.encol);
     size_t plen = path ? strlen(path) : 0;
     int is_h5 = path && ((plen > 3 && !strcmp(path + plen - 3, ".h5")) || (plen > 5 && !strcmp(path + plen - 5, ".hdf5")));
     if (is_h5 && (ckpt_path || resume_path)) {
@@ -649,7 +411,7 @@ static int run_cmd(int argc, char **argv, const char **sets)
             free(text);
             goto done;
         }
-        /* provenance: the version and the command line; the scene as run */
+        /* provenance: the version and the command line; the scene as run_out */
         size_t cl = 64;
         for (int i = 0; i < argc; i++) cl += strlen(argv[i]) + 1;
         char *prov = malloc(cl);
@@ -657,7 +419,7 @@ static int run_cmd(int argc, char **argv, const char **sets)
             size_t k = (size_t)snprintf(prov, cl, "dth %s; command: dth", DTH_VERSION_STRING);
             for (int i = 0; i < argc; i++) k += (size_t)snprintf(prov + k, cl - k, " %s", argv[i]);
         }
-        column_names(&r, 0);
+        run_column_names(&r, 0);
         int hrc = !prov || h5_attr(r.h5, "scene", text) || h5_attr(r.h5, "provenance", prov) ||
                   h5_attr(r.h5, "region_codes", "0 -, 1 I, 2 II, 3 III") ||
                   h5_attr(r.h5, "branch_codes", "0 -, 1 minus, 2 plus, 3 ghost, 4 exact, 5 reg") ||
@@ -673,7 +435,7 @@ static int run_cmd(int argc, char **argv, const char **sets)
                 size_t k = 0;
                 for (size_t i = 0; i < rs.nevents; i++)
                     k += (size_t)snprintf(names + k, nl - k, "%s%zu %s", i ? ", " : "", i, rs.event_names[i]);
-                column_names(&r, 1);
+                run_column_names(&r, 1);
                 hrc = h5_attr(r.h5, "event_codes", names) || !(r.h5ev = h5_table(r.h5, "events", r.encol, r.line));
                 free(names);
             }
@@ -723,10 +485,10 @@ static int run_cmd(int argc, char **argv, const char **sets)
     dth_run_config cfg;
     dth_run_config_from_setup(&cfg, &rs);
     cfg.points = rs.points;
-    cfg.on_event = on_event;
+    cfg.on_event = run_on_event;
     cfg.every = rs.every;
     cfg.dt = rs.dt;
-    cfg.sample = on_sample;
+    cfg.sample = run_on_sample;
     cfg.user = &r;
     cfg.checkpoint = ckpt_path ? on_checkpoint : NULL;
     cfg.checkpoint_every = ckpt_every;
@@ -741,7 +503,7 @@ static int run_cmd(int argc, char **argv, const char **sets)
     r.k_begin = S.k;
     r.t_begin = zstart[n];
     int werr = 0;
-    if (!resume_path && (header(&r) || (r.has_ev && ev_header(&r)))) werr = 1;
+    if (!resume_path && (run_header(&r) || (r.has_ev && run_ev_header(&r)))) werr = 1;
     /* the checkpoint path is tried before the first step: a checkpoint of the start (or of the
      * resumed state), so a run never learns only at its first checkpoint that it cannot write one */
     if (!werr && ckpt_path && on_checkpoint(&r, &S)) {
