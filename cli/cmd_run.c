@@ -4,7 +4,8 @@
  * baseline method, through the library's run driver (run.h), and write its samples (vertices,
  * midpoints or output times) as CSV, with optional diagnostics psi, psi', the region of section 5
  * and the branch taken. This file handles the command line (the rows: run_rows.c); it also
- * checkpoints runs and resumes them bit for bit (but for the step an earlier t_end cut: run.h).
+ * checkpoints runs and resumes them bit for bit (but for the step an earlier t_end cut: run.h;
+ * run_resume.c).
  */
 #include <math.h>
 #include <stdarg.h>
@@ -15,29 +16,6 @@
 #include <unistd.h>
 #include "ckpt.h"
 #include "run_out.h"
-
-/* ---------------------------------------------------------------- checkpoints */
-
-/* A checkpoint (cli/ckpt.c) every checkpoint_every steps and at the end, after the rows so far are
- * on disk. From the first one on, the temporaries it names are kept if the run fails. */
-static int on_checkpoint(void *user, const dth_run_state *st)
-{
-    run_out *r = user;
-    if (cli_out_sync(&r->out) || (r->has_ev && cli_out_sync(&r->ev))) return DTH_EIO;
-    char err[1200];
-    int rc = cli_ckpt_write(r->ckpt_path, r->it, r->scene, r->rs->has_t_end, st, &r->out, r->has_ev ? &r->ev : NULL,
-                            err, sizeof err);
-    if (rc) {
-        cli_error("%s", err);
-        r->ckpt_failed = 1;
-        return DTH_EIO;
-    }
-    cli_out_keep(&r->out);
-    if (r->has_ev) cli_out_keep(&r->ev);
-    r->ckpt_k = st->k;
-    r->ckpt_written = 1;
-    return 0;
-}
 
 /* ---------------------------------------------------------------- progress and stop requests */
 
@@ -62,48 +40,6 @@ static int on_progress(void *user, const dth_run_state *st)
     double eta = done > 0 ? el * (1 - done) / done : NAN;
     fprintf(stderr, "dth run: t = %.9g (%.1f%%), k = %ld, %.3g steps/s, elapsed %.1f s, ETA %.1f s\n", st->t,
             100 * frac, st->k, rate, el, eta);
-    return 0;
-}
-
-/* ---------------------------------------------------------------- resume */
-
-/* Remove the temporaries that killed runs left next to the outputs and the checkpoint, and next to
- * the outputs a resumed checkpoint names (c may be NULL). */
-static void clean_stale(const char *path, const char *ev_path, const char *ckpt_path, const cli_ckpt *c)
-{
-    const char *p[5] = {path, ev_path, ckpt_path, c && c->out.path[0] ? c->out.path : NULL,
-                        c && c->ev.path[0] ? c->ev.path : NULL};
-    for (int i = 0; i < 5; i++) {
-        if (i >= 3 && p[i] && ((path && cli_same_file(p[i], path)) || (ev_path && cli_same_file(p[i], ev_path)))) continue;
-        int k = p[i] ? cli_clean_stale(p[i], NULL) : 0;
-        if (k) cli_error("removed %d temporar%s of '%s' left by runs that no longer run", k, k > 1 ? "ies" : "y", p[i]);
-    }
-}
-
-/* The rows the checkpointed run had made final, into the new outputs: from its temporary file if it
- * was killed (or failed), else from the file it finished; the bytes must hash as recorded. */
-static int resume_prefix(run_out *r, const cli_ckpt *c, const char *ckpt, const char *ev_path)
-{
-    const cli_ckpt_out *src[2] = {&c->out, &c->ev};
-    cli_out *dst[2] = {&r->out, &r->ev};
-    for (int i = 0; i < (r->has_ev ? 2 : 1); i++) {
-        const cli_ckpt_out *s = src[i];
-        const char *from = s->tmp[0] && access(s->tmp, R_OK) == 0 ? s->tmp : s->path;
-        if (i == 1 && !s->path[0]) {
-            cli_error("%s: the checkpointed run wrote no events file ('%s' cannot continue one)", ckpt, ev_path);
-            return -1;
-        }
-        int rc = cli_out_copy_prefix(dst[i], from, s->bytes, s->hash);
-        if (rc == CLI_PREFIX_SHORT)
-            cli_error("%s: the checkpointed run's output '%s' is missing or shorter than its %llu bytes", ckpt, from,
-                      s->bytes);
-        else if (rc == CLI_PREFIX_CHANGED)
-            cli_error("%s: the checkpointed run's output '%s' was changed since the checkpoint (its first %llu bytes "
-                      "differ from what the run wrote)", ckpt, from, s->bytes);
-        else if (rc == CLI_PREFIX_WRITE)
-            cli_error("cannot write '%s': %s", dst[i]->path ? dst[i]->path : "standard output", strerror(dst[i]->err));
-        if (rc) return -1;
-    }
     return 0;
 }
 
@@ -452,7 +388,7 @@ static int run_cmd(int argc, char **argv, const char **sets)
         goto done; /* CLI_USAGE: the output cannot be written */
     }
     if (r.has_ev && cli_out_open(&r.ev, ev_path)) goto done;
-    if (resume_path && resume_prefix(&r, &ckc, resume_path, ev_path)) {
+    if (resume_path && run_resume_prefix(&r, &ckc, resume_path, ev_path)) {
         status = r.out.failed || r.ev.failed ? CLI_FAIL : CLI_USAGE;
         goto done;
     }
@@ -490,7 +426,7 @@ static int run_cmd(int argc, char **argv, const char **sets)
     cfg.dt = rs.dt;
     cfg.sample = run_on_sample;
     cfg.user = &r;
-    cfg.checkpoint = ckpt_path ? on_checkpoint : NULL;
+    cfg.checkpoint = ckpt_path ? run_on_checkpoint : NULL;
     cfg.checkpoint_every = ckpt_every;
     cfg.progress = on_progress;
     cfg.progress_every = 1;
@@ -506,7 +442,7 @@ static int run_cmd(int argc, char **argv, const char **sets)
     if (!resume_path && (run_header(&r) || (r.has_ev && run_ev_header(&r)))) werr = 1;
     /* the checkpoint path is tried before the first step: a checkpoint of the start (or of the
      * resumed state), so a run never learns only at its first checkpoint that it cannot write one */
-    if (!werr && ckpt_path && on_checkpoint(&r, &S)) {
+    if (!werr && ckpt_path && run_on_checkpoint(&r, &S)) {
         if (!r.out.failed && !r.ev.failed) {
             r.out.keep = r.ev.keep = 0;
             cli_out_abort(&r.out);
@@ -517,7 +453,7 @@ static int run_cmd(int argc, char **argv, const char **sets)
     }
     /* temporaries of runs that were killed: once this run's own checkpoint stands (a resume's rows
      * are in this run's temporary), or at once without checkpoints */
-    if (!werr && (ckpt_path || !resume_path)) clean_stale(path, ev_path, ckpt_path, resume_path ? &ckc : NULL);
+    if (!werr && (ckpt_path || !resume_path)) run_clean_stale(path, ev_path, ckpt_path, resume_path ? &ckc : NULL);
     rc = werr ? DTH_OK : it ? dth_run(it, &cfg, &S) : dth_run_fixed(fx, &cfg, &S);
     if (rc == DTH_EIO && S.stop == DTH_RUN_CALLBACK) werr = 1;
     /* --roundtrip: reverse in place and take as many steps back (paper, time reversibility) */
@@ -572,7 +508,7 @@ static int run_cmd(int argc, char **argv, const char **sets)
         status = CLI_FAIL;
         goto done;
     }
-    if (resume_path && !ckpt_path) clean_stale(path, ev_path, NULL, &ckc); /* the resumed run's files are complete */
+    if (resume_path && !ckpt_path) run_clean_stale(path, ev_path, NULL, &ckc); /* the resumed run's files are complete */
     /* how the run ended: always when it could not go on, else for regularized runs and on a tty */
     char crossing[160] = "";
     if (S.crossings || S.regularized)

@@ -1,10 +1,11 @@
 /* SPDX-License-Identifier: MIT */
-/* dth run's internals: the state the run driver's callbacks share, and the rows (run_rows.c). */
+/* dth run's internals: the state the run driver's callbacks share; rows (run_rows.c), resume (run_resume.c). */
 #ifndef DTH_CLI_RUN_OUT_H
 #define DTH_CLI_RUN_OUT_H
 
 #include <stddef.h>
 #include "cli.h"
+#include "ckpt.h"
 #include "h5out.h"
 
 /* At most this many rows within one step (output.dt far below the step: a full disk, not a trajectory). */
@@ -57,5 +58,17 @@ int run_ev_header(run_out *r);
 int run_on_sample(void *user, const dth_sample *s);
 /* The driver's event callback: one row per located event in the events table. */
 int run_on_event(void *user, const dth_sample *s);
+
+/* (run_resume.c) The driver's checkpoint callback: a checkpoint (cli/ckpt.c) every checkpoint_every
+ * steps and at the end, after the rows so far are on disk. From the first one on, the temporaries
+ * it names are kept if the run fails. */
+int run_on_checkpoint(void *user, const dth_run_state *st);
+/* Remove the temporaries that killed runs left next to the outputs and the checkpoint, and next to
+ * the outputs a resumed checkpoint names (c may be NULL). */
+void run_clean_stale(const char *path, const char *ev_path, const char *ckpt_path, const cli_ckpt *c);
+/* The rows the checkpointed run c had made final, into the new outputs: from its temporary file if
+ * it was killed (or failed), else from the file it finished; the bytes must hash as recorded. 0 or
+ * -1 (printed). */
+int run_resume_prefix(run_out *r, const cli_ckpt *c, const char *ckpt, const char *ev_path);
 
 #endif
