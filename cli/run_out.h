@@ -47,17 +47,25 @@ typedef struct run_out {
     double vk;
 } run_out;
 
-/* Column names of the trajectory (ev = 0) or the events table (ev = 1), comma-separated, in r->line. */
-void run_column_names(run_out *r, int ev);
-/* The kind of each column: how the CSV prints its value. */
-void run_column_kinds(run_out *r, int ev, unsigned char *kind, size_t *ncol);
-/* The header line of the trajectory's CSV and of the events' (nothing for HDF5). 0 or -1. */
-int run_header(run_out *r);
-int run_ev_header(run_out *r);
+/* (run_rows.c) The row buffers and column kinds of the run rs; leg 1 adds the column leg
+ * (--roundtrip). 0, or -1: out of memory. */
+int run_rows_init(run_out *r, const dth_run_setup *rs, int leg);
+/* The header lines of the trajectory's and the events' CSV (nothing for HDF5). 0 or -1. */
+int run_headers(run_out *r);
 /* The driver's sample callback: one row per sample. */
 int run_on_sample(void *user, const dth_sample *s);
 /* The driver's event callback: one row per located event in the events table. */
 int run_on_event(void *user, const dth_sample *s);
+/* Open the HDF5 output `path` with its tables and attributes (the scene r->scene as run, the
+ * provenance: the version and the command line argv): 0, or the exit status (printed). */
+int run_h5_open(run_out *r, const char *path, int argc, char **argv);
+/* Put the finished outputs in place (CSV: rename; HDF5: write out). 0, or -1 (printed). */
+int run_outputs_finish(run_out *r);
+/* Report the output that failed to be written (path: the trajectory's, NULL for standard output);
+ * an HDF5 output is removed. */
+void run_outputs_failed(run_out *r, const char *path, const char *ev_path);
+/* Remove the outputs not finished (but temporaries a checkpoint keeps) and free the buffers. */
+void run_out_free(run_out *r);
 
 /* (run_resume.c) The driver's checkpoint callback: a checkpoint (cli/ckpt.c) every checkpoint_every
  * steps and at the end, after the rows so far are on disk. From the first one on, the temporaries
@@ -70,5 +78,22 @@ void run_clean_stale(const char *path, const char *ev_path, const char *ckpt_pat
  * it was killed (or failed), else from the file it finished; the bytes must hash as recorded. 0 or
  * -1 (printed). */
 int run_resume_prefix(run_out *r, const cli_ckpt *c, const char *ckpt, const char *ev_path);
+/* The checkpoint of the start (or of the resumed state), written before the first step so a run
+ * never learns only at its first checkpoint that it cannot write one: 0; 1: an output could not be
+ * written; -1: the checkpoint could not (the outputs are removed: like an output that cannot be
+ * written). */
+int run_first_checkpoint(run_out *r, const dth_run_state *S);
+
+/* What --resume reads: the checkpoint of a dth run. */
+typedef struct run_resume {
+    void *buf;        /* the checkpoint's bytes (for dth_checkpoint_restore) */
+    size_t len;
+    cli_ckpt c;       /* its "cli" blob: the run driver's state, the outputs' progress (cli/ckpt.c) */
+    dth_scene *saved; /* the scene as the checkpointed run had it */
+} run_resume;
+/* Read the checkpoint `path`; load its scene into `scene` and into res->saved. 0, or a dth
+ * status with the reason in err. Free with run_resume_clear (also after a failure). */
+int run_resume_load(run_resume *res, const char *path, dth_scene *scene, char *err, size_t errlen);
+void run_resume_clear(run_resume *res);
 
 #endif

@@ -2,7 +2,7 @@
 /*
  * dth run's checkpoints and resume: the checkpoint callback of the run driver (cli/ckpt.c writes
  * the file), the rows a resumed run copies from the checkpointed run's output, and the removal of
- * temporaries that killed runs left behind.
+ * temporaries that killed runs left behind; reading the checkpoint a resume continues.
  */
 #include <stdio.h>
 #include <string.h>
@@ -69,4 +69,35 @@ int run_resume_prefix(run_out *r, const cli_ckpt *c, const char *ckpt, const cha
         if (rc) return -1;
     }
     return 0;
+}
+
+int run_first_checkpoint(run_out *r, const dth_run_state *S)
+{
+    if (!run_on_checkpoint(r, S)) return 0;
+    if (r->out.failed || r->ev.failed) return 1;
+    r->out.keep = r->ev.keep = 0;
+    cli_out_abort(&r->out);
+    if (r->has_ev) cli_out_abort(&r->ev);
+    return -1;
+}
+
+int run_resume_load(run_resume *res, const char *path, dth_scene *scene, char *err, size_t errlen)
+{
+    const char *text;
+    size_t tlen;
+    int rc = cli_ckpt_read(path, &res->buf, &res->len, &text, &tlen, &res->c, err, errlen);
+    if (rc) return rc;
+    char name[1100];
+    snprintf(name, sizeof name, "%s(scene)", path);
+    rc = dth_scene_load_mem(scene, name, text, tlen, err, errlen);
+    if (!rc) rc = dth_scene_new(NULL, &res->saved);
+    if (!rc) rc = dth_scene_load_mem(res->saved, name, text, tlen, err, errlen);
+    return rc;
+}
+
+void run_resume_clear(run_resume *res)
+{
+    dth_free(NULL, res->buf);
+    cli_ckpt_clear(&res->c);
+    dth_scene_free(res->saved);
 }

@@ -2,11 +2,13 @@
 /*
  * dth run's rows: the column names and kinds of the trajectory and events tables, one row per
  * sample of the run driver (state, energy, diagnostics psi, psi', region and branch), formatted
- * as CSV or appended to an HDF5 table.
+ * as CSV or appended to an HDF5 table; the output files opened (HDF5 with the scene and provenance
+ * as attributes), finished, or removed after a failure.
  */
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include "fmt.h"
 #include "run_out.h"
@@ -26,7 +28,7 @@ static void put(run_out *r, const char *fmt, ...)
 }
 
 /* Column names of the trajectory (ev = 0) or the events table (ev = 1), comma-separated, in r->line. */
-void run_column_names(run_out *r, int ev)
+static void column_names(run_out *r, int ev)
 {
     r->len = 0;
     put(r, ev ? "i,event,direction,k,t" : "k,t,lambda");
@@ -42,7 +44,7 @@ void run_column_names(run_out *r, int ev)
 }
 
 /* The kind of each column: how the CSV prints its value. */
-void run_column_kinds(run_out *r, int ev, unsigned char *kind, size_t *ncol)
+static void column_kinds(run_out *r, int ev, unsigned char *kind, size_t *ncol)
 {
     size_t c = 0, n = r->n;
     if (ev) {
@@ -87,9 +89,9 @@ static int emit_row(run_out *r, int ev, const double *v)
     return cli_out_line(ev ? &r->ev : &r->out, r->line, (size_t)(p - r->line));
 }
 
-int run_header(run_out *r)
+static int header(run_out *r)
 {
-    run_column_names(r, 0);
+    column_names(r, 0);
     return r->h5 ? 0 : cli_out_line(&r->out, r->line, r->len);
 }
 
@@ -202,8 +204,129 @@ int run_on_event(void *user, const dth_sample *s)
     return 0;
 }
 
-int run_ev_header(run_out *r)
+static int ev_header(run_out *r)
 {
-    run_column_names(r, 1);
+    column_names(r, 1);
     return r->h5 ? 0 : cli_out_line(&r->ev, r->line, r->len);
+}
+
+int run_headers(run_out *r) { return header(r) || (r->has_ev && ev_header(r)); }
+
+/* ---------------------------------------------------------------- setup and output files */
+
+int run_rows_init(run_out *r, const dth_run_setup *rs, int leg)
+{
+    r->rs = rs;
+    r->model = rs->model;
+    r->n = rs->n;
+    r->N = 2 * rs->n + 2;
+    r->leg = leg;
+    r->ninv = dth_model_n_invariants(rs->model);
+    r->linecap = 32 * (r->N + r->ninv + 8) + 64;
+    for (size_t i = 0; i < r->ninv; i++) r->linecap += strlen(dth_model_invariant_name(rs->model, i)) + 1;
+    r->line = malloc(r->linecap);
+    r->inv = calloc(r->ninv + 1, sizeof *r->inv);
+    r->work = calloc(dth_model_work_size(rs->model), sizeof *r->work);
+    size_t maxcol = 2 * r->N + r->ninv + 16;
+    r->vals = calloc(maxcol, sizeof *r->vals);
+    r->kind = calloc(maxcol, 1);
+    r->ekind = calloc(maxcol, 1);
+    if (!r->line || !r->inv || !r->work || !r->vals || !r->kind || !r->ekind) return -1;
+    column_kinds(r, 0, r->kind, &r->ncol);
+    column_kinds(r, 1, r->ekind, &r->encol);
+    return 0;
+}
+
+/* "dth VERSION; command: dth ARGS..." (malloc'd; NULL: out of memory). */
+static char *provenance(int argc, char **argv)
+{
+    size_t cl = 64;
+    for (int i = 0; i < argc; i++) cl += strlen(argv[i]) + 1;
+    char *prov = malloc(cl);
+    if (prov) {
+        size_t k = (size_t)snprintf(prov, cl, "dth %s; command: dth", DTH_VERSION_STRING);
+        for (int i = 0; i < argc; i++) k += (size_t)snprintf(prov + k, cl - k, " %s", argv[i]);
+    }
+    return prov;
+}
+
+/* The table /events and its attribute event_codes ("0 NAME, 1 NAME, ..."). 0 or -1. */
+static int h5_events(run_out *r)
+{
+    const dth_run_setup *rs = r->rs;
+    size_t nl = 8;
+    for (size_t i = 0; i < rs->nevents; i++) nl += strlen(rs->event_names[i]) + 8;
+    char *names = malloc(nl);
+    if (!names) return -1;
+    size_t k = 0;
+    for (size_t i = 0; i < rs->nevents; i++)
+        k += (size_t)snprintf(names + k, nl - k, "%s%zu %s", i ? ", " : "", i, rs->event_names[i]);
+    column_names(r, 1);
+    int hrc = h5_attr(r->h5, "event_codes", names) || !(r->h5ev = h5_table(r->h5, "events", r->encol, r->line));
+    free(names);
+    return hrc ? -1 : 0;
+}
+
+int run_h5_open(run_out *r, const char *path, int argc, char **argv)
+{
+    char herr[1200];
+    size_t tl;
+    char *text = NULL;
+    if (dth_scene_text(r->scene, NULL, NULL, &text, &tl)) text = NULL;
+    r->h5 = text ? h5_open(path, herr, sizeof herr) : NULL;
+    if (!r->h5) {
+        cli_error("%s", text ? herr : "out of memory");
+        free(text);
+        return CLI_USAGE;
+    }
+    /* provenance: the version and the command line; the scene as run */
+    char *prov = provenance(argc, argv);
+    column_names(r, 0);
+    int hrc = !prov || h5_attr(r->h5, "scene", text) || h5_attr(r->h5, "provenance", prov) ||
+              h5_attr(r->h5, "region_codes", "0 -, 1 I, 2 II, 3 III") ||
+              h5_attr(r->h5, "branch_codes", "0 -, 1 minus, 2 plus, 3 ghost, 4 exact, 5 reg") ||
+              !(r->h5traj = h5_table(r->h5, "trajectory", r->ncol, r->line));
+    free(text);
+    free(prov);
+    if (!hrc && r->rs->nevents) hrc = h5_events(r);
+    if (hrc) {
+        cli_error("cannot write '%s': HDF5 error", path);
+        h5_abort(r->h5);
+        r->h5 = NULL;
+        return CLI_FAIL;
+    }
+    return 0; /* rows go to HDF5; standard output stays empty */
+}
+
+int run_outputs_finish(run_out *r)
+{
+    if (!r->h5) return cli_out_finish(&r->out) || (r->has_ev && cli_out_finish(&r->ev)) ? -1 : 0;
+    char herr[1200];
+    int hrc = h5_finish(r->h5, herr, sizeof herr);
+    r->h5 = NULL;
+    if (hrc) cli_error("%s", herr);
+    return hrc ? -1 : 0;
+}
+
+void run_outputs_failed(run_out *r, const char *path, const char *ev_path)
+{
+    if (r->h5) {
+        cli_error("cannot write '%s' (HDF5)", path);
+        h5_abort(r->h5);
+        r->h5 = NULL;
+    } else if (r->out.failed) cli_error("cannot write '%s': %s", path ? path : "standard output", strerror(r->out.err));
+    else if (r->ev.failed) cli_error("cannot write '%s': %s", ev_path, strerror(r->ev.err));
+}
+
+void run_out_free(run_out *r)
+{
+    if (r->h5) h5_abort(r->h5);
+    if (r->out.fd >= 0 && r->out.buf) cli_out_abort(&r->out);
+    if (r->ev.fd >= 0 && r->ev.buf) cli_out_abort(&r->ev);
+    free(r->vals);
+    free(r->kind);
+    free(r->ekind);
+    free(r->line);
+    free(r->inv);
+    free(r->work);
 }
