@@ -2,350 +2,21 @@
 /*
  * dth run: integrate a scene with the DTH step (paper, Theorem "DTH Equations"), or a fixed-step
  * baseline method, through the library's run driver (run.h), and write its samples (vertices,
- * midpoints or output times) as CSV, with optional diagnostics psi, psi', the region of section 5
- * and the branch taken. This file handles the command line and writes rows; it also checkpoints
- * runs and resumes them bit for bit (but for the step an earlier t_end cut: run.h).
+ * midpoints or output times) as CSV or HDF5, with optional diagnostics psi, psi', the region of
+ * section 5 and the branch taken. This file is the command: its options, the scene and what is
+ * checked before any output is made, the output files, the driver's calls and how the run ended.
+ * The rows are run_rows.c's; checkpoints, and resuming them bit for bit (but for the step an
+ * earlier t_end cut: run.h), are run_resume.c's.
  */
 #include <math.h>
-#include <stdarg.h>
-#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
-#include "cli.h"
-#include "fmt.h"
-#include "h5out.h"
 #include "ckpt.h"
+#include "run_out.h"
 
-/* ---------------------------------------------------------------- rows */
-
-/* At most this many rows within one step (output.dt far below the step: a full disk, not a trajectory). */
-enum { MAX_SAMPLES_PER_STEP = 1000000 };
-
-/* How a column is printed in CSV (HDF5 stores every column as a double: codes for the names). */
-enum { COL_DBL = 0, COL_INT, COL_REGION, COL_BRANCH, COL_EVENT };
-
-typedef struct run {
-    const dth_run_setup *rs;
-    const dth_model *model;
-    size_t n, N, ninv;
-    double *inv, *work;
-    char *line;
-    size_t linecap, len;
-    cli_out out;
-    int leg; /* --roundtrip: 1 forward, 2 return (a `leg` column); 0: no column */
-    /* checkpoints and progress */
-    const char *ckpt_path;
-    const dth_scene *scene;
-    dth_integrator *it;
-    int progress;          /* 1: '\r' percentage on a terminal; 2: a line every few seconds */
-    double t_start, last_progress, t_begin, progress_s;
-    long k_begin;
-    int sig;
-    int ckpt_written, ckpt_failed; /* a checkpoint was written (at step ckpt_k); one failed */
-    long ckpt_k;
-    long step_k, step_samples; /* samples within the current step (bounded) */
-    int too_many;
-    cli_out ev;            /* event rows ([events]) */
-    int has_ev;
-    double *vals;          /* one row's values */
-    unsigned char *kind, *ekind; /* column kinds of the trajectory and events tables */
-    size_t ncol, encol;
-    h5file *h5;            /* HDF5 output instead of CSV */
-    h5table *h5traj, *h5ev;
-    int check_wp;          /* an explicit wp: compare the first step it encodes with h */
-    int vk_set, vk_leg;    /* vertex_K's last value vk: of the step vk_k of leg vk_leg */
-    long vk_k;
-    double vk;
-} run;
-
-static void put(run *r, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
-static void put(run *r, const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    int w = vsnprintf(r->line + r->len, r->linecap - r->len, fmt, ap);
-    va_end(ap);
-    if (w > 0) r->len += (size_t)w;
-    if (r->len >= r->linecap) r->len = r->linecap - 1; /* cannot happen: linecap is sized for the row */
-}
-
-/* Column names of the trajectory (ev = 0) or the events table (ev = 1), comma-separated, in r->line. */
-static void column_names(run *r, int ev)
-{
-    r->len = 0;
-    put(r, ev ? "i,event,direction,k,t" : "k,t,lambda");
-    for (size_t i = 0; i < r->n; i++) put(r, ",q%zu", i + 1);
-    for (size_t i = 0; i < r->n; i++) put(r, ",p%zu", i + 1);
-    put(r, ",wp,H,E");
-    if (!ev && r->rs->regularizer) put(r, ",ordinary"); /* 1: an ordinary (symplectic) DTH step, 0: a regularizer's */
-    if (!ev && r->rs->diagnostics) {
-        for (size_t i = 0; i < r->ninv; i++) put(r, ",%s", dth_model_invariant_name(r->model, i));
-        put(r, ",psi,dpsi,region,iters,branch");
-    }
-    if (!ev && r->leg) put(r, ",leg");
-}
-
-/* The kind of each column: how the CSV prints its value. */
-static void column_kinds(run *r, int ev, unsigned char *kind, size_t *ncol)
-{
-    size_t c = 0, n = r->n;
-    if (ev) {
-        kind[c++] = COL_INT, kind[c++] = COL_EVENT, kind[c++] = COL_INT, kind[c++] = COL_INT;
-    } else {
-        kind[c++] = COL_INT;
-    }
-    kind[c++] = COL_DBL; /* t */
-    if (!ev) kind[c++] = COL_DBL; /* lambda */
-    for (size_t i = 0; i < 2 * n + 3; i++) kind[c++] = COL_DBL; /* q, p, wp, H, E */
-    if (!ev && r->rs->regularizer) kind[c++] = COL_INT;   /* ordinary */
-    if (!ev && r->rs->diagnostics) {
-        for (size_t i = 0; i < r->ninv + 2; i++) kind[c++] = COL_DBL;
-        kind[c++] = COL_REGION, kind[c++] = COL_INT, kind[c++] = COL_BRANCH;
-    }
-    if (!ev && r->leg) kind[c++] = COL_INT;
-    *ncol = c;
-}
-
-/* Write the values v (columns of the given kinds) as one CSV line, or one HDF5 row. */
-static int emit_row(run *r, int ev, const double *v)
-{
-    if (r->h5) return h5_row(ev ? r->h5ev : r->h5traj, v) ? -1 : 0;
-    const unsigned char *kind = ev ? r->ekind : r->kind;
-    size_t ncol = ev ? r->encol : r->ncol;
-    char *p = r->line;
-    for (size_t c = 0; c < ncol; c++) {
-        if (c) *p++ = ',';
-        switch (kind[c]) {
-        case COL_INT: p += dth_fmt_long((long)v[c], p); break;
-        case COL_DBL: p += dth_fmt_g17(v[c], p); break;
-        default: {
-            const char *s = kind[c] == COL_REGION ? dth_region_name((dth_region)v[c])
-                            : kind[c] == COL_BRANCH ? dth_branch_name((dth_branch)v[c])
-                                                    : r->rs->event_names[(size_t)v[c]];
-            size_t l = strlen(s);
-            memcpy(p, s, l);
-            p += l;
-        }
-        }
-    }
-    return cli_out_line(ev ? &r->ev : &r->out, r->line, (size_t)(p - r->line));
-}
-
-static int header(run *r)
-{
-    column_names(r, 0);
-    return r->h5 ? 0 : cli_out_line(&r->out, r->line, r->len);
-}
-
-/* The columns q, p, wp, H, E of the extended state z into v; returns how many. */
-static size_t state_columns(const run *r, const double *z, double *v)
-{
-    size_t n = r->n, N = r->N, c = 0;
-    double Hp;
-    if (dth_model_eval(r->model, z, DTH_EVAL_H, &Hp, NULL, NULL) != DTH_OK) Hp = NAN;
-    for (size_t i = 0; i < n; i++) v[c++] = z[i];
-    for (size_t i = 0; i < n; i++) v[c++] = z[n + 1 + i];
-    v[c++] = z[N - 1];
-    v[c++] = z[N - 1] + Hp;
-    v[c++] = Hp;
-    return c;
-}
-
-/*
- * One row at the point z. `in` is the step that arrived there (or the step whose segment holds
- * it); lambda_root a known root of the step constraint at z (for the local K estimate) and K a
- * fixed K (> 0) or 0.
- */
-static int row(run *r, long k, const double *z, const dth_step_info *in, double lambda_root, double K)
-{
-    size_t c = 0;
-    double *v = r->vals;
-    v[c++] = (double)k;
-    v[c++] = z[r->n];
-    v[c++] = in->lambda;
-    c += state_columns(r, z, v + c);
-    if (r->rs->regularizer) v[c++] = (in->flags & DTH_STEP_REGULARIZED) ? 0 : 1;
-    if (r->rs->diagnostics) {
-        if (r->ninv && dth_model_invariants(r->model, z, r->inv) != DTH_OK)
-            for (size_t i = 0; i < r->ninv; i++) r->inv[i] = NAN;
-        for (size_t i = 0; i < r->ninv; i++) v[c++] = r->inv[i];
-        dth_diag d;
-        if (dth_diagnose(r->model, z, lambda_root, K, &d, r->work) != DTH_OK) {
-            d.psi = d.dpsi = NAN;
-            d.region = DTH_REGION_NONE;
-        }
-        v[c++] = d.psi;
-        v[c++] = d.dpsi;
-        v[c++] = (double)d.region;
-        v[c++] = (double)in->iters;
-        v[c++] = (double)in->branch;
-    }
-    if (r->leg) v[c++] = r->leg;
-    return emit_row(r, 0, v);
-}
-
-/* K that a vertex's diagnostics use: for rows interpolated inside its outgoing segment, the step
- * k (z its start, lambda_out its length); computed once for all the rows of one step. */
-static double vertex_K(run *r, long k, const double *z, double lambda_out)
-{
-    if (!r->vk_set || r->vk_k != k || r->vk_leg != r->leg) {
-        dth_diag d;
-        r->vk = dth_diagnose(r->model, z, lambda_out, r->rs->opt.K, &d, r->work) != DTH_OK ? 0 : d.K;
-        r->vk_set = 1;
-        r->vk_k = k;
-        r->vk_leg = r->leg;
-    }
-    return r->vk;
-}
-
-/* The driver's sample callback: one row per sample. */
-static int on_sample(void *user, const dth_sample *s)
-{
-    run *r = user;
-    /* a stop request, also between the samples of one step (dense output can hold many) */
-    if ((r->sig = cli_signal_received()) != 0) return DTH_ESTOPPED;
-    if (s->k != r->step_k) r->step_k = s->k, r->step_samples = 0;
-    if (++r->step_samples > MAX_SAMPLES_PER_STEP) {
-        r->too_many = 1;
-        return DTH_ESTOPPED;
-    }
-    if (r->check_wp && s->k == 0) {
-        double lam = s->kind == DTH_SAMPLE_VERTEX ? s->lambda_out : s->za ? s->step->lambda : 0;
-        if (lam != 0) {
-            r->check_wp = 0;
-            if (fabs(lam / r->rs->opt.h - 1) > 0.1)
-                cli_error("warning: the explicit [initial] wp encodes a first step of %.6g, not h = %.6g (without wp a "
-                          "vertex start solves for the wp whose first step is h)", lam, r->rs->opt.h);
-        }
-    }
-    long k = s->kind == DTH_SAMPLE_TIME || (s->kind == DTH_SAMPLE_END && r->rs->dt > 0) ? s->index : s->k;
-    double lambda_root = 0, K = r->rs->opt.K;
-    if (s->kind == DTH_SAMPLE_VERTEX) lambda_root = s->lambda_out;
-    else if (!s->za) lambda_root = -s->step->lambda; /* the end is the last vertex itself */
-    else if (s->kind != DTH_SAMPLE_MIDPOINT && r->rs->diagnostics) K = vertex_K(r, s->k, s->za, s->step->lambda);
-    else if (s->kind == DTH_SAMPLE_MIDPOINT) lambda_root = 0;
-    if (row(r, k, s->z, s->step, lambda_root, K)) return DTH_EIO;
-    if (!r->h5) cli_out_maybe_flush(&r->out);
-    return 0;
-}
-
-/* The driver's event callback: one row per located event in the events table. */
-static int on_event(void *user, const dth_sample *s)
-{
-    run *r = user;
-    size_t c = 0;
-    double *v = r->vals;
-    v[c++] = (double)s->index;
-    v[c++] = (double)s->event;
-    v[c++] = s->direction;
-    v[c++] = (double)s->k;
-    v[c++] = s->z[r->n];
-    state_columns(r, s->z, v + c);
-    if (emit_row(r, 1, v)) return DTH_EIO;
-    if (!r->h5) cli_out_maybe_flush(&r->ev);
-    return 0;
-}
-
-static int ev_header(run *r)
-{
-    column_names(r, 1);
-    return r->h5 ? 0 : cli_out_line(&r->ev, r->line, r->len);
-}
-
-/* ---------------------------------------------------------------- checkpoints */
-
-/* A checkpoint (cli/ckpt.c) every checkpoint_every steps and at the end, after the rows so far are
- * on disk. From the first one on, the temporaries it names are kept if the run fails. */
-static int on_checkpoint(void *user, const dth_run_state *st)
-{
-    run *r = user;
-    if (cli_out_sync(&r->out) || (r->has_ev && cli_out_sync(&r->ev))) return DTH_EIO;
-    char err[1200];
-    int rc = cli_ckpt_write(r->ckpt_path, r->it, r->scene, r->rs->has_t_end, st, &r->out, r->has_ev ? &r->ev : NULL,
-                            err, sizeof err);
-    if (rc) {
-        cli_error("%s", err);
-        r->ckpt_failed = 1;
-        return DTH_EIO;
-    }
-    cli_out_keep(&r->out);
-    if (r->has_ev) cli_out_keep(&r->ev);
-    r->ckpt_k = st->k;
-    r->ckpt_written = 1;
-    return 0;
-}
-
-/* ---------------------------------------------------------------- progress and stop requests */
-
-static int on_progress(void *user, const dth_run_state *st)
-{
-    run *r = user;
-    if ((r->sig = cli_signal_received()) != 0) return DTH_ESTOPPED;
-    if (!r->progress) return 0;
-    double now = cli_now();
-    if (now - r->last_progress < (r->progress == 1 ? 0.25 : r->progress_s)) return 0;
-    r->last_progress = now;
-    const dth_run_setup *rs = r->rs;
-    double frac = rs->has_t_end ? (st->t - st->t_first) / (rs->t_end - st->t_first) : (double)st->k / (double)rs->steps;
-    frac = fmin(fmax(frac, 0), 1);
-    if (r->progress == 1) {
-        fprintf(stderr, "\rdth run: %3.0f%%", 100 * frac);
-        return 0;
-    }
-    double el = now - r->t_start, rate = (double)(st->k - r->k_begin) / fmax(el, 1e-9);
-    double done = rs->has_t_end ? (st->t - r->t_begin) / (rs->t_end - r->t_begin)
-                                : (double)(st->k - r->k_begin) / (double)(rs->steps - r->k_begin);
-    double eta = done > 0 ? el * (1 - done) / done : NAN;
-    fprintf(stderr, "dth run: t = %.9g (%.1f%%), k = %ld, %.3g steps/s, elapsed %.1f s, ETA %.1f s\n", st->t,
-            100 * frac, st->k, rate, el, eta);
-    return 0;
-}
-
-/* ---------------------------------------------------------------- resume */
-
-/* Remove the temporaries that killed runs left next to the outputs and the checkpoint, and next to
- * the outputs a resumed checkpoint names (c may be NULL). */
-static void clean_stale(const char *path, const char *ev_path, const char *ckpt_path, const cli_ckpt *c)
-{
-    const char *p[5] = {path, ev_path, ckpt_path, c && c->out.path[0] ? c->out.path : NULL,
-                        c && c->ev.path[0] ? c->ev.path : NULL};
-    for (int i = 0; i < 5; i++) {
-        if (i >= 3 && p[i] && ((path && cli_same_file(p[i], path)) || (ev_path && cli_same_file(p[i], ev_path)))) continue;
-        int k = p[i] ? cli_clean_stale(p[i], NULL) : 0;
-        if (k) cli_error("removed %d temporar%s of '%s' left by runs that no longer run", k, k > 1 ? "ies" : "y", p[i]);
-    }
-}
-
-/* The rows the checkpointed run had made final, into the new outputs: from its temporary file if it
- * was killed (or failed), else from the file it finished; the bytes must hash as recorded. */
-static int resume_prefix(run *r, const cli_ckpt *c, const char *ckpt, const char *ev_path)
-{
-    const cli_ckpt_out *src[2] = {&c->out, &c->ev};
-    cli_out *dst[2] = {&r->out, &r->ev};
-    for (int i = 0; i < (r->has_ev ? 2 : 1); i++) {
-        const cli_ckpt_out *s = src[i];
-        const char *from = s->tmp[0] && access(s->tmp, R_OK) == 0 ? s->tmp : s->path;
-        if (i == 1 && !s->path[0]) {
-            cli_error("%s: the checkpointed run wrote no events file ('%s' cannot continue one)", ckpt, ev_path);
-            return -1;
-        }
-        int rc = cli_out_copy_prefix(dst[i], from, s->bytes, s->hash);
-        if (rc == CLI_PREFIX_SHORT)
-            cli_error("%s: the checkpointed run's output '%s' is missing or shorter than its %llu bytes", ckpt, from,
-                      s->bytes);
-        else if (rc == CLI_PREFIX_CHANGED)
-            cli_error("%s: the checkpointed run's output '%s' was changed since the checkpoint (its first %llu bytes "
-                      "differ from what the run wrote)", ckpt, from, s->bytes);
-        else if (rc == CLI_PREFIX_WRITE)
-            cli_error("cannot write '%s': %s", dst[i]->path ? dst[i]->path : "standard output", strerror(dst[i]->err));
-        if (rc) return -1;
-    }
-    return 0;
-}
-
-/* ---------------------------------------------------------------- the command */
+/* ---------------------------------------------------------------- the command line */
 
 void cli_usage_run(FILE *f)
 {
@@ -372,255 +43,318 @@ void cli_usage_run(FILE *f)
                "                        and match a run made at once only to round-off)\n");
 }
 
-/* The command, with room in `sets` for the -s overrides (argc entries). */
-static int run_cmd(int argc, char **argv, const char **sets)
+/* dth run's options. */
+typedef struct run_opts {
+    const char *scene_path, *out_opt, *ckpt_path, *resume_path, *ev_opt;
+    const char **sets; /* the -s overrides, in order (room for argc) */
+    int nsets;
+    long ckpt_every;
+    int roundtrip, want_progress, model_check;
+    double progress_s;
+} run_opts;
+
+/* What one dth run holds (released by job_free), and how its run went. */
+typedef struct run_job {
+    run_opts o;
+    int argc;
+    char **argv;
+    dth_registry *reg;
+    dth_scene *scene;
+    dth_run_setup rs;
+    int is_dth;           /* method = dth (it), else a fixed-step baseline (fx) */
+    dth_integrator *it;
+    dth_fixed *fx;
+    run_resume res;       /* --resume: the checkpoint read */
+    run_out r;            /* rows, outputs, checkpoints: the callbacks' state */
+    double *zstart;       /* the first (or the resumed) vertex */
+    const char *path;     /* the trajectory's output; NULL: standard output */
+    char *ev_path;        /* the events CSV (NULL: none) */
+    int is_h5;            /* path is HDF5 (the events are its table /events) */
+    dth_run_state S;      /* the driver's state */
+    int rc, werr;         /* the driver's status; an output could not be written */
+} run_job;
+
+/* What each step of run_cmd below returns to let the command go on; else it returns the exit
+ * status, having printed why. */
+enum { GO_ON = -1 };
+
+/* 1 for the options that take a value. */
+static int takes_value(const char *a)
 {
-    const char *scene_path = NULL, *out_opt = NULL, *ckpt_path = NULL, *resume_path = NULL, *ev_opt = NULL;
-    long ckpt_every = 1000;
-    char err[1024];
-    int roundtrip = 0, want_progress = 0, model_check = 1, nsets = 0;
-    double progress_s = 5;
+    static const char *const opts[] = {"-s", "-o", "--checkpoint", "--checkpoint-every", "--resume", "--events"};
+    for (size_t i = 0; i < sizeof opts / sizeof *opts; i++)
+        if (!strcmp(a, opts[i])) return 1;
+    return 0;
+}
+
+/* The option a (one that takes a value) with its value v. */
+static int option_value(run_opts *o, const char *a, const char *v)
+{
+    if (!strcmp(a, "-s")) o->sets[o->nsets++] = v;
+    else if (!strcmp(a, "-o")) o->out_opt = v;
+    else if (!strcmp(a, "--checkpoint")) o->ckpt_path = v;
+    else if (!strcmp(a, "--resume")) o->resume_path = v;
+    else if (!strcmp(a, "--events")) o->ev_opt = v;
+    else if (!strcmp(a, "--checkpoint-every")) {
+        char *end;
+        o->ckpt_every = strtol(v, &end, 10);
+        if (*end || end == v || o->ckpt_every < 1) {
+            cli_error("--checkpoint-every: '%s' is not an integer >= 1", v);
+            return CLI_USAGE;
+        }
+    }
+    return GO_ON;
+}
+
+/* --progress or --progress=SECONDS */
+static int option_progress(run_opts *o, const char *a)
+{
+    o->want_progress = 1;
+    if (a[10] == '=') {
+        char *end;
+        o->progress_s = strtod(a + 11, &end);
+        if (*end || end == a + 11 || !(o->progress_s > 0) || !isfinite(o->progress_s)) {
+            cli_error("--progress=SECONDS: '%s' is not a number > 0", a + 11);
+            return CLI_USAGE;
+        }
+    }
+    return GO_ON;
+}
+
+/* The combinations the options cannot have. */
+static int check_opts(const run_opts *o)
+{
+    if (!o->scene_path && !o->resume_path) {
+        cli_error("no scene file (usage: dth run SCENE.ini [-s section.key=value]... [-o FILE])");
+        return CLI_USAGE;
+    }
+    if (o->scene_path && o->resume_path) {
+        cli_error("--resume takes the scene from the checkpoint: give no scene file");
+        return CLI_USAGE;
+    }
+    if (o->roundtrip && (o->ckpt_path || o->resume_path)) {
+        cli_error("--roundtrip cannot be combined with --checkpoint or --resume");
+        return CLI_USAGE;
+    }
+    return GO_ON;
+}
+
+/* The command line into o: GO_ON, or the exit status (CLI_OK after --help). */
+static int parse_args(int argc, char **argv, run_opts *o)
+{
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
+        int st = GO_ON;
         if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
             cli_usage_run(stdout);
             return CLI_OK;
-        } else if (!strcmp(a, "-s") || !strcmp(a, "-o") || !strcmp(a, "--checkpoint") ||
-                   !strcmp(a, "--checkpoint-every") || !strcmp(a, "--resume") || !strcmp(a, "--events")) {
+        } else if (takes_value(a)) {
             if (i + 1 >= argc) {
                 cli_error("option %s needs an argument (try dth run --help)", a);
                 return CLI_USAGE;
             }
-            const char *v = argv[++i];
-            if (!strcmp(a, "-s")) sets[nsets++] = v;
-            else if (!strcmp(a, "-o")) out_opt = v;
-            else if (!strcmp(a, "--checkpoint")) ckpt_path = v;
-            else if (!strcmp(a, "--resume")) resume_path = v;
-            else if (!strcmp(a, "--events")) ev_opt = v;
-            else if (!strcmp(a, "--checkpoint-every")) {
-                char *end;
-                ckpt_every = strtol(v, &end, 10);
-                if (*end || end == v || ckpt_every < 1) {
-                    cli_error("--checkpoint-every: '%s' is not an integer >= 1", v);
-                    return CLI_USAGE;
-                }
-            }
+            st = option_value(o, a, argv[++i]);
         } else if (!strcmp(a, "--roundtrip")) {
-            roundtrip = 1;
+            o->roundtrip = 1;
         } else if (!strcmp(a, "--no-model-check")) {
-            model_check = 0;
+            o->model_check = 0;
         } else if (!strcmp(a, "--progress") || !strncmp(a, "--progress=", 11)) {
-            want_progress = 1;
-            if (a[10] == '=') {
-                char *end;
-                progress_s = strtod(a + 11, &end);
-                if (*end || end == a + 11 || !(progress_s > 0) || !isfinite(progress_s)) {
-                    cli_error("--progress=SECONDS: '%s' is not a number > 0", a + 11);
-                    return CLI_USAGE;
-                }
-            }
+            st = option_progress(o, a);
         } else if (a[0] == '-' && a[1]) {
             cli_error("unknown option '%s' (try dth run --help)", a);
             return CLI_USAGE;
-        } else if (scene_path) {
-            cli_error("more than one scene file ('%s' and '%s')", scene_path, a);
+        } else if (o->scene_path) {
+            cli_error("more than one scene file ('%s' and '%s')", o->scene_path, a);
             return CLI_USAGE;
         } else {
-            scene_path = a;
+            o->scene_path = a;
         }
+        if (st != GO_ON) return st;
     }
-    if (!scene_path && !resume_path) {
-        cli_error("no scene file (usage: dth run SCENE.ini [-s section.key=value]... [-o FILE])");
-        return CLI_USAGE;
-    }
-    if (scene_path && resume_path) {
-        cli_error("--resume takes the scene from the checkpoint: give no scene file");
-        return CLI_USAGE;
-    }
-    if (roundtrip && (ckpt_path || resume_path)) {
-        cli_error("--roundtrip cannot be combined with --checkpoint or --resume");
-        return CLI_USAGE;
-    }
+    return check_opts(o);
+}
 
-    /* ---- input: everything is validated before any output is created */
-    int status = CLI_USAGE;
-    dth_registry *reg = cli_registry();
-    dth_scene *scene = NULL;
-    dth_run_setup rs;
-    memset(&rs, 0, sizeof rs);
-    dth_integrator *it = NULL;
-    dth_fixed *fx = NULL;
-    run r;
-    memset(&r, 0, sizeof r);
-    r.out.fd = -1;
-    r.ev.fd = -1;
-    double *zstart = NULL;
-    char *ev_path = NULL;
-    void *ck = NULL;
-    size_t cklen = 0;
-    cli_ckpt ckc; /* --resume: the checkpoint's run state (cli/ckpt.c) */
-    memset(&ckc, 0, sizeof ckc);
-    dth_scene *saved = NULL; /* the scene as the checkpointed run had it */
-    if (!reg) return CLI_FAIL;
-    int rc = dth_scene_new(NULL, &scene);
-    if (!rc && resume_path) {
-        const char *text;
-        size_t tlen;
-        rc = cli_ckpt_read(resume_path, &ck, &cklen, &text, &tlen, &ckc, err, sizeof err);
-        if (!rc) {
-            char name[1100];
-            snprintf(name, sizeof name, "%s(scene)", resume_path);
-            rc = dth_scene_load_mem(scene, name, text, tlen, err, sizeof err);
-            if (!rc) rc = dth_scene_new(NULL, &saved);
-            if (!rc) rc = dth_scene_load_mem(saved, name, text, tlen, err, sizeof err);
-        }
-    } else if (!rc) {
-        rc = dth_scene_load(scene, scene_path, err, sizeof err);
-    }
-    for (int i = 0; !rc && i < nsets; i++) rc = dth_scene_set(scene, sets[i], err, sizeof err);
-    /* a resume continues the checkpointed run: only its length and the output names may change */
-    if (!rc && saved && cli_ckpt_check_scene(saved, scene, err, sizeof err)) rc = DTH_EINVAL;
-    if (!rc) rc = dth_scene_setup(scene, reg, &rs, err, sizeof err);
-    if (!rc && resume_path && cli_ckpt_check_length(&ckc, &rs, err, sizeof err)) rc = DTH_EINVAL;
+/* ---------------------------------------------------------------- input: validated before any output */
+
+/* The scene (its file, or the checkpoint --resume names) with the -s overrides, and its setup; a
+ * resume continues the checkpointed run: only its length and the output names may change. */
+static int load_input(run_job *j)
+{
+    const run_opts *o = &j->o;
+    char err[1024];
+    int rc = dth_scene_new(NULL, &j->scene);
+    if (!rc && o->resume_path) rc = run_resume_load(&j->res, o->resume_path, j->scene, err, sizeof err);
+    else if (!rc) rc = dth_scene_load(j->scene, o->scene_path, err, sizeof err);
+    for (int i = 0; !rc && i < o->nsets; i++) rc = dth_scene_set(j->scene, o->sets[i], err, sizeof err);
+    if (!rc && j->res.saved && cli_ckpt_check_scene(j->res.saved, j->scene, err, sizeof err)) rc = DTH_EINVAL;
+    if (!rc) rc = dth_scene_setup(j->scene, j->reg, &j->rs, err, sizeof err);
+    if (!rc && o->resume_path && cli_ckpt_check_length(&j->res.c, &j->rs, err, sizeof err)) rc = DTH_EINVAL;
     if (rc) {
         cli_error("%s", rc == DTH_ENOMEM ? "out of memory" : err);
-        status = rc == DTH_ENOMEM ? CLI_FAIL : CLI_USAGE;
-        goto done;
+        return rc == DTH_ENOMEM ? CLI_FAIL : CLI_USAGE;
     }
-    if (!scene_path) scene_path = resume_path;
-    if (roundtrip && rs.dt > 0) {
+    if (!j->o.scene_path) j->o.scene_path = o->resume_path;
+    return GO_ON;
+}
+
+/* What the options cannot do with this scene. */
+static int check_setup(run_job *j)
+{
+    const run_opts *o = &j->o;
+    const dth_run_setup *rs = &j->rs;
+    if (o->roundtrip && rs->dt > 0) {
         cli_error("--roundtrip writes vertices: it cannot be combined with [output] dt > 0");
-        goto done;
+        return CLI_USAGE;
     }
-    int is_dth = strcmp(rs.method, "dth") == 0;
-    if (!is_dth && (ckpt_path || resume_path)) {
-        cli_error("checkpoints are written for method = dth only (this scene uses '%s')", rs.method);
-        goto done;
+    j->is_dth = strcmp(rs->method, "dth") == 0;
+    if (!j->is_dth && (o->ckpt_path || o->resume_path)) {
+        cli_error("checkpoints are written for method = dth only (this scene uses '%s')", rs->method);
+        return CLI_USAGE;
     }
-    if (!is_dth && strcmp(rs.regularize, "none")) {
-        cli_error("[regularize] applies to method = dth only (this scene uses '%s')", rs.method);
-        goto done;
+    if (!j->is_dth && strcmp(rs->regularize, "none")) {
+        cli_error("[regularize] applies to method = dth only (this scene uses '%s')", rs->method);
+        return CLI_USAGE;
     }
+    return GO_ON;
+}
 
-    /* the model's derivatives against finite differences at the initial state, once (dth_model_check;
-     * its memory grows as (2n+1)^2: skipped above 200 degrees of freedom) */
-    if (model_check && rs.n <= 200) {
-        double *y = calloc(2 * rs.n + 1, sizeof *y);
-        if (!y) {
-            cli_error("out of memory");
-            status = CLI_FAIL;
-            goto done;
-        }
-        memcpy(y, rs.q0, rs.n * sizeof *y);
-        y[rs.n] = rs.t0;
-        memcpy(y + rs.n + 1, rs.p0, rs.n * sizeof *y);
-        dth_model_check_report rep;
-        rc = dth_model_check(rs.model, y, &rep);
-        free(y);
-        if (rc == DTH_OK && !rep.pass) {
-            cli_error("%s: model '%s' fails its derivative check at the initial state: %s (--no-model-check runs "
-                      "it anyway)", scene_path, dth_model_get_type(rs.model)->name, rep.message);
-            goto done;
-        }
+/* The model's derivatives against finite differences at the initial state, once (dth_model_check;
+ * its memory grows as (2n+1)^2: skipped above 200 degrees of freedom). */
+static int check_model(run_job *j)
+{
+    const dth_run_setup *rs = &j->rs;
+    if (!j->o.model_check || rs->n > 200) return GO_ON;
+    double *y = calloc(2 * rs->n + 1, sizeof *y);
+    if (!y) {
+        cli_error("out of memory");
+        return CLI_FAIL;
     }
+    memcpy(y, rs->q0, rs->n * sizeof *y);
+    y[rs->n] = rs->t0;
+    memcpy(y + rs->n + 1, rs->p0, rs->n * sizeof *y);
+    dth_model_check_report rep;
+    int rc = dth_model_check(rs->model, y, &rep);
+    free(y);
+    if (rc == DTH_OK && !rep.pass) {
+        cli_error("%s: model '%s' fails its derivative check at the initial state: %s (--no-model-check runs "
+                  "it anyway)", j->o.scene_path, dth_model_get_type(rs->model)->name, rep.message);
+        return CLI_USAGE;
+    }
+    return GO_ON;
+}
 
-    r.rs = &rs;
-    r.model = rs.model;
-    r.n = rs.n;
-    r.N = 2 * rs.n + 2;
-    r.scene = scene;
-    r.ckpt_path = ckpt_path;
-    if (is_dth) {
-        rc = dth_integrator_new(rs.model, &rs.opt, &it);
-        if (!rc && resume_path) rc = dth_checkpoint_restore(it, ck, cklen, err, sizeof err);
-        else if (!rc) rc = dth_integrator_start(it, rs.q0, rs.p0, rs.t0);
-        if (rc && resume_path && it) {
+/* The integrator at the initial state, or at the checkpoint's. */
+static int start_integrator(run_job *j)
+{
+    const dth_run_setup *rs = &j->rs;
+    const char *resume_path = j->o.resume_path, *scene_path = j->o.scene_path;
+    char err[1024] = "";
+    int rc;
+    if (j->is_dth) {
+        rc = dth_integrator_new(rs->model, &rs->opt, &j->it);
+        if (!rc && resume_path) rc = dth_checkpoint_restore(j->it, j->res.buf, j->res.len, err, sizeof err);
+        else if (!rc) rc = dth_integrator_start(j->it, rs->q0, rs->p0, rs->t0);
+        if (rc && resume_path && j->it) {
             cli_error("%s", err);
-            goto done;
+            return CLI_USAGE;
         }
     } else {
-        rc = dth_fixed_check(rs.model, rs.method, err, sizeof err);
+        rc = dth_fixed_check(rs->model, rs->method, err, sizeof err);
         if (rc) {
-            cli_error("%s: method '%s': %s", scene_path, rs.method, err);
-            goto done;
+            cli_error("%s: method '%s': %s", scene_path, rs->method, err);
+            return CLI_USAGE;
         }
-        rc = dth_fixed_new(rs.model, rs.method, rs.opt.h, NULL, &fx);
-        if (!rc) rc = dth_fixed_start(fx, rs.q0, rs.p0, rs.t0);
+        rc = dth_fixed_new(rs->model, rs->method, rs->opt.h, NULL, &j->fx);
+        if (!rc) rc = dth_fixed_start(j->fx, rs->q0, rs->p0, rs->t0);
     }
     if (rc) {
         /* a start the step size spoils (a first vertex that overflows, no offset that gives h): name h */
         char hh[96] = "";
-        if (rc > 0 && !resume_path) snprintf(hh, sizeof hh, "; integrator.h = %.6g may be too large for this model", rs.opt.h);
+        if (rc > 0 && !resume_path) snprintf(hh, sizeof hh, "; integrator.h = %.6g may be too large for this model", rs->opt.h);
         cli_error("%s: cannot start at the initial state: %s (%s)%s", scene_path, dth_strerror(rc),
-                  it ? dth_integrator_errmsg(it) : fx ? dth_fixed_errmsg(fx) : "creating the integrator", hh);
-        status = rc < 0 && rc != DTH_EINVAL ? CLI_FAIL : CLI_USAGE;
-        goto done;
+                  j->it ? dth_integrator_errmsg(j->it) : j->fx ? dth_fixed_errmsg(j->fx) : "creating the integrator", hh);
+        return rc < 0 && rc != DTH_EINVAL ? CLI_FAIL : CLI_USAGE;
     }
-    r.it = it;
+    return GO_ON;
+}
 
-    r.ninv = dth_model_n_invariants(rs.model);
-    r.linecap = 32 * (r.N + r.ninv + 8) + 64;
-    for (size_t i = 0; i < r.ninv; i++) r.linecap += strlen(dth_model_invariant_name(rs.model, i)) + 1;
-    r.line = malloc(r.linecap);
-    r.inv = calloc(r.ninv + 1, sizeof *r.inv);
-    r.work = calloc(dth_model_work_size(rs.model), sizeof *r.work);
-    zstart = calloc(r.N, sizeof *zstart);
-    r.leg = roundtrip;
-    size_t maxcol = 2 * r.N + r.ninv + 16;
-    r.vals = calloc(maxcol, sizeof *r.vals);
-    r.kind = calloc(maxcol, 1);
-    r.ekind = calloc(maxcol, 1);
-    if (!r.line || !r.inv || !r.work || !zstart || !r.vals || !r.kind || !r.ekind) {
+/* The rows' buffers, and what the checkpoint callback needs. */
+static int init_rows(run_job *j)
+{
+    run_out *r = &j->r;
+    r->scene = j->scene;
+    r->ckpt_path = j->o.ckpt_path;
+    r->it = j->it;
+    j->zstart = calloc(2 * j->rs.n + 2, sizeof *j->zstart);
+    if (run_rows_init(r, &j->rs, j->o.roundtrip) || !j->zstart) {
         cli_error("out of memory");
-        status = CLI_FAIL;
-        goto done;
+        return CLI_FAIL;
     }
-    const char *path = out_opt ? (strcmp(out_opt, "-") ? out_opt : NULL) : rs.out_file;
-    if (!out_opt && !rs.out_file && resume_path && ckc.out.path[0]) path = ckc.out.path;
-    if (ckpt_path && !path) {
+    return GO_ON;
+}
+
+/* ---------------------------------------------------------------- outputs */
+
+/* The events file: --events, [events] file=, or OUT-events.csv next to the output OUT.csv. */
+static int events_path(run_job *j)
+{
+    const char *ep = j->o.ev_opt ? j->o.ev_opt : j->rs.events_file;
+    if (ep) {
+        j->ev_path = strdup(ep);
+    } else if (j->path) {
+        /* OUT.csv -> OUT-events.csv */
+        size_t l = strlen(j->path);
+        j->ev_path = malloc(l + 16);
+        if (j->ev_path) {
+            memcpy(j->ev_path, j->path, l + 1);
+            if (l > 4 && !strcmp(j->path + l - 4, ".csv")) j->ev_path[l - 4] = '\0';
+            strcat(j->ev_path, "-events.csv");
+        }
+    } else {
+        cli_error("the scene has [events] and the trajectory goes to standard output: give the events file "
+                  "([events] file= or --events FILE)");
+        return CLI_USAGE;
+    }
+    if (!j->ev_path) {
+        cli_error("out of memory");
+        return CLI_FAIL;
+    }
+    return GO_ON;
+}
+
+/* Where the rows go: -o, else [output] file=, else (a resume) the checkpointed run's output; CSV
+ * or HDF5 (by the name); the events file. */
+static int choose_outputs(run_job *j)
+{
+    const run_opts *o = &j->o;
+    const dth_run_setup *rs = &j->rs;
+    const char *path = o->out_opt ? (strcmp(o->out_opt, "-") ? o->out_opt : NULL) : rs->out_file;
+    if (!o->out_opt && !rs->out_file && o->resume_path && j->res.c.out.path[0]) path = j->res.c.out.path;
+    j->path = path;
+    if (o->ckpt_path && !path) {
         cli_error("--checkpoint needs an output file (-o FILE or [output] file=): standard output cannot be resumed");
-        goto done;
+        return CLI_USAGE;
     }
-    column_kinds(&r, 0, r.kind, &r.ncol);
-    column_kinds(&r, 1, r.ekind, &r.encol);
     size_t plen = path ? strlen(path) : 0;
-    int is_h5 = path && ((plen > 3 && !strcmp(path + plen - 3, ".h5")) || (plen > 5 && !strcmp(path + plen - 5, ".hdf5")));
-    if (is_h5 && (ckpt_path || resume_path)) {
+    j->is_h5 = path && ((plen > 3 && !strcmp(path + plen - 3, ".h5")) || (plen > 5 && !strcmp(path + plen - 5, ".hdf5")));
+    if (j->is_h5 && (o->ckpt_path || o->resume_path)) {
         cli_error("checkpoints cover CSV output only (the output '%s' is HDF5)", path);
-        goto done;
+        return CLI_USAGE;
     }
-    if (is_h5 && (ev_opt || rs.events_file)) {
+    if (j->is_h5 && (o->ev_opt || rs->events_file)) {
         cli_error("with HDF5 output the events are the table /events of '%s': give no events file", path);
-        goto done;
+        return CLI_USAGE;
     }
-    r.has_ev = rs.nevents > 0 && !is_h5;
-    if (r.has_ev) {
-        const char *ep = ev_opt ? ev_opt : rs.events_file;
-        if (ep) {
-            ev_path = strdup(ep);
-        } else if (path) {
-            /* OUT.csv -> OUT-events.csv */
-            size_t l = strlen(path);
-            ev_path = malloc(l + 16);
-            if (ev_path) {
-                memcpy(ev_path, path, l + 1);
-                if (l > 4 && !strcmp(path + l - 4, ".csv")) ev_path[l - 4] = '\0';
-                strcat(ev_path, "-events.csv");
-            }
-        } else {
-            cli_error("the scene has [events] and the trajectory goes to standard output: give the events file "
-                      "([events] file= or --events FILE)");
-            goto done;
-        }
-        if (!ev_path) {
-            cli_error("out of memory");
-            status = CLI_FAIL;
-            goto done;
-        }
-    }
-    /* an output that would overwrite an input (a resume may write its checkpoint over the one it
-     * read: that is whole in memory, and a checkpoint is replaced atomically) */
-    const char *outs[2] = {path, ev_path}, *scene_file = resume_path ? NULL : scene_path;
+    j->r.has_ev = rs->nevents > 0 && !j->is_h5;
+    return j->r.has_ev ? events_path(j) : GO_ON;
+}
+
+/* An output that would overwrite an input is refused (a resume may write its checkpoint over the
+ * one it read: that is whole in memory, and a checkpoint is replaced atomically). */
+static int check_clashes(const run_job *j)
+{
+    const char *path = j->path, *ev_path = j->ev_path, *ckpt_path = j->o.ckpt_path, *resume_path = j->o.resume_path;
+    const char *outs[2] = {path, ev_path}, *scene_file = resume_path ? NULL : j->o.scene_path;
     for (int i = 0; i < 2; i++) {
         if (!outs[i]) continue;
         const char *clash = cli_same_file(outs[i], scene_file) ? "the scene file"
@@ -629,247 +363,282 @@ static int run_cmd(int argc, char **argv, const char **sets)
         if (i == 1 && !clash && cli_same_file(ev_path, path)) clash = "the trajectory's output";
         if (clash) {
             cli_error("refusing to write %s '%s': it is %s", i ? "events to" : "the output to", outs[i], clash);
-            goto done;
+            return CLI_USAGE;
         }
     }
     if (ckpt_path && cli_same_file(ckpt_path, scene_file)) {
         cli_error("refusing to write the checkpoint to '%s': it is the scene file", ckpt_path);
-        goto done;
+        return CLI_USAGE;
     }
-    if (path) cli_make_parents(path);
-    if (ev_path) cli_make_parents(ev_path);
-    if (is_h5) {
-        char herr[1200];
-        size_t tl;
-        char *text = NULL;
-        if (dth_scene_text(scene, NULL, NULL, &text, &tl)) text = NULL;
-        r.h5 = text ? h5_open(path, herr, sizeof herr) : NULL;
-        if (!r.h5) {
-            cli_error("%s", text ? herr : "out of memory");
-            free(text);
-            goto done;
-        }
-        /* provenance: the version and the command line; the scene as run */
-        size_t cl = 64;
-        for (int i = 0; i < argc; i++) cl += strlen(argv[i]) + 1;
-        char *prov = malloc(cl);
-        if (prov) {
-            size_t k = (size_t)snprintf(prov, cl, "dth %s; command: dth", DTH_VERSION_STRING);
-            for (int i = 0; i < argc; i++) k += (size_t)snprintf(prov + k, cl - k, " %s", argv[i]);
-        }
-        column_names(&r, 0);
-        int hrc = !prov || h5_attr(r.h5, "scene", text) || h5_attr(r.h5, "provenance", prov) ||
-                  h5_attr(r.h5, "region_codes", "0 -, 1 I, 2 II, 3 III") ||
-                  h5_attr(r.h5, "branch_codes", "0 -, 1 minus, 2 plus, 3 ghost, 4 exact, 5 reg") ||
-                  !(r.h5traj = h5_table(r.h5, "trajectory", r.ncol, r.line));
-        free(text);
-        free(prov);
-        if (!hrc && rs.nevents) {
-            size_t nl = 8;
-            for (size_t i = 0; i < rs.nevents; i++) nl += strlen(rs.event_names[i]) + 8;
-            char *names = malloc(nl);
-            hrc = !names;
-            if (names) {
-                size_t k = 0;
-                for (size_t i = 0; i < rs.nevents; i++)
-                    k += (size_t)snprintf(names + k, nl - k, "%s%zu %s", i ? ", " : "", i, rs.event_names[i]);
-                column_names(&r, 1);
-                hrc = h5_attr(r.h5, "event_codes", names) || !(r.h5ev = h5_table(r.h5, "events", r.encol, r.line));
-                free(names);
-            }
-        }
-        if (hrc) {
-            cli_error("cannot write '%s': HDF5 error", path);
-            h5_abort(r.h5);
-            r.h5 = NULL;
-            status = CLI_FAIL;
-            goto done;
-        }
-        /* rows go to HDF5; standard output stays empty */
-    } else if (cli_out_open(&r.out, path)) {
-        goto done; /* CLI_USAGE: the output cannot be written */
+    return GO_ON;
+}
+
+/* The outputs (with their missing folders), a resume's rows copied in; stop requests caught from
+ * here on. */
+static int open_outputs(run_job *j)
+{
+    run_out *r = &j->r;
+    if (j->path) cli_make_parents(j->path);
+    if (j->ev_path) cli_make_parents(j->ev_path);
+    if (j->is_h5) {
+        int st = run_h5_open(r, j->path, j->argc, j->argv);
+        if (st) return st;
+    } else if (cli_out_open(&r->out, j->path)) {
+        return CLI_USAGE; /* the output cannot be written */
     }
-    if (r.has_ev && cli_out_open(&r.ev, ev_path)) goto done;
-    if (resume_path && resume_prefix(&r, &ckc, resume_path, ev_path)) {
-        status = r.out.failed || r.ev.failed ? CLI_FAIL : CLI_USAGE;
-        goto done;
-    }
+    if (r->has_ev && cli_out_open(&r->ev, j->ev_path)) return CLI_USAGE;
+    if (j->o.resume_path && run_resume_prefix(r, &j->res.c, j->o.resume_path, j->ev_path))
+        return r->out.failed || r->ev.failed ? CLI_FAIL : CLI_USAGE;
     cli_catch_signals();
+    return GO_ON;
+}
 
-    /* ---- tiny steps: warn when h is below the conditioning limit of the step (methods.h) */
-    size_t n = r.n, N = r.N;
-    if (it) memcpy(zstart, dth_integrator_vertex(it), N * sizeof *zstart);
-    else {
-        memcpy(zstart, dth_fixed_state(fx), (N - 1) * sizeof *zstart);
-    }
-    double hmin;
-    if (is_dth && !resume_path && dth_step_floor(rs.model, zstart, 1e-6, &hmin, r.work) == DTH_OK && fabs(rs.opt.h) < hmin)
+/* ---------------------------------------------------------------- the run */
+
+/* The start vertex into zstart, and warnings about a fresh start: h below the conditioning limit
+ * of the step (methods.h); a vertex start's energy (every midpoint's) against the initial state's;
+ * an explicit wp: the first step it encodes against h (checked at the first sample). */
+static void check_start(run_job *j)
+{
+    const dth_run_setup *rs = &j->rs;
+    double *zstart = j->zstart, hmin;
+    if (j->it) memcpy(zstart, dth_integrator_vertex(j->it), j->r.N * sizeof *zstart);
+    else memcpy(zstart, dth_fixed_state(j->fx), (j->r.N - 1) * sizeof *zstart);
+    if (!j->is_dth || j->o.resume_path) return;
+    if (dth_step_floor(rs->model, zstart, 1e-6, &hmin, j->r.work) == DTH_OK && fabs(rs->opt.h) < hmin)
         cli_error("warning: |h| = %.3g is below the conditioning limit %.3g at the start: the step size is "
-                  "known only to about 1e-6 relative or worse (docs/performance.md)", fabs(rs.opt.h), hmin);
-
-    /* ---- a vertex start: the energy the run conserves (every midpoint's) against the initial
-     * state's; an explicit wp: the first step it encodes against h (checked at the first sample) */
-    if (is_dth && !resume_path && rs.opt.start == DTH_START_VERTEX) {
-        double H0, E = dth_integrator_energy(it);
-        if (!dth_model_eval(rs.model, zstart, DTH_EVAL_H, &H0, NULL, NULL) && fabs(E - H0) > 0.01 * fabs(H0))
+                  "known only to about 1e-6 relative or worse (docs/performance.md)", fabs(rs->opt.h), hmin);
+    if (rs->opt.start == DTH_START_VERTEX) {
+        double H0, E = dth_integrator_energy(j->it);
+        if (!dth_model_eval(rs->model, zstart, DTH_EVAL_H, &H0, NULL, NULL) && fabs(E - H0) > 0.01 * fabs(H0))
             cli_error("warning: a vertex start conserves the energy %.10g at every midpoint; the initial state has "
                       "%.10g (%.3g %% apart: the vertex lies off the energy surface by the offset that encodes the "
                       "step; a midpoint start conserves the initial energy)",
                       E, H0, 100 * fabs(E - H0) / fabs(H0));
-        r.check_wp = rs.opt.has_wp;
+        j->r.check_wp = rs->opt.has_wp;
     }
+}
 
-    /* ---- the run (run.h) */
+/* The driver's progress callback: stop requests, and the progress display on stderr. */
+static int on_progress(void *user, const dth_run_state *st)
+{
+    run_out *r = user;
+    if ((r->sig = cli_signal_received()) != 0) return DTH_ESTOPPED;
+    if (!r->progress) return 0;
+    double now = cli_now();
+    if (now - r->last_progress < (r->progress == 1 ? 0.25 : r->progress_s)) return 0;
+    r->last_progress = now;
+    const dth_run_setup *rs = r->rs;
+    double frac = rs->has_t_end ? (st->t - st->t_first) / (rs->t_end - st->t_first) : (double)st->k / (double)rs->steps;
+    frac = fmin(fmax(frac, 0), 1);
+    if (r->progress == 1) {
+        fprintf(stderr, "\rdth run: %3.0f%%", 100 * frac);
+        return 0;
+    }
+    double el = now - r->t_start, rate = (double)(st->k - r->k_begin) / fmax(el, 1e-9);
+    double done = rs->has_t_end ? (st->t - r->t_begin) / (rs->t_end - r->t_begin)
+                                : (double)(st->k - r->k_begin) / (double)(rs->steps - r->k_begin);
+    double eta = done > 0 ? el * (1 - done) / done : NAN;
+    fprintf(stderr, "dth run: t = %.9g (%.1f%%), k = %ld, %.3g steps/s, elapsed %.1f s, ETA %.1f s\n", st->t,
+            100 * frac, st->k, rate, el, eta);
+    return 0;
+}
+
+/* The driver's configuration (run.h): the scene's, with dth run's callbacks; the progress display. */
+static void configure(run_job *j, dth_run_config *cfg)
+{
+    const dth_run_setup *rs = &j->rs;
+    run_out *r = &j->r;
+    dth_run_config_from_setup(cfg, rs);
+    cfg->points = rs->points;
+    cfg->on_event = run_on_event;
+    cfg->every = rs->every;
+    cfg->dt = rs->dt;
+    cfg->sample = run_on_sample;
+    cfg->user = r;
+    cfg->checkpoint = j->o.ckpt_path ? run_on_checkpoint : NULL;
+    cfg->checkpoint_every = j->o.ckpt_every;
+    cfg->progress = on_progress;
+    cfg->progress_every = 1;
+    r->progress = j->o.want_progress ? 2 : isatty(STDERR_FILENO) ? 1 : 0;
+    r->progress_s = j->o.progress_s;
+    r->t_start = r->last_progress = cli_now();
+}
+
+/* One call of the driver; a callback's write error sets werr. */
+static void drive(run_job *j, const dth_run_config *cfg)
+{
+    j->rc = j->it ? dth_run(j->it, cfg, &j->S) : dth_run_fixed(j->fx, cfg, &j->S);
+    if (j->rc == DTH_EIO && j->S.stop == DTH_RUN_CALLBACK) j->werr = 1;
+}
+
+/* --roundtrip: reverse in place and take as many steps back (paper, time reversibility); stderr
+ * gets the distance to the start. */
+static void roundtrip(run_job *j, dth_run_config *cfg)
+{
+    long k1 = j->S.k;
+    if (j->it) dth_integrator_reverse(j->it);
+    else dth_fixed_set_h(j->fx, -j->rs.opt.h);
+    j->r.leg = 2;
+    cfg->has_t_end = 0;
+    cfg->steps = 2 * k1;
+    j->S.k0 = k1;
+    j->S.t_stop = j->S.t;
+    drive(j, cfg);
+    if (j->rc) return;
+    const double *z = j->it ? dth_integrator_vertex(j->it) : dth_fixed_state(j->fx), *zstart = j->zstart;
+    double e = 0, sc = 0;
+    for (size_t i = 0; i < (j->it ? j->r.N : j->r.N - 1); i++) {
+        e = fmax(e, fabs(z[i] - zstart[i]));
+        sc = fmax(sc, fabs(zstart[i]));
+    }
+    fprintf(stderr, "dth: round trip of 2 x %ld steps: max |z - z_0| = %.3g (relative %.3g)\n", k1, e,
+            sc > 0 ? e / sc : e);
+}
+
+/* The headers (not on a resume: they are in the copied rows), the first checkpoint, the run and its
+ * way back. GO_ON, or the exit status when the checkpoint cannot be written. */
+static int run_all(run_job *j)
+{
+    const run_opts *o = &j->o;
+    run_out *r = &j->r;
     dth_run_config cfg;
-    dth_run_config_from_setup(&cfg, &rs);
-    cfg.points = rs.points;
-    cfg.on_event = on_event;
-    cfg.every = rs.every;
-    cfg.dt = rs.dt;
-    cfg.sample = on_sample;
-    cfg.user = &r;
-    cfg.checkpoint = ckpt_path ? on_checkpoint : NULL;
-    cfg.checkpoint_every = ckpt_every;
-    cfg.progress = on_progress;
-    cfg.progress_every = 1;
-    r.progress = want_progress ? 2 : isatty(STDERR_FILENO) ? 1 : 0;
-    r.progress_s = progress_s;
-    r.t_start = r.last_progress = cli_now();
-    dth_run_state S;
-    dth_run_state_init(&S);
-    if (resume_path) S = ckc.S;
-    r.k_begin = S.k;
-    r.t_begin = zstart[n];
-    int werr = 0;
-    if (!resume_path && (header(&r) || (r.has_ev && ev_header(&r)))) werr = 1;
-    /* the checkpoint path is tried before the first step: a checkpoint of the start (or of the
-     * resumed state), so a run never learns only at its first checkpoint that it cannot write one */
-    if (!werr && ckpt_path && on_checkpoint(&r, &S)) {
-        if (!r.out.failed && !r.ev.failed) {
-            r.out.keep = r.ev.keep = 0;
-            cli_out_abort(&r.out);
-            if (r.has_ev) cli_out_abort(&r.ev);
-            goto done; /* CLI_USAGE: like an output that cannot be written */
-        }
-        werr = 1;
+    configure(j, &cfg);
+    dth_run_state_init(&j->S);
+    if (o->resume_path) j->S = j->res.c.S;
+    r->k_begin = j->S.k;
+    r->t_begin = j->zstart[r->n];
+    if (!o->resume_path && run_headers(r)) j->werr = 1;
+    if (!j->werr && o->ckpt_path) {
+        int c = run_first_checkpoint(r, &j->S);
+        if (c < 0) return CLI_USAGE; /* like an output that cannot be written */
+        j->werr = c;
     }
     /* temporaries of runs that were killed: once this run's own checkpoint stands (a resume's rows
      * are in this run's temporary), or at once without checkpoints */
-    if (!werr && (ckpt_path || !resume_path)) clean_stale(path, ev_path, ckpt_path, resume_path ? &ckc : NULL);
-    rc = werr ? DTH_OK : it ? dth_run(it, &cfg, &S) : dth_run_fixed(fx, &cfg, &S);
-    if (rc == DTH_EIO && S.stop == DTH_RUN_CALLBACK) werr = 1;
-    /* --roundtrip: reverse in place and take as many steps back (paper, time reversibility) */
-    if (roundtrip && !werr && rc == DTH_OK) {
-        long k1 = S.k;
-        if (it) dth_integrator_reverse(it);
-        else dth_fixed_set_h(fx, -rs.opt.h);
-        r.leg = 2;
-        cfg.has_t_end = 0;
-        cfg.steps = 2 * k1;
-        S.k0 = k1;
-        S.t_stop = S.t;
-        rc = it ? dth_run(it, &cfg, &S) : dth_run_fixed(fx, &cfg, &S);
-        if (rc == DTH_EIO && S.stop == DTH_RUN_CALLBACK) werr = 1;
-        if (!rc) {
-            const double *z = it ? dth_integrator_vertex(it) : dth_fixed_state(fx);
-            double e = 0, sc = 0;
-            for (size_t i = 0; i < (it ? N : N - 1); i++) {
-                e = fmax(e, fabs(z[i] - zstart[i]));
-                sc = fmax(sc, fabs(zstart[i]));
-            }
-            fprintf(stderr, "dth: round trip of 2 x %ld steps: max |z - z_0| = %.3g (relative %.3g)\n", k1, e,
-                    sc > 0 ? e / sc : e);
-        }
-    }
-    int sig = r.sig && rc == DTH_ESTOPPED && !r.too_many ? r.sig : 0;
-    if (r.progress == 1) fprintf(stderr, "\r%20s\r", "");
-    if (werr) {
-        if (r.h5) {
-            cli_error("cannot write '%s' (HDF5)", path);
-            h5_abort(r.h5);
-            r.h5 = NULL;
-        } else if (r.out.failed) cli_error("cannot write '%s': %s", path ? path : "standard output", strerror(r.out.err));
-        else if (r.ev.failed) cli_error("cannot write '%s': %s", ev_path, strerror(r.ev.err));
-        /* what the last good checkpoint needs stays (its temporaries are kept): fix the cause, then resume */
-        if (r.ckpt_written)
+    if (!j->werr && (o->ckpt_path || !o->resume_path))
+        run_clean_stale(j->path, j->ev_path, o->ckpt_path, o->resume_path ? &j->res.c : NULL);
+    if (j->werr) j->rc = DTH_OK;
+    else drive(j, &cfg);
+    if (o->roundtrip && !j->werr && j->rc == DTH_OK) roundtrip(j, &cfg);
+    return GO_ON;
+}
+
+/* After the run: the outputs put in place, or the write error reported (what the last good
+ * checkpoint needs stays: its temporaries are kept; fix the cause, then resume). */
+static int close_outputs(run_job *j)
+{
+    run_out *r = &j->r;
+    if (r->progress == 1) fprintf(stderr, "\r%20s\r", "");
+    if (j->werr) {
+        run_outputs_failed(r, j->path, j->ev_path);
+        if (r->ckpt_written)
             cli_error("the checkpoint '%s' of step %ld and the rows it needs are kept: dth run --resume %s continues "
-                      "the run once the cause is fixed", ckpt_path, r.ckpt_k, ckpt_path);
-        status = CLI_FAIL;
-        goto done;
+                      "the run once the cause is fixed", j->o.ckpt_path, r->ckpt_k, j->o.ckpt_path);
+        return CLI_FAIL;
     }
-    if (r.h5) {
-        char herr[1200];
-        int hrc = h5_finish(r.h5, herr, sizeof herr);
-        r.h5 = NULL;
-        if (hrc) {
-            cli_error("%s", herr);
-            status = CLI_FAIL;
-            goto done;
-        }
-    } else if (cli_out_finish(&r.out) || (r.has_ev && cli_out_finish(&r.ev))) {
-        status = CLI_FAIL;
-        goto done;
-    }
-    if (resume_path && !ckpt_path) clean_stale(path, ev_path, NULL, &ckc); /* the resumed run's files are complete */
-    /* how the run ended: always when it could not go on, else for regularized runs and on a tty */
+    if (run_outputs_finish(r)) return CLI_FAIL;
+    /* the resumed run's files are complete */
+    if (j->o.resume_path && !j->o.ckpt_path) run_clean_stale(j->path, j->ev_path, NULL, &j->res.c);
+    return GO_ON;
+}
+
+/* The key a run that stopped (exit 3) may change: h if the first solved step failed, else a hint
+ * of cli_stop_hint. */
+static void stop_hint(const run_job *j, char *hint, size_t len)
+{
+    const dth_run_setup *rs = &j->rs;
+    if (j->S.k - j->r.k_begin <= 1 && !j->o.resume_path)
+        snprintf(hint, len, "; the first step failed: a smaller step may pass: -s integrator.h=%.6g", rs->opt.h / 4);
+    else if (j->is_dth)
+        cli_stop_hint(rs->regularize, j->rc, rs->opt.h, rs->model, dth_integrator_vertex(j->it),
+                      dth_integrator_lambda(j->it), hint, len);
+    else
+        hint[0] = '\0';
+}
+
+/* How the run ended, on stderr (always when it could not go on, else for regularized runs and on
+ * a terminal), and the exit status. */
+static int report(const run_job *j)
+{
+    const run_out *r = &j->r;
+    const dth_run_state *S = &j->S;
+    int rc = j->rc, sig = r->sig && rc == DTH_ESTOPPED && !r->too_many ? r->sig : 0;
     char crossing[160] = "";
-    if (S.crossings || S.regularized)
+    if (S->crossings || S->regularized)
         snprintf(crossing, sizeof crossing, "; %ld psi = 0 crossings, %ld regularized steps, largest step ratio "
-                 "at a crossing %.3g", S.crossings, S.regularized, S.max_ratio);
-    const char *emsg = it ? dth_integrator_errmsg(it) : dth_fixed_errmsg(fx);
-    if (r.too_many) {
+                 "at a crossing %.3g", S->crossings, S->regularized, S->max_ratio);
+    const char *emsg = j->it ? dth_integrator_errmsg(j->it) : dth_fixed_errmsg(j->fx);
+    if (r->too_many) {
         cli_error("stopped at k=%ld, t=%.17g: output.dt = %.3g asks for more than %d rows within one step (a larger "
-                  "output.dt, or output.points = vertices; the rows so far are kept)", S.k, S.t, rs.dt,
+                  "output.dt, or output.points = vertices; the rows so far are kept)", S->k, S->t, j->rs.dt,
                   MAX_SAMPLES_PER_STEP);
-        status = CLI_USAGE;
+        return CLI_USAGE;
     } else if (sig) {
-        cli_error("interrupted at k=%ld, t=%.17g (the rows so far are kept)%s", S.k, S.t, crossing);
-        status = 128 + sig;
+        cli_error("interrupted at k=%ld, t=%.17g (the rows so far are kept)%s", S->k, S->t, crossing);
+        return 128 + sig;
     } else if (rc > 0) {
         char hint[256];
-        if (S.k - r.k_begin <= 1 && !resume_path) /* the first solved step failed: the step size is the key to change */
-            snprintf(hint, sizeof hint, "; the first step failed: a smaller step may pass: -s integrator.h=%.6g",
-                     rs.opt.h / 4);
-        else if (is_dth)
-            cli_stop_hint(rs.regularize, rc, rs.opt.h, rs.model, dth_integrator_vertex(it), dth_integrator_lambda(it),
-                          hint, sizeof hint);
-        else
-            hint[0] = '\0';
-        cli_error("stopped at k=%ld, t=%.17g: %s (%s)%s%s", S.k, S.t, dth_strerror(rc), emsg, crossing, hint);
-        status = CLI_STOPPED;
+        stop_hint(j, hint, sizeof hint);
+        cli_error("stopped at k=%ld, t=%.17g: %s (%s)%s%s", S->k, S->t, dth_strerror(rc), emsg, crossing, hint);
+        return CLI_STOPPED;
     } else if (rc < 0) {
-        cli_error("error at k=%ld, t=%.17g: %s (%s)", S.k, S.t, dth_strerror(rc), emsg);
-        status = CLI_FAIL;
-    } else {
-        status = CLI_OK;
-        if (r.progress == 1 || S.regularized)
-            fprintf(stderr, "dth: %ld steps to t = %.17g, %ld rows to %s%s\n", S.k, S.t_stop, S.samples,
-                    path ? path : "standard output", crossing);
-        if (r.has_ev && (r.progress == 1 || S.stop == DTH_RUN_EVENT))
-            fprintf(stderr, "dth: %ld events to %s%s\n", S.events, ev_path,
-                    S.stop == DTH_RUN_EVENT ? " (the run ended at a terminal event)" : "");
+        cli_error("error at k=%ld, t=%.17g: %s (%s)", S->k, S->t, dth_strerror(rc), emsg);
+        return CLI_FAIL;
     }
-done:
-    if (r.h5) h5_abort(r.h5);
-    if (r.out.fd >= 0 && r.out.buf) cli_out_abort(&r.out);
-    if (r.ev.fd >= 0 && r.ev.buf) cli_out_abort(&r.ev);
-    free(ev_path);
-    free(r.vals);
-    free(r.kind);
-    free(r.ekind);
-    free(r.line);
-    free(r.inv);
-    free(r.work);
-    free(zstart);
-    dth_free(NULL, ck);
-    cli_ckpt_clear(&ckc);
-    dth_scene_free(saved);
-    dth_integrator_free(it);
-    dth_fixed_free(fx);
-    dth_run_setup_clear(&rs);
-    dth_scene_free(scene);
-    dth_registry_free(reg);
-    return status;
+    if (r->progress == 1 || S->regularized)
+        fprintf(stderr, "dth: %ld steps to t = %.17g, %ld rows to %s%s\n", S->k, S->t_stop, S->samples,
+                j->path ? j->path : "standard output", crossing);
+    if (r->has_ev && (r->progress == 1 || S->stop == DTH_RUN_EVENT))
+        fprintf(stderr, "dth: %ld events to %s%s\n", S->events, j->ev_path,
+                S->stop == DTH_RUN_EVENT ? " (the run ended at a terminal event)" : "");
+    return CLI_OK;
+}
+
+static void job_free(run_job *j)
+{
+    run_out_free(&j->r);
+    free(j->ev_path);
+    free(j->zstart);
+    run_resume_clear(&j->res);
+    dth_integrator_free(j->it);
+    dth_fixed_free(j->fx);
+    dth_run_setup_clear(&j->rs);
+    dth_scene_free(j->scene);
+    dth_registry_free(j->reg);
+}
+
+/* The command, with room in `sets` for the -s overrides (argc entries). */
+static int run_cmd(int argc, char **argv, const char **sets)
+{
+    run_job j;
+    memset(&j, 0, sizeof j);
+    j.o.sets = sets;
+    j.o.ckpt_every = 1000;
+    j.o.model_check = 1;
+    j.o.progress_s = 5;
+    j.argc = argc;
+    j.argv = argv;
+    j.r.out.fd = j.r.ev.fd = -1;
+    int st = parse_args(argc, argv, &j.o);
+    if (st != GO_ON) return st;
+    if (!(j.reg = cli_registry())) return CLI_FAIL;
+    /* input: everything is validated before any output is created */
+    st = load_input(&j);
+    if (st == GO_ON) st = check_setup(&j);
+    if (st == GO_ON) st = check_model(&j);
+    if (st == GO_ON) st = start_integrator(&j);
+    if (st == GO_ON) st = init_rows(&j);
+    if (st == GO_ON) st = choose_outputs(&j);
+    if (st == GO_ON) st = check_clashes(&j);
+    /* output, then the run (run.h) */
+    if (st == GO_ON) st = open_outputs(&j);
+    if (st == GO_ON) check_start(&j);
+    if (st == GO_ON) st = run_all(&j);
+    if (st == GO_ON) st = close_outputs(&j);
+    if (st == GO_ON) st = report(&j);
+    job_free(&j);
+    return st;
 }
 
 int cli_cmd_run(int argc, char **argv)

@@ -1,0 +1,99 @@
+/* SPDX-License-Identifier: MIT */
+/* dth run's internals: the state the run driver's callbacks share; rows (run_rows.c), resume (run_resume.c). */
+#ifndef DTH_CLI_RUN_OUT_H
+#define DTH_CLI_RUN_OUT_H
+
+#include <stddef.h>
+#include "cli.h"
+#include "ckpt.h"
+#include "h5out.h"
+
+/* At most this many rows within one step (output.dt far below the step: a full disk, not a trajectory). */
+enum { MAX_SAMPLES_PER_STEP = 1000000 };
+
+/* One dth run: its scene and setup, the outputs (CSV or HDF5, events), checkpoint and progress
+ * state; the `user` of the run driver's callbacks. */
+typedef struct run_out {
+    const dth_run_setup *rs;
+    const dth_model *model;
+    size_t n, N, ninv;
+    double *inv, *work;
+    char *line;
+    size_t linecap, len;
+    cli_out out;
+    int leg; /* --roundtrip: 1 forward, 2 return (a `leg` column); 0: no column */
+    /* checkpoints and progress */
+    const char *ckpt_path;
+    const dth_scene *scene;
+    dth_integrator *it;
+    int progress;          /* 1: '\r' percentage on a terminal; 2: a line every few seconds */
+    double t_start, last_progress, t_begin, progress_s;
+    long k_begin;
+    int sig;
+    int ckpt_written, ckpt_failed; /* a checkpoint was written (at step ckpt_k); one failed */
+    long ckpt_k;
+    long step_k, step_samples; /* samples within the current step (bounded) */
+    int too_many;
+    cli_out ev;            /* event rows ([events]) */
+    int has_ev;
+    double *vals;          /* one row's values */
+    unsigned char *kind, *ekind; /* column kinds of the trajectory and events tables */
+    size_t ncol, encol;
+    h5file *h5;            /* HDF5 output instead of CSV */
+    h5table *h5traj, *h5ev;
+    int check_wp;          /* an explicit wp: compare the first step it encodes with h */
+    int vk_set, vk_leg;    /* vertex_K's last value vk: of the step vk_k of leg vk_leg */
+    long vk_k;
+    double vk;
+} run_out;
+
+/* (run_rows.c) The row buffers and column kinds of the run rs; leg 1 adds the column leg
+ * (--roundtrip). 0, or -1: out of memory. */
+int run_rows_init(run_out *r, const dth_run_setup *rs, int leg);
+/* The header lines of the trajectory's and the events' CSV (nothing for HDF5). 0 or -1. */
+int run_headers(run_out *r);
+/* The driver's sample callback: one row per sample. */
+int run_on_sample(void *user, const dth_sample *s);
+/* The driver's event callback: one row per located event in the events table. */
+int run_on_event(void *user, const dth_sample *s);
+/* Open the HDF5 output `path` with its tables and attributes (the scene r->scene as run, the
+ * provenance: the version and the command line argv): 0, or the exit status (printed). */
+int run_h5_open(run_out *r, const char *path, int argc, char **argv);
+/* Put the finished outputs in place (CSV: rename; HDF5: write out). 0, or -1 (printed). */
+int run_outputs_finish(run_out *r);
+/* Report the output that failed to be written (path: the trajectory's, NULL for standard output);
+ * an HDF5 output is removed. */
+void run_outputs_failed(run_out *r, const char *path, const char *ev_path);
+/* Remove the outputs not finished (but temporaries a checkpoint keeps) and free the buffers. */
+void run_out_free(run_out *r);
+
+/* (run_resume.c) The driver's checkpoint callback: a checkpoint (cli/ckpt.c) every checkpoint_every
+ * steps and at the end, after the rows so far are on disk. From the first one on, the temporaries
+ * it names are kept if the run fails. */
+int run_on_checkpoint(void *user, const dth_run_state *st);
+/* Remove the temporaries that killed runs left next to the outputs and the checkpoint, and next to
+ * the outputs a resumed checkpoint names (c may be NULL). */
+void run_clean_stale(const char *path, const char *ev_path, const char *ckpt_path, const cli_ckpt *c);
+/* The rows the checkpointed run c had made final, into the new outputs: from its temporary file if
+ * it was killed (or failed), else from the file it finished; the bytes must hash as recorded. 0 or
+ * -1 (printed). */
+int run_resume_prefix(run_out *r, const cli_ckpt *c, const char *ckpt, const char *ev_path);
+/* The checkpoint of the start (or of the resumed state), written before the first step so a run
+ * never learns only at its first checkpoint that it cannot write one: 0; 1: an output could not be
+ * written; -1: the checkpoint could not (the outputs are removed: like an output that cannot be
+ * written). */
+int run_first_checkpoint(run_out *r, const dth_run_state *S);
+
+/* What --resume reads: the checkpoint of a dth run. */
+typedef struct run_resume {
+    void *buf;        /* the checkpoint's bytes (for dth_checkpoint_restore) */
+    size_t len;
+    cli_ckpt c;       /* its "cli" blob: the run driver's state, the outputs' progress (cli/ckpt.c) */
+    dth_scene *saved; /* the scene as the checkpointed run had it */
+} run_resume;
+/* Read the checkpoint `path`; load its scene into `scene` and into res->saved. 0, or a dth
+ * status with the reason in err. Free with run_resume_clear (also after a failure). */
+int run_resume_load(run_resume *res, const char *path, dth_scene *scene, char *err, size_t errlen);
+void run_resume_clear(run_resume *res);
+
+#endif
