@@ -552,13 +552,14 @@ int dth_find_roots(dth_rootfinder *rf, const double *z, double L, dth_root_set *
         marks[nm++] = 2 * r;
         marks[nm++] = 6 * r;
     }
-    double c0, c1, c2;
+    /* the real roots of the cubic model (of its quadratic where psi' is negligible): the first nc
+     * of cr (GSL writes only those) */
+    double cr[3] = {0, 0, 0};
     int nc = 0;
     if (dpsi != 0 && (out->psi_zero || fabs(dpsi) * L > 1e-8 * fabs(psi)))
-        nc = gsl_poly_solve_cubic(3 * (out->psi_zero ? 0 : psi) / dpsi, 0, -24 * H / dpsi, &c0, &c1, &c2);
+        nc = gsl_poly_solve_cubic(3 * (out->psi_zero ? 0 : psi) / dpsi, 0, -24 * H / dpsi, &cr[0], &cr[1], &cr[2]);
     else if (!out->psi_zero && psi != 0)
-        nc = gsl_poly_solve_quadratic(-psi / 8, 0, H, &c0, &c1);
-    double cr[3] = {c0, c1, c2};
+        nc = gsl_poly_solve_quadratic(-psi / 8, 0, H, &cr[0], &cr[1]);
     for (int i = 0; i < nc && i < 3; i++) marks[nm++] = fabs(cr[i]);
     /* each side gets the same |lambda| set except landmarks, which belong to their sign only;
      * keep it simple: add landmarks to both sides (harmless extra points) */
