@@ -5,15 +5,17 @@
  * scales, quadratic predictor, chord finish on the compensated constraint with the carried vertex
  * offset and the closed-form hdiff, cheap branch test, residual at the accepted midpoint and
  * double-double vertex), and against peers per step, all timed interleaved in one run:
- *   - pendulum (h = 0.05, amplitude 1): library step (also with compensate = 0, to show what the
- *     compensated finish costs), closed-form floor (3x3 elimination written out), GSL rk4imp
+ *   - pendulum (h = 0.05, amplitude 1): library step (also with compensate = 0 and with
+ *     branch_check = 0, to show what the compensated finish and the cheap branch test cost; without
+ *     the branch check the steps are the same bits here, the cheap test accepting Newton's root at
+ *     every step), closed-form floor (3x3 elimination written out), GSL rk4imp
  *     (gsl_odeiv2_step_apply, its own Jacobian), Stormer-Verlet;
  *   - Kepler e = 0.6 (h = 0.01): library step, floor with the analytic 2x2 Schur complement;
  *   - throughput of independent pendulum integrations in 1 and 2 threads.
  * The floors are checked to take the library's steps (lambda to round-off) before they are timed.
  * Usage: bench_floor [steps]   (default 200000; median of 9 interleaved repeats), or
- *        bench_floor --only VARIANT steps   (one untimed run of pend-lib, pend-lib-nocomp, pend-floor,
- *        kep-lib, kep-floor, rk4imp or verlet: for instruction counts under callgrind, where wall
+ *        bench_floor --only VARIANT steps   (one untimed run of pend-lib, pend-lib-nocomp,
+ *        pend-lib-nobranch, pend-floor, kep-lib, kep-floor, rk4imp or verlet: for instruction counts under callgrind, where wall
  *        clock on a shared machine is too noisy; scripts/bench-instr.sh). The process
  * re-executes itself with OPENBLAS_NUM_THREADS=1 unless that is set (OpenBLAS's idle worker
  * threads otherwise compete with the second application thread on a 2-core machine).
@@ -418,13 +420,14 @@ static int gsl_pend_jac(double t, const double y[], double *dfdy, double dfdt[],
 static dth_model *pen_model, *kep_model;
 static double sink;
 
-static double time_lib_opt(const dth_model *m, double h, int compensate, const double *q0, const double *p0, long steps,
-                           double *iters)
+static double time_lib_opt(const dth_model *m, double h, int compensate, int branch_check, const double *q0,
+                           const double *p0, long steps, double *iters)
 {
     dth_options o;
     dth_options_default(&o);
     o.h = h;
     o.compensate = compensate;
+    o.branch_check = branch_check;
     dth_integrator *it;
     if (dth_integrator_new(m, &o, &it) || dth_integrator_start(it, q0, p0, 0.0) || dth_integrator_step(it, NULL)) {
         fprintf(stderr, "cannot start the library's integrator\n");
@@ -447,7 +450,7 @@ static double time_lib_opt(const dth_model *m, double h, int compensate, const d
 
 static double time_lib(const dth_model *m, double h, const double *q0, const double *p0, long steps, double *iters)
 {
-    return time_lib_opt(m, h, 1, q0, p0, steps, iters);
+    return time_lib_opt(m, h, 1, 1, q0, p0, steps, iters);
 }
 
 static double time_pend_floor(long steps)
@@ -616,7 +619,8 @@ int main(int argc, char **argv)
     double pq = 1.0, pp = 0.0;
     if (only) {
         if (!strcmp(only, "pend-lib")) time_lib(pen_model, 0.05, &pq, &pp, steps, NULL);
-        else if (!strcmp(only, "pend-lib-nocomp")) time_lib_opt(pen_model, 0.05, 0, &pq, &pp, steps, NULL);
+        else if (!strcmp(only, "pend-lib-nocomp")) time_lib_opt(pen_model, 0.05, 0, 1, &pq, &pp, steps, NULL);
+        else if (!strcmp(only, "pend-lib-nobranch")) time_lib_opt(pen_model, 0.05, 1, 0, &pq, &pp, steps, NULL);
         else if (!strcmp(only, "pend-floor")) time_pend_floor(steps);
         else if (!strcmp(only, "kep-lib")) time_lib(kep_model, 0.01, kq, kp, steps, NULL);
         else if (!strcmp(only, "kep-floor")) time_kep_floor(kq, kp, steps);
@@ -628,10 +632,12 @@ int main(int argc, char **argv)
         return 0;
     }
     double ap1 = NAN, ak1 = NAN, ap = pend_agree(20000, &ap1), ak = kep_agree(kq, kp, 20000, &ak1);
-    double tl[REPEATS], tf[REPEATS], tg[REPEATS], tv[REPEATS], tkl[REPEATS], tkf[REPEATS], tc[REPEATS], it_p = 0, it_k = 0;
+    double tl[REPEATS], tf[REPEATS], tg[REPEATS], tv[REPEATS], tkl[REPEATS], tkf[REPEATS], tc[REPEATS], tb[REPEATS];
+    double it_p = 0, it_k = 0;
     for (int r = 0; r < REPEATS; r++) {
         tl[r] = time_lib(pen_model, 0.05, &pq, &pp, steps, &it_p);
-        tc[r] = time_lib_opt(pen_model, 0.05, 0, &pq, &pp, steps, NULL);
+        tc[r] = time_lib_opt(pen_model, 0.05, 0, 1, &pq, &pp, steps, NULL);
+        tb[r] = time_lib_opt(pen_model, 0.05, 1, 0, &pq, &pp, steps, NULL);
         tf[r] = time_pend_floor(steps);
         tg[r] = time_gsl(steps / 4);
         tv[r] = time_verlet(steps);
@@ -639,6 +645,7 @@ int main(int argc, char **argv)
         tkf[r] = time_kep_floor(kq, kp, steps);
     }
     double l = median(tl), f = median(tf), g = median(tg), v = median(tv), kl = median(tkl), kf = median(tkf), c = median(tc);
+    double b = median(tb);
     double nr = (double)REPEATS * (double)steps;
     printf("DTH step against its closed-form floor and peers, %ld steps, median of %d interleaved runs\n", steps, REPEATS);
     printf("pendulum, h = 0.05, amplitude 1 (floor's lambda within %.1e of the library's over 1000 steps, %.1e over 20000)\n",
@@ -646,6 +653,8 @@ int main(int argc, char **argv)
     printf("  library DTH step     %8.1f ns   (%.2f Newton iterations per step)\n", 1e9 * l, it_p / nr);
     printf("  same, compensate = 0 %8.1f ns   (the compensated finish costs %.0f%% of the step)\n", 1e9 * c,
            100 * (l - c) / l);
+    printf("  same, branch_check = 0 %6.1f ns   (the cheap branch test costs %.0f%% of the step)\n", 1e9 * b,
+           100 * (l - b) / l);
     printf("  closed-form floor    %8.1f ns   library / floor %.2f   (target <= 1.5)\n", 1e9 * f, l / f);
     printf("  GSL rk4imp step      %8.1f ns   library / rk4imp %.2f   (target <= 0.35)\n", 1e9 * g, l / g);
     printf("  Stormer-Verlet step  %8.1f ns   library / Verlet %.1f\n", 1e9 * v, l / v);

@@ -105,9 +105,6 @@ void dth__band_free(dth__band *b, const dth_allocator *al)
     dth_free(al, b);
 }
 
-/* Interleaved index of y-index j (q_i -> 2i, p_i -> 2i+1); the t slot has none. */
-static inline size_t y_of_x(size_t n, size_t r) { return (r & 1) ? n + 1 + r / 2 : r / 2; }
-
 /* (D v)_r for interleaved v: D = J H_xx, row r reads H row r^1 with sign + (q rows) or - (p rows). */
 static double d_times(const dth__band *b, size_t r, const double *v)
 {

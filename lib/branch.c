@@ -23,6 +23,11 @@ struct dth_rootfinder {
     dth_root_options opt;
     size_t n, N, d;
     int auton, M;         /* M: unknowns of the decoupled solve (q, p; wp if non-autonomous) */
+    int nsmall;           /* n (1..3) where vertex_quantities takes its unrolled path, else 0 */
+    /* the model's callbacks and state, called directly at the vertex (vertex_quantities_n) */
+    int (*meval)(const void *self, const double *y, unsigned what, double *H, double *grad, double *hess);
+    int (*third)(const void *self, const double *y, const double *u, double *d3); /* NULL: none */
+    const void *mself;
     int *act, *piv;       /* z-index of each unknown; LU pivots */
     dth_integrator *host; /* polish with this integrator's Newton (its current vertex) */
     dth_integrator *own;  /* or with our own integrator (standalone finder) */
@@ -74,6 +79,10 @@ static int rf_create(const dth_model *model, const dth_root_options *opt, const 
     rf->auton = dth_model_get_info(model)->autonomous;
     rf->M = (int)(rf->auton ? 2 * rf->n : 2 * rf->n + 1);
     rf->host = host;
+    rf->nsmall = rf->n <= 3 ? (int)rf->n : 0;
+    rf->meval = dth_model_get_type(model)->eval;
+    rf->third = dth_model_get_type(model)->third;
+    rf->mself = dth__model_self(model);
     size_t N = rf->N, d = rf->d, M = (size_t)rf->M;
     rf->cap = 2 * ((size_t)o.n_uniform + (size_t)o.n_geom + 8) + 1;
     size_t sizes[] = {N, d, d * d, N, M * M, M, N, dth_model_work_size(model), N, N, N, N, N, N,
@@ -135,40 +144,70 @@ void dth_rootfinder_free(dth_rootfinder *rf)
     dth_free(rf->alloc, rf);
 }
 
+/* Inline kernels take nc: the number of degrees of freedom when it is a compile-time constant
+ * (n = 1, 2, 3: the loops unroll, as the integrator's small path), else 0 (rf->n). */
+#define AI static inline __attribute__((always_inline))
+
 /*
  * H, psi, psi' at the vertex with one evaluation (psi' from the model's third derivative, else by
  * dth_model_psi's difference). *pabs gets sum |u_i H_ij u_j|, the scale of psi's round-off.
+ * Every instance does the same operations in the same order (the same bits, whatever nc); the
+ * model's eval is called directly, with dth__model_eval_raw's statuses and checks written out.
  */
-static int vertex_quantities(dth_rootfinder *rf, const double *z, double *H, double *psi, double *dpsi,
-                             double *pabs)
+AI int vertex_quantities_n(dth_rootfinder *rf, const size_t nc, const double *z, double *H, double *psi,
+                           double *dpsi, double *pabs)
 {
-    size_t n = rf->n, d = rf->d, N = rf->N;
-    double Hp;
+    size_t n = nc ? nc : rf->n, d = 2 * n + 1, N = d + 1;
+    const double *g = rf->grad, *hs = rf->hess;
+    double Hp, us[7], *u = nc ? us : rf->u;
     /* the Hessian is not swept for NaN/Inf: psi and psi' are checked instead */
-    int rc = dth__model_eval_raw(rf->model, z, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &Hp, rf->grad, rf->hess);
-    if (rc) return rc;
+    int rc = rf->meval(rf->mself, z, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &Hp, rf->grad, rf->hess);
+    if (rc) return rc > 0 ? DTH_EDOMAIN : DTH_EMODEL;
+    if (!isfinite(Hp)) return DTH_EDOMAIN;
+    for (size_t j = 0; j < d; j++)
+        if (!isfinite(g[j])) return DTH_EDOMAIN;
     *H = z[N - 1] + Hp;
-    dth__flow_y(n, rf->grad, rf->u);
+    /* u = J grad H over y (dth__flow_y) */
+    for (size_t i = 0; i < n; i++) {
+        u[i] = g[n + 1 + i];
+        u[n + 1 + i] = -g[i];
+    }
+    u[n] = 1.0;
     double s = 0, sa = 0;
     for (size_t i = 0; i < d; i++) {
         double r = 0, ra = 0;
         for (size_t j = 0; j < d; j++) {
-            r += rf->hess[i * d + j] * rf->u[j];
-            ra += fabs(rf->hess[i * d + j] * rf->u[j]);
+            /* the small path reads each entry alone (volatile): the model has just stored them one
+             * by one, and a vectorised load of two would wait for both stores to reach the cache
+             * (a failed store-to-load forwarding: a few % of a pendulum step) */
+            double t = (nc ? ((const volatile double *)hs)[i * d + j] : hs[i * d + j]) * u[j];
+            r += t;
+            ra += fabs(t);
         }
-        s += rf->u[i] * r;
-        sa += fabs(rf->u[i]) * ra;
+        s += u[i] * r;
+        sa += fabs(u[i]) * ra;
     }
     *psi = s;
     *pabs = sa;
     if (!isfinite(s) || !isfinite(sa)) return DTH_EDOMAIN;
-    const dth_model_type *t = dth_model_get_type(rf->model);
-    if (t->third) {
-        int r3 = t->third(dth__model_self(rf->model), z, rf->u, dpsi);
+    if (rf->third) {
+        int r3 = rf->third(rf->mself, z, u, dpsi);
         if (r3) return r3 > 0 ? DTH_EDOMAIN : DTH_EMODEL;
         return isfinite(*dpsi) ? DTH_OK : DTH_EDOMAIN;
     }
     return dth_model_psi(rf->model, z, NULL, dpsi, rf->work);
+}
+
+/* vertex_quantities_n for the path at hand */
+static int vertex_quantities(dth_rootfinder *rf, const double *z, double *H, double *psi, double *dpsi,
+                             double *pabs)
+{
+    switch (rf->nsmall) {
+    case 1: return vertex_quantities_n(rf, 1, z, H, psi, dpsi, pabs);
+    case 2: return vertex_quantities_n(rf, 2, z, H, psi, dpsi, pabs);
+    case 3: return vertex_quantities_n(rf, 3, z, H, psi, dpsi, pabs);
+    default: return vertex_quantities_n(rf, 0, z, H, psi, dpsi, pabs);
+    }
 }
 
 /* ---- the decoupled solve as a Newton problem (newton.c): unknowns the active components of zb */
@@ -552,13 +591,14 @@ int dth_find_roots(dth_rootfinder *rf, const double *z, double L, dth_root_set *
         marks[nm++] = 2 * r;
         marks[nm++] = 6 * r;
     }
-    double c0, c1, c2;
+    /* the real roots of the cubic model (of its quadratic where psi' is negligible): the first nc
+     * of cr (GSL writes only those) */
+    double cr[3] = {0, 0, 0};
     int nc = 0;
     if (dpsi != 0 && (out->psi_zero || fabs(dpsi) * L > 1e-8 * fabs(psi)))
-        nc = gsl_poly_solve_cubic(3 * (out->psi_zero ? 0 : psi) / dpsi, 0, -24 * H / dpsi, &c0, &c1, &c2);
+        nc = gsl_poly_solve_cubic(3 * (out->psi_zero ? 0 : psi) / dpsi, 0, -24 * H / dpsi, &cr[0], &cr[1], &cr[2]);
     else if (!out->psi_zero && psi != 0)
-        nc = gsl_poly_solve_quadratic(-psi / 8, 0, H, &c0, &c1);
-    double cr[3] = {c0, c1, c2};
+        nc = gsl_poly_solve_quadratic(-psi / 8, 0, H, &cr[0], &cr[1]);
     for (int i = 0; i < nc && i < 3; i++) marks[nm++] = fabs(cr[i]);
     /* each side gets the same |lambda| set except landmarks, which belong to their sign only;
      * keep it simple: add landmarks to both sides (harmless extra points) */
@@ -709,6 +749,16 @@ void dth__branch_free(dth_integrator *it)
     it->rf = NULL;
 }
 
+/* rf->z = z_k, the double-double vertex rounded to double (the full search starts from it too),
+ * and its H, psi, psi' (vertex_quantities_n) */
+AI int branch_vertex_n(dth_rootfinder *rf, const size_t nc, const dth_integrator *it, double *H, double *psi,
+                       double *dpsi, double *pabs)
+{
+    size_t N = nc ? 2 * nc + 2 : rf->N;
+    for (size_t j = 0; j < N; j++) rf->z[j] = it->st.z[j] + it->st.zlo[j];
+    return vertex_quantities_n(rf, nc, rf->z, H, psi, dpsi, pabs);
+}
+
 int dth__branch_select(dth_integrator *it, int rc, dth__solution *sol, dth_branch *branch)
 {
     dth_rootfinder *rf = it->rf;
@@ -725,9 +775,14 @@ int dth__branch_select(dth_integrator *it, int rc, dth__solution *sol, dth_branc
     }
     if (rc < 0) return rc;
     size_t N = it->N;
-    for (size_t j = 0; j < N; j++) rf->z[j] = it->st.z[j] + it->st.zlo[j];
     double H, psi, dpsi, pabs;
-    int vr = vertex_quantities(rf, rf->z, &H, &psi, &dpsi, &pabs);
+    int vr;
+    switch (rf->nsmall) {
+    case 1: vr = branch_vertex_n(rf, 1, it, &H, &psi, &dpsi, &pabs); break;
+    case 2: vr = branch_vertex_n(rf, 2, it, &H, &psi, &dpsi, &pabs); break;
+    case 3: vr = branch_vertex_n(rf, 3, it, &H, &psi, &dpsi, &pabs); break;
+    default: vr = branch_vertex_n(rf, 0, it, &H, &psi, &dpsi, &pabs); break;
+    }
     if (vr) return rc ? rc : vr;
     int pz = fabs(psi) <= 32 * DBL_EPSILON * pabs;
     long prev_ok = it->st.psi_step == it->st.steps - 1 && it->st.have_prev;

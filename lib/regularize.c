@@ -439,13 +439,6 @@ int dth_kicked_segment(const dth_model *model, const double *z, const double *zl
 
 /* ------------------------------------------------------------------ the integrator's hook */
 
-static inline double two_sum(double a, double b, double *e)
-{
-    double s = a + b, bb = s - a;
-    *e = (a - (s - bb)) + (b - bb);
-    return s;
-}
-
 static int psi_sign_at(dth_integrator *it, const double *z, int *sign)
 {
     double psi;

@@ -25,6 +25,7 @@ ratio() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.2f", a / b }'; }
 f=$bd/bench/bench_floor
 pl=$(per "$(count pl dth_integrator_step "$f" --only pend-lib "$steps")" "$steps")
 pn=$(per "$(count pn dth_integrator_step "$f" --only pend-lib-nocomp "$steps")" "$steps")
+pb=$(per "$(count pb dth_integrator_step "$f" --only pend-lib-nobranch "$steps")" "$steps")
 pf=$(per "$(count pf pend_step "$f" --only pend-floor "$steps")" "$steps")
 g=$(per "$(count g gsl_odeiv2_step_apply "$f" --only rk4imp "$steps")" "$steps")
 kl=$(per "$(count kl dth_integrator_step "$f" --only kep-lib "$steps")" "$steps")
@@ -33,6 +34,7 @@ echo "instructions per step (callgrind, $steps steps)"
 echo "pendulum, h = 0.05, amplitude 1"
 echo "  library DTH step      $pl"
 echo "  same, compensate = 0  $pn   (the compensated finish: $(ratio $((pl - pn)) "$pl") of the step)"
+echo "  same, branch_check = 0  $pb   (the cheap branch test: $(ratio $((pl - pb)) "$pl") of the step)"
 echo "  closed-form floor     $pf   library / floor $(ratio "$pl" "$pf")"
 echo "  GSL rk4imp step       $g   library / rk4imp $(ratio "$pl" "$g")"
 echo "kepler e = 0.6, h = 0.01"
