@@ -6,7 +6,8 @@
  * offset and the closed-form hdiff, cheap branch test, residual at the accepted midpoint and
  * double-double vertex), and against peers per step, all timed interleaved in one run:
  *   - pendulum (h = 0.05, amplitude 1): library step (also with compensate = 0 and with
- *     branch_check = 0, to show what the compensated finish and the cheap branch test cost; without
+ *     branch_check = 0, to show what the compensated finish and the cheap branch test cost, and with
+ *     compensate = 2, the reversible finish, to show what it adds; without
  *     the branch check the steps are the same bits here, the cheap test accepting Newton's root at
  *     every step), closed-form floor (3x3 elimination written out), GSL rk4imp
  *     (gsl_odeiv2_step_apply, its own Jacobian), Stormer-Verlet;
@@ -15,7 +16,7 @@
  * The floors are checked to take the library's steps (lambda to round-off) before they are timed.
  * Usage: bench_floor [steps]   (default 200000; median of 9 interleaved repeats), or
  *        bench_floor --only VARIANT steps   (one untimed run of pend-lib, pend-lib-nocomp,
- *        pend-lib-nobranch, pend-floor, kep-lib, kep-floor, rk4imp or verlet: for instruction counts under callgrind, where wall
+ *        pend-lib-nobranch, pend-lib-rev, pend-floor, kep-lib, kep-floor, rk4imp or verlet: for instruction counts under callgrind, where wall
  *        clock on a shared machine is too noisy; scripts/bench-instr.sh). The process
  * re-executes itself with OPENBLAS_NUM_THREADS=1 unless that is set (OpenBLAS's idle worker
  * threads otherwise compete with the second application thread on a 2-core machine).
@@ -621,6 +622,7 @@ int main(int argc, char **argv)
         if (!strcmp(only, "pend-lib")) time_lib(pen_model, 0.05, &pq, &pp, steps, NULL);
         else if (!strcmp(only, "pend-lib-nocomp")) time_lib_opt(pen_model, 0.05, 0, 1, &pq, &pp, steps, NULL);
         else if (!strcmp(only, "pend-lib-nobranch")) time_lib_opt(pen_model, 0.05, 1, 0, &pq, &pp, steps, NULL);
+        else if (!strcmp(only, "pend-lib-rev")) time_lib_opt(pen_model, 0.05, 2, 1, &pq, &pp, steps, NULL);
         else if (!strcmp(only, "pend-floor")) time_pend_floor(steps);
         else if (!strcmp(only, "kep-lib")) time_lib(kep_model, 0.01, kq, kp, steps, NULL);
         else if (!strcmp(only, "kep-floor")) time_kep_floor(kq, kp, steps);
@@ -633,11 +635,13 @@ int main(int argc, char **argv)
     }
     double ap1 = NAN, ak1 = NAN, ap = pend_agree(20000, &ap1), ak = kep_agree(kq, kp, 20000, &ak1);
     double tl[REPEATS], tf[REPEATS], tg[REPEATS], tv[REPEATS], tkl[REPEATS], tkf[REPEATS], tc[REPEATS], tb[REPEATS];
+    double trv[REPEATS];
     double it_p = 0, it_k = 0;
     for (int r = 0; r < REPEATS; r++) {
         tl[r] = time_lib(pen_model, 0.05, &pq, &pp, steps, &it_p);
         tc[r] = time_lib_opt(pen_model, 0.05, 0, 1, &pq, &pp, steps, NULL);
         tb[r] = time_lib_opt(pen_model, 0.05, 1, 0, &pq, &pp, steps, NULL);
+        trv[r] = time_lib_opt(pen_model, 0.05, 2, 1, &pq, &pp, steps, NULL);
         tf[r] = time_pend_floor(steps);
         tg[r] = time_gsl(steps / 4);
         tv[r] = time_verlet(steps);
@@ -645,7 +649,7 @@ int main(int argc, char **argv)
         tkf[r] = time_kep_floor(kq, kp, steps);
     }
     double l = median(tl), f = median(tf), g = median(tg), v = median(tv), kl = median(tkl), kf = median(tkf), c = median(tc);
-    double b = median(tb);
+    double b = median(tb), rv = median(trv);
     double nr = (double)REPEATS * (double)steps;
     printf("DTH step against its closed-form floor and peers, %ld steps, median of %d interleaved runs\n", steps, REPEATS);
     printf("pendulum, h = 0.05, amplitude 1 (floor's lambda within %.1e of the library's over 1000 steps, %.1e over 20000)\n",
@@ -655,6 +659,7 @@ int main(int argc, char **argv)
            100 * (l - c) / l);
     printf("  same, branch_check = 0 %6.1f ns   (the cheap branch test costs %.0f%% of the step)\n", 1e9 * b,
            100 * (l - b) / l);
+    printf("  same, compensate = 2 %8.1f ns   (the reversible finish: %.2f x the step)\n", 1e9 * rv, rv / l);
     printf("  closed-form floor    %8.1f ns   library / floor %.2f   (target <= 1.5)\n", 1e9 * f, l / f);
     printf("  GSL rk4imp step      %8.1f ns   library / rk4imp %.2f   (target <= 0.35)\n", 1e9 * g, l / g);
     printf("  Stormer-Verlet step  %8.1f ns   library / Verlet %.1f\n", 1e9 * v, l / v);
