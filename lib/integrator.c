@@ -273,13 +273,15 @@ int dth__integrator_rho_reset(dth_integrator *it) { return it->opt.compensate ? 
 #define AI static inline __attribute__((always_inline))
 
 /*
- * The vertex offset's difference H(z) - H(zb + zblo) without cancellation, where the vertex z
- * enters by its high part over y (and wp by both parts) and the midpoint is double-double (zblo may
- * be NULL): the wp difference, the model's hdiff over y between the high parts, and the midpoint's
- * low part through the gradient there (grad: over y at zb). The carried offset rho is thus
- * H(q, t, p high parts; wp) at each vertex: a definition, exact to O(eps^2), that keeps the step's
- * equations a function of (vertex, rho) alone, the same for the step and its reverse. The
- * vertex's low part shows in the midpoint (zb + zblo carries it), where the gradient is the
+ * The vertex offset's difference H(c) - H(zbar), in double-double (rho + rholo), without
+ * cancellation: c is the vertex's high part over y (coarsened by coarsen_y in the reversible
+ * finish), wp enters by both parts, and zbar = zb + dyh + zblo, zb the point the model was read at
+ * (dyh: the reversible finish's offset from its coarse point y = zb to the midpoint's high part,
+ * NULL otherwise; zblo may be NULL). Terms: the wp difference, the model's hdiff between c and zb,
+ * and minus (grad + gl/2) (dyh + zblo), the Taylor terms to the midpoint (grad at zb; gl = H''(zb)
+ * (dyh + zblo), NULL: none), g dyh exactly. The carried offset rho is thus H at each vertex's c: a
+ * definition, exact to O(eps^2), that keeps the step's equations a function of (vertex, rho)
+ * alone. The vertex's low part shows in the midpoint (zbar carries it), where the gradient is the
  * right one; read through the midpoint's gradient at the vertex it would err by |H''| |d| |zlo|,
  * about eps |d| per step, the noise that random-walked the offset and the round trip's phase.
  * The midpoint's low part matters: a double midpoint moves in steps of eps |zbar|, which changes
@@ -302,7 +304,7 @@ AI int rho_from_mid_n(dth_integrator *it, const size_t nc, const double *zb, con
         rc = dth__model_hdiff(it->model, c, zb, it->hwork, &dh);
         if (rc) return rc;
     }
-    /* minus (g + gl/2) (dyh + zblo): g dyh exactly (dyh is up to 2^-32 |zb|), in double-double */
+    /* minus (g + gl/2) (dyh + zblo): g dyh exactly (dyh is up to 2^-27 |zb|), in double-double */
     double s = 0, e = 0, r = 0;
     for (size_t j = 0; j < d; j++) {
         double h = dyh ? dyh[j] : 0, l = zblo ? zblo[j] : 0, gj = grad[j], t;
@@ -750,16 +752,18 @@ static const struct dth__linsolver *linsolver_of(dth_linsolve kind)
 }
 
 /*
- * The point y where a compensated chord step evaluates the model, and dy = zbar - y (zbar = zb +
- * zblo): y is the midpoint coarsened to 2^20 ulps of its blocks' scales (coarsen_y), and the step reads the model there with its
- * Taylor terms to the midpoint, g(zbar) = g(y) + H''(y) dy and H(zbar) = H(y) + (g + H'' dy / 2) dy
- * (dy <= 2^-32 |zbar|: the terms left out are below eps^2). Why not at zbar itself: the model's
- * values carry their own rounding, eps |g|, different at every double point, and lambda amplifies
- * a change of the equations by 1/lambda^2 (it is fixed at second order); where the chord steps
- * move the double midpoint by an ulp, the equations jump and the step and its reverse settle at
- * different roots. The coarse point is the same for both (the double-double midpoints agree to
- * eps^2) but where zbar lies within eps^2 of a coarse boundary. Without a dense Hessian (banded)
- * y = zb: no Taylor terms beyond the gradient.
+ * The reversible finish (compensate = 2): the point y where a chord step evaluates the model, and
+ * dy = zbar - y (zbar = zb + zblo, dy's high part here, zblo the rest): y is the midpoint coarsened
+ * to a multiple of 2^-28 of its blocks' scales (coarsen_y), and the step reads the model there with
+ * its Taylor terms, g(zbar) = g(y) + H''(y) dy and H(zbar) = H(y) + (g + H'' dy / 2) dy. With
+ * dy <= 2^-27 of the scale the gradient's next term, H''' dy^2 / 2, is about eps (a fixed, smooth
+ * change of the equations, as the model's own rounding is) and the energy's below eps^2. Why not at
+ * zbar itself: the model's values carry their own rounding, eps |g|, different at every double
+ * point, and lambda amplifies a change of the equations by about 1/lambda^2 (it is fixed at second
+ * order); where the chord steps move the double midpoint by an ulp, the equations jump and the step
+ * and its reverse settle at different roots. The coarse point is the same for both (their
+ * double-double midpoints agree to about 2^-100) unless the root lies within that rounding of a
+ * cell's edge (step_again). Pinned (step_again): y stays.
  */
 AI void coarse_n(dth_integrator *it, const size_t nc, const double *zb, double *dy)
 {
@@ -775,7 +779,7 @@ AI void coarse_n(dth_integrator *it, const size_t nc, const double *zb, double *
 
 /*
  * (x + xlo) - (hl + hlo) (u + ulh + ull) with one rounding at the end: the products hl u and hl ulh
- * exactly (fma gives their errors), where ulh + ull = (J H''(y) (zbar - y))_j, up to 2^-32 |u|.
+ * exactly (prod_err gives their errors), where ulh + ull = (J H''(y) (zbar - y))_j, up to 2^-27 |u|.
  */
 AI double exact_row(double x, double xlo, double hl, double hlo, double u, double ulh, double ull)
 {
@@ -820,7 +824,7 @@ AI int compensated_n(dth_integrator *it, const size_t nc, const double *x, doubl
         return DTH_OK;
     }
     /* the gradient's change from y to the midpoint, gl = H''(y) (zbar - y), in double-double (the
-     * products with dy, up to 2^-32 |zbar|, exactly): its rounding would be noise in the rows */
+     * products with dy, up to 2^-27 |zbar|, exactly): its rounding would be noise in the rows */
     double *gl = it->ygl, *gll = it->ybar;
     for (size_t j = 0; j < d; j++) {
         double a = 0, al = 0, t;
