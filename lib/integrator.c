@@ -409,6 +409,46 @@ static int vertex_offset(dth_integrator *it, const double *y, double Hp, double 
     return DTH_OK;
 }
 
+/*
+ * The reversible finish's exact first step of a midpoint start: the offset d = (h/2) u(zbar_0) in
+ * double-double (dhi + dlo, N entries each), with u = J grad H read at the coarse point of zbar_0
+ * and its Taylor term (coarse_n), the products exact, as the chord steps' rows have them: the step
+ * back from the first vertex then solves the very equations this step satisfies. Leaves it->yc,
+ * it->ydel, it->grad, it->hess at that point and it->zblo zero (the midpoint is zbar_0, a double).
+ */
+static inline void coarse_n(dth_integrator *it, const size_t nc, const double *zb, double *dy);
+static int exact_offset_rev(dth_integrator *it, const double *zbar, double h, double *dhi, double *dlo)
+{
+    size_t n = it->n, N = it->N, d = it->d;
+    memcpy(it->zb, zbar, N * sizeof *zbar);
+    memset(it->zblo, 0, N * sizeof *it->zblo);
+    coarse_n(it, 0, it->zb, it->ydel);
+    double H;
+    int rc = it->meval(it->mself, it->yc, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &H, it->grad, it->hess);
+    if (rc) return rc > 0 ? DTH_EDOMAIN : DTH_EMODEL;
+    double *gl = it->ygl, *gll = it->ybar, *u = it->u, hl = 0.5 * h;
+    for (size_t j = 0; j < d; j++) { /* gl = H''(y) dy in double-double, as compensated_n */
+        double a = 0, al = 0, t;
+        for (size_t k = 0; k < d; k++) {
+            double hk = it->hess[j * d + k], p = hk * it->ydel[k];
+            a = two_sum(a, p, &t);
+            al += t + prod_err(hk, it->ydel[k], p);
+        }
+        gl[j] = two_sum(a, al, &gll[j]);
+    }
+    dth__flow_z(n, it->grad, u);
+    for (size_t j = 0; j < N; j++) {
+        /* (J gl)_j as dth__flow_z maps the gradient */
+        double ulh = j < n ? gl[n + 1 + j] : j == n ? 0 : j < d ? -gl[j - n - 1] : -gl[n];
+        double ull = j < n ? gll[n + 1 + j] : j == n ? 0 : j < d ? -gll[j - n - 1] : -gll[n];
+        if (it->auton && j == N - 1) ulh = ull = 0; /* wp stays */
+        double p = hl * u[j], q = hl * ulh, e;
+        double s = two_sum(p, q, &e);
+        dhi[j] = two_sum(s, (prod_err(hl, u[j], p) + prod_err(hl, ulh, q) + hl * ull) + e, &dlo[j]);
+    }
+    return DTH_OK;
+}
+
 int dth_integrator_start(dth_integrator *it, const double *q0, const double *p0, double t0)
 {
     if (!it || !q0 || !p0 || !isfinite(t0)) return DTH_EINVAL;
@@ -436,22 +476,39 @@ int dth_integrator_start(dth_integrator *it, const double *q0, const double *p0,
         memcpy(it->zb, y, (N - 1) * sizeof *y);
         it->zb[N - 1] = -H;
         dth__flow_z(n, it->grad, it->u);
-        /* z_0 = zbar_0 - (h/2) u, kept in double-double so the first step returns to zbar_0 */
-        for (size_t j = 0; j < N; j++) {
-            it->znewlo[j] = 0.5 * h * it->u[j];
-            it->znew[j] = it->zb[j] - it->znewlo[j];
-            if (!isfinite(it->znew[j]) || !isfinite(it->zb[j] + it->znewlo[j])) {
+        /* z_0 = zbar_0 - (h/2) u, kept in double-double so the first step returns to zbar_0 (the
+         * reversible finish: its offset in double-double, exact_offset_rev) */
+        double *dlo = it->znewlo, *dhi = it->znew;
+        if (it->rev) {
+            rc = exact_offset_rev(it, it->zb, h, dhi, dlo);
+            if (rc) {
+                seterr(it, "model evaluation failed at the initial state");
+                return rc;
+            }
+        } else {
+            for (size_t j = 0; j < N; j++) dhi[j] = 0.5 * h * it->u[j], dlo[j] = 0;
+        }
+        for (size_t j = 0; j < N; j++)
+            if (!isfinite(it->zb[j] - dhi[j]) || !isfinite(it->zb[j] + dhi[j])) {
                 seterr(it, "the first vertex overflows (component %zu): h is too large", j);
                 return DTH_EDOMAIN;
             }
-        }
         reset_history(it);
         memcpy(it->st.zbar, it->zb, N * sizeof *it->zb);
         for (size_t j = 0; j < N; j++) {
-            it->st.dprev[j] = it->znewlo[j];
-            it->st.z[j] = two_sum(it->st.zbar[j], -it->st.dprev[j], &it->st.zlo[j]);
+            double e, s = two_sum(it->st.zbar[j], -dhi[j], &e);
+            it->st.dprev[j] = dhi[j];
+            it->st.z[j] = two_sum(s, e - dlo[j], &it->st.zlo[j]);
         }
-        if (it->opt.compensate) {
+        if (it->rev) {
+            /* from the coarse point, as every later step's offset (exact_offset_rev left it there) */
+            rc = rho_from_mid_n(it, 0, it->yc, it->ydel, NULL, it->grad, it->ygl, it->st.z, it->st.zlo, &it->st.rho,
+                                &it->st.rholo);
+            if (rc) {
+                seterr(it, "model evaluation failed at the first vertex");
+                return rc;
+            }
+        } else if (it->opt.compensate) {
             /* H(zbar_0) = wp + H_phys = 0 exactly (wp = -H_phys) */
             rc = rho_from_mid(it, it->st.zbar, NULL, it->grad, it->st.z, it->st.zlo, &it->st.rho, &it->st.rholo);
             if (rc) {
@@ -765,7 +822,7 @@ static const struct dth__linsolver *linsolver_of(dth_linsolve kind)
  * double-double midpoints agree to about 2^-100) unless the root lies within that rounding of a
  * cell's edge (step_again). Pinned (step_again): y stays.
  */
-AI void coarse_n(dth_integrator *it, const size_t nc, const double *zb, double *dy)
+static inline void coarse_n(dth_integrator *it, const size_t nc, const double *zb, double *dy)
 {
     size_t d = nc ? 2 * nc + 1 : it->d;
     if (!it->ypinned) coarsen_y(nc ? nc : it->n, zb, it->yc);
@@ -1093,7 +1150,7 @@ static int step_again(void *ctx, const double *x, const double *dx, int chords)
         if (x[a] != 0) e = fmax(e, fabs(dx[a] / x[a]));
     int more = rate * e > 0x1p-100;
     if (it->ypinned) return more;
-    double *zb = it->ybar, *lo = it->znewlo; /* scratch until the commit */
+    double *zb = it->u, *lo = it->znewlo; /* scratch (N each) until the next evaluation / the commit */
     midpoint_n(it, 0, x, zb, lo);
     int moved = 0, back = chords >= 2;
     coarsen_y(it->n, zb, lo);
@@ -1235,7 +1292,7 @@ AI int commit_n(dth_integrator *it, const size_t nc, double lam)
         /* the new vertex's offset measured from this step's midpoint (it->grad is there) */
         /* the exact first step of a midpoint start has its midpoint exact in double */
         int rc;
-        if (it->st.pending_exact) {
+        if (it->st.pending_exact && !it->rev) {
             rc = rho_from_mid_n(it, nc, it->zb, NULL, NULL, it->grad, NULL, zn, zl, &rho, &rholo);
         } else if (!it->rev) {
             rc = rho_from_mid_n(it, nc, it->zb, NULL, it->zblo, it->grad, NULL, zn, zl, &rho, &rholo);
@@ -1315,8 +1372,18 @@ static int step(dth_integrator *it, dth_step_info *info)
         /* Midpoint start: zbar_0 and lambda = h solve the step equations exactly. */
         double lam = it->st.lam_hint;
         unknowns_n(it, 0, it->st.dprev, lam);
-        memcpy(it->zb, it->st.zbar, N * sizeof *it->zb);
-        int rc = dth_model_eval(it->model, it->zb, DTH_EVAL_H | DTH_EVAL_GRAD, &it->Hphys, it->grad, NULL);
+        int rc;
+        if (it->rev) {
+            /* the start's offset again (exact_offset_rev is deterministic: dhi is dprev), with its low
+             * part for the commit; the model left at the coarse point for the new offset */
+            double *dhi = it->dnew, *dlo = it->vc; /* scratch until the commit */
+            rc = exact_offset_rev(it, it->st.zbar, lam, dhi, dlo);
+            if (!rc) rc = dth_model_eval(it->model, it->st.zbar, DTH_EVAL_H, &it->Hphys, NULL, NULL);
+            for (int a = 0; a < it->m - 1; a++) it->xlo[a] = dlo[it->act[a]];
+        } else {
+            memcpy(it->zb, it->st.zbar, N * sizeof *it->zb);
+            rc = dth_model_eval(it->model, it->zb, DTH_EVAL_H | DTH_EVAL_GRAD, &it->Hphys, it->grad, NULL);
+        }
         if (rc) {
             seterr(it, "model evaluation failed at the first (exact) midpoint");
             return rc;

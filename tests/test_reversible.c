@@ -24,19 +24,22 @@ typedef struct trip {
     int rc;
 } trip;
 
-/* S steps of DTH (first step past the start taken first), reverse, S back. */
-static trip dth_trip(const dth_model *m, const double *q0, const double *p0, double h, long S, int compensate)
+/* S steps of DTH, reverse, S back: from the start vertex (through the midpoint start's constructed
+ * first step) if from_start, else from the vertex after it; with linsolve (AUTO: the small path). */
+static trip dth_trip_ls(const dth_model *m, const double *q0, const double *p0, double h, long S, int compensate,
+                        dth_linsolve ls, int from_start)
 {
     dth_options o;
     dth_options_default(&o);
     o.h = h;
     o.compensate = compensate;
+    o.linsolve = ls;
     dth_integrator *it = NULL;
     trip r = {0, 0, 0};
     CU_ASSERT_EQUAL_FATAL(dth_integrator_new(m, &o, &it), DTH_OK);
     CU_ASSERT_EQUAL_FATAL(dth_integrator_start(it, q0, p0, 0.0), DTH_OK);
     dth_step_info inf;
-    r.rc = dth_integrator_step(it, &inf);
+    if (!from_start) r.rc = dth_integrator_step(it, &inf);
     size_t n = dth_model_dof(m), N = 2 * n + 2;
     double z0[MAXZ];
     memcpy(z0, dth_integrator_vertex(it), N * sizeof *z0);
@@ -51,6 +54,11 @@ static trip dth_trip(const dth_model *m, const double *q0, const double *p0, dou
     r.dt = fabs(z[n] - z0[n]) / fabs(span);
     dth_integrator_free(it);
     return r;
+}
+
+static trip dth_trip(const dth_model *m, const double *q0, const double *p0, double h, long S, int compensate)
+{
+    return dth_trip_ls(m, q0, p0, h, S, compensate, DTH_LINSOLVE_AUTO, 0);
 }
 
 static double midpoint_trip(const dth_model *m, const double *q0, const double *p0, double h, long S)
@@ -106,6 +114,15 @@ static void test_round_trips(void)
         CU_ASSERT_EQUAL(r.rc, DTH_OK);
         CU_ASSERT(r.dz <= 4 * DBL_EPSILON);
         CU_ASSERT(r.dt <= 4 * DBL_EPSILON);
+    }
+    /* the general dense path (LAPACK) and the small path's LU, from the start vertex through the
+     * midpoint start's constructed first step */
+    dth_linsolve lss[3] = {DTH_LINSOLVE_DENSE, DTH_LINSOLVE_SMALL_LU, DTH_LINSOLVE_SMALL};
+    for (int i = 0; i < 3; i++) {
+        trip a = dth_trip_ls(kep, kq, kp, 0.01, 3000, 2, lss[i], 1), b = dth_trip_ls(hh, hq, hp, 0.05, 3000, 2, lss[i], 1);
+        printf("\n    linsolve %s, from the start vertex: Kepler %.1e, Henon-Heiles %.1e", dth_linsolve_name(lss[i]), a.dz, b.dz);
+        CU_ASSERT(a.rc == DTH_OK && a.dz <= 4 * DBL_EPSILON && a.dt <= 4 * DBL_EPSILON);
+        CU_ASSERT(b.rc == DTH_OK && b.dz <= 4 * DBL_EPSILON && b.dt <= 4 * DBL_EPSILON);
     }
     dth_model_free(pen);
     dth_model_free(kep);
