@@ -315,8 +315,11 @@ AI int rho_from_mid_n(dth_integrator *it, const size_t nc, const double *zb, con
         }
         r += gj * l + (gl ? 0.5 * gl[j] * (h + l) : 0);
     }
-    double wpd = (z[N - 1] - zb[N - 1]) + (zlo[N - 1] - (zblo ? zblo[N - 1] : 0)), l1, h1 = two_sum(dh, -s, &l1);
-    *rho = two_sum(h1, l1 + (wpd - (e + r)), rholo);
+    /* the wp difference by its parts (a non-autonomous step moves wp by about lambda dH/dt, as
+     * large as dh: rounded into the low part it would be noise of eps |dH/dt| lambda) */
+    double wph = z[N - 1] - zb[N - 1], wpl = zlo[N - 1] - (zblo ? zblo[N - 1] : 0), l1, l2;
+    double h1 = two_sum(dh, -s, &l1), h2 = two_sum(h1, wph, &l2);
+    *rho = two_sum(h2, (l1 + l2) + (wpl - (e + r)), rholo);
     return DTH_OK;
 }
 
