@@ -98,11 +98,12 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     it->auton = auton;
     it->m = (int)msz;
     size_t N = it->N, d = it->d, m = msz;
-    size_t nd = 0;
+    size_t nd = 0, rv = opt->compensate == 2;
     /* one block of doubles, carved below */
     size_t sizes[] = {N, N, N, N, N, N, N, N, N, N, d, (size_t)dense * d * d, N, d, (size_t)dense * m * m, m, m, m,
                       dth_model_work_size(model), (size_t)dense * m * N,
-                      dth_model_get_type(model)->hdiff ? 0 : 2 * d, N, m, N, N, N, N, N}; /* hwork: dth__model_hdiff's rule only */
+                      dth_model_get_type(model)->hdiff ? 0 : 2 * d, N, rv * m, rv * N, rv * N, rv * N, rv * N, rv * N};
+    /* hwork: dth__model_hdiff's rule only; xlo, yc, ydel, ygl, vc, yprev: the reversible finish only */
     for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) nd += sizes[i];
     it->block = dth_calloc(al, nd, sizeof(double));
     it->piv = dth_calloc(al, 2 * m, sizeof(int));
@@ -258,8 +259,7 @@ static int rho_direct(dth_integrator *it)
     size_t N = it->N;
     double Hp;
     if (it->rev) coarsen_y(it->n, it->st.z, it->vc); /* the vertex point rho_from_mid_n reads */
-    else memcpy(it->vc, it->st.z, (N - 1) * sizeof *it->vc);
-    int rc = dth_model_eval(it->model, it->vc, DTH_EVAL_H, &Hp, NULL, NULL);
+    int rc = dth_model_eval(it->model, it->rev ? it->vc : it->st.z, DTH_EVAL_H, &Hp, NULL, NULL);
     if (rc) return rc;
     it->st.rho = two_sum(it->st.z[N - 1], it->st.zlo[N - 1] + Hp, &it->st.rholo);
     return DTH_OK;
@@ -291,11 +291,14 @@ AI int rho_from_mid_n(dth_integrator *it, const size_t nc, const double *zb, con
                      const double *grad, const double *gl, const double *z, const double *zlo, double *rho, double *rholo)
 {
     size_t d = nc ? 2 * nc + 1 : it->d, N = d + 1;
-    double dh, *c = it->vc;
+    double dh;
+    const double *c = z;
     int rc;
-    if (it->rev) coarsen_y(nc ? nc : it->n, z, c);
-    else memcpy(c, z, d * sizeof *z);
-    c[d] = z[d];
+    if (it->rev) { /* the coarsened vertex (wp as it is) */
+        coarsen_y(nc ? nc : it->n, z, it->vc);
+        it->vc[d] = z[d];
+        c = it->vc;
+    }
     if (it->mhdiff) { /* dth__model_hdiff without the call */
         rc = it->mhdiff(it->mself, c, zb, &dh);
         if (rc) return rc > 0 ? DTH_EDOMAIN : DTH_EMODEL;
@@ -605,18 +608,18 @@ AI void midpoint_n(const dth_integrator *it, const size_t nc, const double *x, d
 {
     size_t n = nc ? nc : it->n, N = 2 * n + 2;
     int m = nc ? (int)(2 * nc + 1) : it->m;
-    const double *z = it->st.z, *zlo = it->st.zlo, *xl = it->xlo;
+    const double *z = it->st.z, *zlo = it->st.zlo, *xl = it->xlo; /* NULL unless rev: mid_dd reads it then only */
     if (nc || it->auton) {
         /* unknowns (d_q, d_p, lambda) */
         for (size_t i = 0; i < n; i++) {
-            zb[i] = mid_dd(it->rev, z[i], zlo[i], x[i], xl[i], zblo ? &zblo[i] : NULL);
-            zb[n + 1 + i] = mid_dd(it->rev, z[n + 1 + i], zlo[n + 1 + i], x[n + i], xl[n + i], zblo ? &zblo[n + 1 + i] : NULL);
+            zb[i] = mid_dd(it->rev, z[i], zlo[i], x[i], xl ? xl[i] : 0, zblo ? &zblo[i] : NULL);
+            zb[n + 1 + i] = mid_dd(it->rev, z[n + 1 + i], zlo[n + 1 + i], x[n + i], xl ? xl[n + i] : 0, zblo ? &zblo[n + 1 + i] : NULL);
         }
-        zb[n] = mid_dd(it->rev, z[n], zlo[n], 0.5 * x[m - 1], 0.5 * xl[m - 1], zblo ? &zblo[n] : NULL);
+        zb[n] = mid_dd(it->rev, z[n], zlo[n], 0.5 * x[m - 1], xl ? 0.5 * xl[m - 1] : 0, zblo ? &zblo[n] : NULL);
         zb[N - 1] = sum_lo(z[N - 1], zlo[N - 1], zblo ? &zblo[N - 1] : NULL);
         return;
     }
-    for (int a = 0; a < m - 1; a++) zb[a] = mid_dd(it->rev, z[a], zlo[a], x[a], xl[a], zblo ? &zblo[a] : NULL);
+    for (int a = 0; a < m - 1; a++) zb[a] = mid_dd(it->rev, z[a], zlo[a], x[a], xl ? xl[a] : 0, zblo ? &zblo[a] : NULL);
 }
 
 /* The Newton unknowns it->x from a step: the offset d (length N) over the active components, then
@@ -635,7 +638,7 @@ AI void unknowns_n(dth_integrator *it, const size_t nc, const double *d, double 
         for (int a = 0; a < m - 1; a++) x[a] = d[it->act[a]];
     }
     x[m - 1] = lam;
-    memset(it->xlo, 0, (size_t)m * sizeof *it->xlo);
+    if (it->xlo) memset(it->xlo, 0, (size_t)m * sizeof *it->xlo);
     it->ypinned = 0;
 }
 
@@ -869,7 +872,6 @@ AI int compensated_n(dth_integrator *it, const size_t nc, const double *x, doubl
     /* the offset rows d - (lambda/2) u to O(eps^2 |d|), with the low parts of the unknowns: a
      * residual rounded to eps |d| moves lambda by about eps |d| |grad H| / (|psi| lambda^2 / 4) (the
      * constraint fixes lambda at second order), which the reverse step would not reproduce */
-    const double *xl = it->xlo, hl = 0.5 * x[m - 1], hlo = 0.5 * xl[m - 1], *dy = it->ydel;
     size_t d = 2 * n + 1;
     if (!it->rev) { /* the compensated constraint alone (the rows as assemble_n has them) */
         double dh, dhlo;
@@ -883,6 +885,7 @@ AI int compensated_n(dth_integrator *it, const size_t nc, const double *x, doubl
         F[m - 1] = fabs(ec - rd) <= tau ? ec : rd;
         return DTH_OK;
     }
+    const double *xl = it->xlo, hl = 0.5 * x[m - 1], hlo = 0.5 * xl[m - 1], *dy = it->ydel;
     /* the gradient's change from y to the midpoint, gl = H''(y) (zbar - y), in double-double (the
      * products with dy, up to 2^-27 |zbar|, exactly): its rounding would be noise in the rows */
     double *gl = it->ygl, *gll = it->ybar;
@@ -1259,14 +1262,18 @@ AI int commit_n(dth_integrator *it, const size_t nc, double lam)
         }
         zn[n] = 0.5 * lam;
         zn[N - 1] = 0;
-        for (size_t i = 0; i < n; i++) {
-            dl[i] = it->xlo[i];
-            dl[n + 1 + i] = it->xlo[n + i];
+        if (it->rev) {
+            for (size_t i = 0; i < n; i++) {
+                dl[i] = it->xlo[i];
+                dl[n + 1 + i] = it->xlo[n + i];
+            }
+            dl[n] = 0.5 * it->xlo[m - 1];
+            dl[N - 1] = 0;
         }
-        dl[n] = 0.5 * it->xlo[m - 1];
-        dl[N - 1] = 0;
     } else {
-        for (int a = 0; a < m - 1; a++) zn[it->act[a]] = it->x[a], dl[it->act[a]] = it->xlo[a];
+        for (int a = 0; a < m - 1; a++) zn[it->act[a]] = it->x[a];
+        if (it->rev)
+            for (int a = 0; a < m - 1; a++) dl[it->act[a]] = it->xlo[a];
     }
     double *d = it->dnew; /* scratch: becomes the newest history slot */
     int finite = 1;
