@@ -307,6 +307,15 @@ AI int rho_from_mid_n(dth_integrator *it, const size_t nc, const double *zb, con
         rc = dth__model_hdiff(it->model, c, zb, it->hwork, &dh);
         if (rc) return rc;
     }
+    double wph = z[N - 1] - zb[N - 1], wpl = zlo[N - 1] - (zblo ? zblo[N - 1] : 0), l2;
+    if (!dyh) { /* the compensated default: the midpoint's low part through the gradient there */
+        double lo = 0;
+        if (zblo)
+            for (size_t j = 0; j < d; j++) lo -= grad[j] * zblo[j];
+        double h2 = two_sum(dh, wph, &l2);
+        *rho = two_sum(h2, l2 + (wpl + lo), rholo);
+        return DTH_OK;
+    }
     /* minus (g + gl/2) (dyh + zblo): g dyh exactly (dyh is up to 2^-27 |zb|), in double-double */
     double s = 0, e = 0, r = 0;
     for (size_t j = 0; j < d; j++) {
@@ -320,8 +329,7 @@ AI int rho_from_mid_n(dth_integrator *it, const size_t nc, const double *zb, con
     }
     /* the wp difference by its parts (a non-autonomous step moves wp by about lambda dH/dt, as
      * large as dh: rounded into the low part it would be noise of eps |dH/dt| lambda) */
-    double wph = z[N - 1] - zb[N - 1], wpl = zlo[N - 1] - (zblo ? zblo[N - 1] : 0), l1, l2;
-    double h1 = two_sum(dh, -s, &l1), h2 = two_sum(h1, wph, &l2);
+    double l1, h1 = two_sum(dh, -s, &l1), h2 = two_sum(h1, wph, &l2);
     *rho = two_sum(h2, (l1 + l2) + (wpl - (e + r)), rholo);
     return DTH_OK;
 }
