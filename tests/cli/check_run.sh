@@ -13,6 +13,23 @@ fails=0
 fail() { echo "FAIL: $*" >&2; fails=$((fails + 1)); }
 ok() { echo "ok: $*"; }
 
+# ---- integrator.reversible = yes: --roundtrip returns to the start vertex exactly (the reversible
+# finish, docs/theory.md), on the small path and LAPACK's dense path; refused with a banded solver
+for sc in pendulum kepler-e06 coupled-chain-50; do
+    for ls in auto dense; do
+        [ "$sc" = coupled-chain-50 ] && [ "$ls" = auto ] && continue
+        "$DTH" run "$SC/$sc.ini" -s integrator.reversible=yes -s integrator.linsolve=$ls -s regularize.method=none \
+            -o "$T/rev.csv" --roundtrip 2>"$T/rev.err" || fail "reversible $sc $ls: $(cat "$T/rev.err")"
+        grep -q 'max |z - z_0| = 0 (relative 0)' "$T/rev.err" && ok "reversible round trip $sc ($ls)" ||
+            fail "reversible $sc $ls: $(grep 'round trip' "$T/rev.err")"
+    done
+done
+if "$DTH" run "$SC/coupled-chain-50.ini" -s integrator.reversible=yes -o "$T/rev.csv" 2>"$T/rev.err"; then
+    fail "reversible with the banded solver was accepted"
+else
+    ok "reversible refused with the banded solver"
+fi
+
 # ---- baseline methods through the scene's [integrator] method=
 for m in midpoint gauss4 rk4 verlet midpoint-proj; do
     "$DTH" run "$SC/pendulum.ini" -s integrator.method=$m -s integrator.steps=200 -o "$T/$m.csv" 2>"$T/$m.err" ||

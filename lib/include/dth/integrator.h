@@ -89,7 +89,7 @@ typedef struct dth_options {
                                      step and the step back from its end find the same root to
                                      about 2^-100 (round trips exact over 10^4 steps in
                                      bench_roundtrip); needs a dense Hessian (a banded linsolve
-                                     refuses it: DTH_EUNSUPPORTED); about twice the step's cost on
+                                     refuses it: DTH_EUNSUPPORTED); about 2.4 times the step's cost on
                                      the smallest models. 0: the direct value (plain constraint) */
 } dth_options;
 
