@@ -682,7 +682,7 @@ typedef struct setup_ctx {
     const dth_scene *s;
     char *err;
     size_t errlen;
-    const entry *q, *p, *t, *wp, *h, *steps, *t_end, *every, *dt, *start, *points, *method, *linsolve;
+    const entry *q, *p, *t, *wp, *h, *steps, *t_end, *every, *dt, *start, *points, *method, *linsolve, *reversible;
     /* [events] */
     const entry *section, *section_value, *section_dir, *section_term, *time, *time_term, *dist, *dist_dofs,
         *dist_dir, *dist_term;
@@ -782,6 +782,7 @@ static int check_integrator(setup_ctx *c, dth_run_setup *rs, const entry *e)
         if (parse_bool(v, &rs->opt.branch_check)) return bad(c->err, c->errlen, e, "'%s' is not one of yes, no", v);
     } else if (strcmp(k, "reversible") == 0) {
         /* yes: the reversible finish (dth_options.compensate = 2); no: the compensated constraint */
+        c->reversible = e;
         int rv;
         if (parse_bool(v, &rv)) return bad(c->err, c->errlen, e, "'%s' is not one of yes, no", v);
         rs->opt.compensate = rv ? 2 : 1;
@@ -1224,6 +1225,14 @@ int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *
                    !dth__model_banded(rs.model)) {
             rc = bad(err, errlen, c.linsolve, "'%s' needs a model with a banded Hessian (model '%s' has a dense one)",
                      dth_linsolve_name(rs.opt.linsolve), type->name);
+        } else if (rs.opt.compensate == 2 &&
+                   (rs.opt.linsolve == DTH_LINSOLVE_BANDED || rs.opt.linsolve == DTH_LINSOLVE_BANDED_LU ||
+                    (rs.opt.linsolve == DTH_LINSOLVE_AUTO && dth__model_banded(rs.model)))) {
+            /* the reversible finish reads the dense Hessian at its coarse point (integrator.c, coarse_n) */
+            rc = bad(err, errlen, c.reversible,
+                     "the reversible finish needs a dense Hessian, and model '%s' takes the banded solver here: "
+                     "add integrator.linsolve = dense",
+                     type->name);
         } else {
             rc = check_start(&c, &rs, type->name);
         }
