@@ -102,8 +102,8 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     /* one block of doubles, carved below */
     size_t sizes[] = {N, N, N, N, N, N, N, N, N, N, d, (size_t)dense * d * d, N, d, (size_t)dense * m * m, m, m, m,
                       dth_model_work_size(model), (size_t)dense * m * N,
-                      dth_model_get_type(model)->hdiff ? 0 : 2 * d, N, rv * m, rv * N, rv * N, rv * N, rv * N, rv * N};
-    /* hwork: dth__model_hdiff's rule only; xlo, yc, ydel, ygl, vc, yprev: the reversible finish only */
+                      dth_model_get_type(model)->hdiff ? 0 : 2 * d, N, rv * m, rv * N, rv * N, rv * N, rv * N, rv * N, rv * N};
+    /* hwork: dth__model_hdiff's rule only; xlo, yc, ydel, ygl, vc, yprev, vcsrc: the reversible finish only */
     for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) nd += sizes[i];
     it->block = dth_calloc(al, nd, sizeof(double));
     it->piv = dth_calloc(al, 2 * m, sizeof(int));
@@ -114,7 +114,7 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     double *p = it->block;
     double **slots[] = {&it->st.z, &it->st.zlo, &it->st.zbar, &it->st.dprev, &it->st.dprev2, &it->st.dprev3, &it->dnew, &it->znew, &it->znewlo,
                         &it->zb, &it->grad, &it->hess, &it->u, &it->ybar, &it->A, &it->F, &it->x, &it->dx,
-                        &it->work, &it->B, &it->hwork, &it->zblo, &it->xlo, &it->yc, &it->ydel, &it->ygl, &it->vc, &it->yprev};
+                        &it->work, &it->B, &it->hwork, &it->zblo, &it->xlo, &it->yc, &it->ydel, &it->ygl, &it->vc, &it->yprev, &it->vcsrc};
     for (size_t i = 0; i < sizeof slots / sizeof slots[0]; i++) {
         *slots[i] = sizes[i] ? p : NULL;
         p += sizes[i];
@@ -196,7 +196,7 @@ static inline double two_sum(double a, double b, double *e)
 }
 
 /*
- * c = v coarsened over y = (q, t, p) (d = 2n + 1 entries): each entry truncated toward zero to a
+ * c = v coarsened over y = (q, t, p) (d = 2n + 1 entries): each entry rounded to the nearest
  * multiple of 2^(e - COARSE_BITS), e the binary exponent of its block's largest magnitude (the q
  * block, t, the p block), so that a coarse cell spans 2^(52 - COARSE_BITS) ulps of the block's
  * scale also for an entry near zero. A deterministic, odd function of v. Where the model is read:
@@ -211,19 +211,18 @@ static inline double prod_err(double a, double b, double p)
     return ((ah * bh - p) + ah * bl + al * bh) + al * bl;
 }
 
-/* v truncated toward zero to a multiple of 2^qe (bit operations: exact, no library call). */
-static inline double trunc_to(double v, int qe)
+/* v rounded to the nearest multiple of 2^qe (ties to even: an odd function of v) by adding and
+ * subtracting 1.5 2^(qe + 52); v itself where that constant is not a normal double or v is not
+ * finite. Deterministic, no library call; |v| < 2^(qe + 51) here (coarsen_y). */
+static inline double round_to(double v, int qe)
 {
-    uint64_t b;
-    memcpy(&b, &v, sizeof b);
-    int ev = (int)((b >> 52) & 0x7ff);
-    if (ev == 0x7ff) return v; /* NaN, Inf */
-    int keep = ev - 1023 - qe; /* mantissa bits above the quantum (subnormals: below it) */
-    if (ev == 0 || keep < 0) return copysign(0.0, v);
-    if (keep >= 52) return v;
-    b &= ~(((uint64_t)1 << (52 - keep)) - 1);
-    memcpy(&v, &b, sizeof v);
-    return v;
+    int ce = qe + 52;
+    if (ce < -1022 || ce > 1023 || !isfinite(v)) return v;
+    uint64_t b = (uint64_t)(ce + 1023) << 52;
+    double C;
+    memcpy(&C, &b, sizeof C);
+    C *= 1.5;
+    return (v + C) - C;
 }
 
 /* The binary exponent of the largest |v[j]| over j = a, a + 1, ..., b - 1 (bit patterns compared
@@ -246,10 +245,10 @@ static void coarsen_y(size_t n, const double *v, double *c)
     int eq = max_expo(v, 0, n) - COARSE_BITS, et = max_expo(v, n, n + 1) - COARSE_BITS;
     int ep = max_expo(v, n + 1, 2 * n + 1) - COARSE_BITS;
     for (size_t i = 0; i < n; i++) {
-        c[i] = trunc_to(v[i], eq);
-        c[n + 1 + i] = trunc_to(v[n + 1 + i], ep);
+        c[i] = round_to(v[i], eq);
+        c[n + 1 + i] = round_to(v[n + 1 + i], ep);
     }
-    c[n] = trunc_to(v[n], et);
+    c[n] = round_to(v[n], et);
 }
 
 /* The vertex offset rho = H(z_k) evaluated directly (a start, or after a regularizer's step),
@@ -258,7 +257,11 @@ static int rho_direct(dth_integrator *it)
 {
     size_t N = it->N;
     double Hp;
-    if (it->rev) coarsen_y(it->n, it->st.z, it->vc); /* the vertex point rho_from_mid_n reads */
+    if (it->rev) { /* the vertex point rho_from_mid_n reads (and keeps) */
+        coarsen_y(it->n, it->st.z, it->vc);
+        it->vc[N - 1] = it->st.z[N - 1];
+        memcpy(it->vcsrc, it->st.z, N * sizeof *it->vc);
+    }
     int rc = dth_model_eval(it->model, it->rev ? it->vc : it->st.z, DTH_EVAL_H, &Hp, NULL, NULL);
     if (rc) return rc;
     it->st.rho = two_sum(it->st.z[N - 1], it->st.zlo[N - 1] + Hp, &it->st.rholo);
@@ -294,9 +297,12 @@ AI int rho_from_mid_n(dth_integrator *it, const size_t nc, const double *zb, con
     double dh;
     const double *c = z;
     int rc;
-    if (it->rev) { /* the coarsened vertex (wp as it is) */
-        coarsen_y(nc ? nc : it->n, z, it->vc);
-        it->vc[d] = z[d];
+    if (it->rev) { /* the coarsened vertex (wp as it is), kept for the vertex it was made from */
+        if (memcmp(z, it->vcsrc, N * sizeof *z) != 0) {
+            coarsen_y(nc ? nc : it->n, z, it->vc);
+            it->vc[d] = z[d];
+            memcpy(it->vcsrc, z, N * sizeof *z);
+        }
         c = it->vc;
     }
     if (it->mhdiff) { /* dth__model_hdiff without the call */
@@ -842,7 +848,7 @@ static inline void coarse_n(dth_integrator *it, const size_t nc, const double *z
     if (!it->ypinned) coarsen_y(nc ? nc : it->n, zb, it->yc);
     for (size_t j = 0; j < d; j++) {
         double c = it->yc[j];
-        dy[j] = zb[j] - c; /* exact (c is zb with low bits cleared, or a neighbour's: pinned); zblo is the rest */
+        dy[j] = zb[j] - c; /* exact (c is a multiple of zb's ulp within 2^-28 of the scale); zblo is the rest */
     }
     it->yc[d] = zb[d];
     dy[d] = 0;
@@ -1394,7 +1400,7 @@ static int step(dth_integrator *it, dth_step_info *info)
         if (it->rev) {
             /* the start's offset again (exact_offset_rev is deterministic: dhi is dprev), with its low
              * part for the commit; the model left at the coarse point for the new offset */
-            double *dhi = it->dnew, *dlo = it->vc; /* scratch until the commit */
+            double *dhi = it->dnew, *dlo = it->yprev; /* scratch until the commit */
             rc = exact_offset_rev(it, it->st.zbar, lam, dhi, dlo);
             if (!rc) rc = dth_model_eval(it->model, it->st.zbar, DTH_EVAL_H, &it->Hphys, NULL, NULL);
             for (int a = 0; a < it->m - 1; a++) it->xlo[a] = dlo[it->act[a]];

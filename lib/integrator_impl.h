@@ -104,6 +104,7 @@ struct dth_integrator {
     double *xlo; /* low part of the unknowns x from the finishing chord steps (newton.h) */
     double *yc, *ydel, *ygl; /* a compensated chord step's evaluation point y, zbar - y, H''(y) (zbar - y) (coarse_n) */
     double *vc;               /* the vertex coarsened, where the carried offset rho is H (rho_from_mid_n) */
+    double *vcsrc;            /* the vertex vc was made from (its cache key; NaN-free: compared by bits) */
     double *yprev;            /* the evaluation point before yc (step_again: cells alternating) */
     int ypinned;              /* yc is pinned for the rest of this solve (step_again) */
     int rev;                  /* the reversible finish (opt.compensate == 2 on a dense path): coarse_n */
