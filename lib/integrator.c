@@ -436,6 +436,32 @@ static int vertex_offset(dth_integrator *it, const double *y, double Hp, double 
  * back from the first vertex then solves the very equations this step satisfies. Leaves it->yc,
  * it->ydel, it->grad, it->hess at that point and it->zblo zero (the midpoint is zbar_0, a double).
  */
+/*
+ * The reversible finish's Taylor term gl = H''(y) (dy + zblo) (it->hess at the coarse point y, d x d)
+ * in double-double, gl + gll: the products with dy, up to 2^-27 of the scale, exactly (their
+ * rounding would be noise in the step's equations); zblo's are small. As (J gl)_j over z by
+ * j_of_gl, the way dth__flow_z maps the gradient.
+ */
+static void taylor_grad(const dth_integrator *it, size_t d, const double *dy, const double *zblo, double *gl,
+                        double *gll)
+{
+    for (size_t j = 0; j < d; j++) {
+        double a = 0, al = 0, t;
+        for (size_t k = 0; k < d; k++) {
+            double h = it->hess[j * d + k], p = h * dy[k];
+            a = two_sum(a, p, &t);
+            al += (t + prod_err(h, dy[k], p)) + h * zblo[k];
+        }
+        gl[j] = two_sum(a, al, &gll[j]);
+    }
+}
+
+/* (J v)_j over z = (q, t, p, wp) for v over y = (q, t, p) (n degrees of freedom, d = 2n + 1). */
+static inline double j_of_gl(size_t n, size_t d, size_t j, const double *v)
+{
+    return j < n ? v[n + 1 + j] : j == n ? 0 : j < d ? -v[j - n - 1] : -v[n];
+}
+
 static inline void coarse_n(dth_integrator *it, const size_t nc, const double *zb, double *dy);
 static int exact_offset_rev(dth_integrator *it, const double *zbar, double h, double *dhi, double *dlo)
 {
@@ -447,20 +473,10 @@ static int exact_offset_rev(dth_integrator *it, const double *zbar, double h, do
     int rc = it->meval(it->mself, it->yc, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &H, it->grad, it->hess);
     if (rc) return rc > 0 ? DTH_EDOMAIN : DTH_EMODEL;
     double *gl = it->ygl, *gll = it->ybar, *u = it->u, hl = 0.5 * h;
-    for (size_t j = 0; j < d; j++) { /* gl = H''(y) dy in double-double, as compensated_n */
-        double a = 0, al = 0, t;
-        for (size_t k = 0; k < d; k++) {
-            double hk = it->hess[j * d + k], p = hk * it->ydel[k];
-            a = two_sum(a, p, &t);
-            al += t + prod_err(hk, it->ydel[k], p);
-        }
-        gl[j] = two_sum(a, al, &gll[j]);
-    }
+    taylor_grad(it, d, it->ydel, it->zblo, gl, gll);
     dth__flow_z(n, it->grad, u);
     for (size_t j = 0; j < N; j++) {
-        /* (J gl)_j as dth__flow_z maps the gradient */
-        double ulh = j < n ? gl[n + 1 + j] : j == n ? 0 : j < d ? -gl[j - n - 1] : -gl[n];
-        double ull = j < n ? gll[n + 1 + j] : j == n ? 0 : j < d ? -gll[j - n - 1] : -gll[n];
+        double ulh = j_of_gl(n, d, j, gl), ull = j_of_gl(n, d, j, gll);
         if (it->auton && j == N - 1) ulh = ull = 0; /* wp stays */
         double p = hl * u[j], q = hl * ulh, e;
         double s = two_sum(p, q, &e);
@@ -903,15 +919,7 @@ AI int compensated_n(dth_integrator *it, const size_t nc, const double *x, doubl
     /* the gradient's change from y to the midpoint, gl = H''(y) (zbar - y), in double-double (the
      * products with dy, up to 2^-27 |zbar|, exactly): its rounding would be noise in the rows */
     double *gl = it->ygl, *gll = it->ybar;
-    for (size_t j = 0; j < d; j++) {
-        double a = 0, al = 0, t;
-        for (size_t k = 0; k < d; k++) {
-            double h = it->hess[j * d + k], p = h * dy[k];
-            a = two_sum(a, p, &t);
-            al += (t + prod_err(h, dy[k], p)) + h * it->zblo[k];
-        }
-        gl[j] = two_sum(a, al, &gll[j]);
-    }
+    taylor_grad(it, d, dy, it->zblo, gl, gll);
     if (nc || it->auton) {
         for (size_t i = 0; i < n; i++) {
             F[i] = exact_row(x[i], xl[i], hl, hlo, it->grad[n + 1 + i], gl[n + 1 + i], gll[n + 1 + i]);
@@ -920,10 +928,7 @@ AI int compensated_n(dth_integrator *it, const size_t nc, const double *x, doubl
     } else {
         for (int a = 0; a < m - 1; a++) {
             size_t j = (size_t)it->act[a];
-            /* (J gl)_j, dth__flow_z */
-            double ulh = j < n ? gl[n + 1 + j] : j == n ? 0 : j < d ? -gl[j - n - 1] : -gl[n];
-            double ull = j < n ? gll[n + 1 + j] : j == n ? 0 : j < d ? -gll[j - n - 1] : -gll[n];
-            F[a] = exact_row(x[a], xl[a], hl, hlo, it->u[j], ulh, ull);
+            F[a] = exact_row(x[a], xl[a], hl, hlo, it->u[j], j_of_gl(n, d, j, gl), j_of_gl(n, d, j, gll));
         }
     }
     double dh, dhlo;
@@ -1316,21 +1321,16 @@ AI int commit_n(dth_integrator *it, const size_t nc, double lam)
         /* the new vertex's offset measured from this step's midpoint (it->grad is there) */
         /* the exact first step of a midpoint start has its midpoint exact in double */
         int rc;
-        if (it->st.pending_exact && !it->rev) {
-            rc = rho_from_mid_n(it, nc, it->zb, NULL, NULL, it->grad, NULL, zn, zl, &rho, &rholo);
-        } else if (!it->rev) {
-            rc = rho_from_mid_n(it, nc, it->zb, NULL, it->zblo, it->grad, NULL, zn, zl, &rho, &rholo);
+        if (!it->rev) {
+            rc = rho_from_mid_n(it, nc, it->zb, NULL, it->st.pending_exact ? NULL : it->zblo, it->grad, NULL, zn, zl, &rho,
+                                &rholo);
         } else {
             /* from the last chord step's point y, with its gradient and Hessian (coarse_n) */
             size_t nd = N - 1;
             double *dy = it->ydel, *gl = it->ygl;
             for (size_t j = 0; j < nd; j++) dy[j] = it->zb[j] - it->yc[j];
             dy[nd] = 0;
-            for (size_t j = 0; j < nd; j++) {
-                double a = 0;
-                for (size_t k = 0; k < nd; k++) a += it->hess[j * nd + k] * dy[k] + it->hess[j * nd + k] * it->zblo[k];
-                gl[j] = a;
-            }
+            taylor_grad(it, nd, dy, it->zblo, gl, it->ybar);
             rc = rho_from_mid_n(it, nc, it->yc, dy, it->zblo, it->grad, gl, zn, zl, &rho, &rholo);
         }
         if (rc) {

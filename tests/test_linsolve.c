@@ -20,37 +20,6 @@
 #include "integrator_impl.h"
 #include "test_util.h"
 
-/* ---- a forced oscillator (non-autonomous: t and wp are Newton unknowns) ---- */
-
-static int forced_create(const dth_model_args *a, void **self, dth_model_info *info)
-{
-    (void)a;
-    *self = NULL;
-    *info = (dth_model_info){.n = 1, .autonomous = 0, .separable = 1};
-    return DTH_OK;
-}
-
-/* H = p^2/2 + q^2/2 - 0.3 q cos(t) */
-static int forced_eval(const void *self, const double *y, unsigned what, double *H, double *g, double *h)
-{
-    (void)self;
-    double q = y[0], t = y[1], p = y[2];
-    if (what & DTH_EVAL_H) *H = 0.5 * p * p + 0.5 * q * q - 0.3 * q * cos(t);
-    if (what & DTH_EVAL_GRAD) {
-        g[0] = q - 0.3 * cos(t);
-        g[1] = 0.3 * q * sin(t);
-        g[2] = p;
-    }
-    if (what & DTH_EVAL_HESS) {
-        double hh[9] = {1, 0.3 * sin(t), 0, 0.3 * sin(t), 0.3 * q * cos(t), 0, 0, 0, 1};
-        memcpy(h, hh, sizeof hh);
-    }
-    return 0;
-}
-
-static const dth_model_type forced_type = {.name = "forced", .doc = "forced oscillator", .create = forced_create,
-                                           .eval = forced_eval};
-
 /* ---- a separable model whose T'' is not diagonal (the small path's Schur complement does not apply) ---- */
 
 static int mass_create(const dth_model_args *a, void **self, dth_model_info *info)
@@ -240,7 +209,7 @@ static void test_small(void)
     CU_ASSERT(!schur_used(mm, 0.05, DTH_LINSOLVE_SMALL, qm, pm));
     dth_model_free(mm);
     /* the generic small LU (m = 5, not instantiated: non-autonomous) */
-    dth_model *f = model(&forced_type, NULL, 0, 1);
+    dth_model *f = model(&test_forced_type, NULL, 0, 1);
     double qf = 0.5, pf = 0.2;
     compare(f, 0.05, DTH_LINSOLVE_SMALL, &qf, &pf, 200, 0);
     dth_model_free(f);

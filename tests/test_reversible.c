@@ -79,32 +79,6 @@ static double midpoint_trip(const dth_model *m, const double *q0, const double *
     return d;
 }
 
-/* A forced oscillator H = p^2/2 + q^2/2 - 0.3 q cos(t): non-autonomous, so t and wp are Newton
- * unknowns and wp moves (as tests/test_linsolve.c's). */
-static int forced_create(const dth_model_args *a, void **self, dth_model_info *info)
-{
-    (void)a;
-    *self = NULL;
-    *info = (dth_model_info){.n = 1, .autonomous = 0, .separable = 1};
-    return DTH_OK;
-}
-
-static int forced_eval(const void *self, const double *y, unsigned what, double *H, double *g, double *h)
-{
-    (void)self;
-    double q = y[0], t = y[1], p = y[2];
-    if (what & DTH_EVAL_H) *H = 0.5 * p * p + 0.5 * q * q - 0.3 * q * cos(t);
-    if (what & DTH_EVAL_GRAD) g[0] = q - 0.3 * cos(t), g[1] = 0.3 * q * sin(t), g[2] = p;
-    if (what & DTH_EVAL_HESS) {
-        double hh[9] = {1, 0.3 * sin(t), 0, 0.3 * sin(t), 0.3 * q * cos(t), 0, 0, 0, 1};
-        memcpy(h, hh, sizeof hh);
-    }
-    return 0;
-}
-
-static const dth_model_type forced_type = {.name = "forced", .doc = "forced oscillator", .create = forced_create,
-                                           .eval = forced_eval};
-
 /* Henon-Heiles at energy E from x = 0, y = y0, p_x = px (p_y > 0 from E). */
 static void hh_start(double E, double y0, double px, double *q, double *p)
 {
@@ -150,7 +124,7 @@ static void test_round_trips(void)
         CU_ASSERT(a.rc == DTH_OK && a.dz <= 4 * DBL_EPSILON && a.dt <= 4 * DBL_EPSILON);
         CU_ASSERT(b.rc == DTH_OK && b.dz <= 4 * DBL_EPSILON && b.dt <= 4 * DBL_EPSILON);
     }
-    dth_model *fo = model(&forced_type, NULL, 0, 1);
+    dth_model *fo = model(&test_forced_type, NULL, 0, 1);
     double fq = 1, fp = 0;
     trip f = dth_trip_ls(fo, &fq, &fp, 0.05, 3000, 2, DTH_LINSOLVE_AUTO, 1);
     printf("\n    forced oscillator (non-autonomous), from the start vertex: %.1e (t %.1e)", f.dz, f.dt);

@@ -58,4 +58,34 @@ static inline double symplectic_defect(size_t n, const double *M, int extended)
     return worst;
 }
 
+/* A forced oscillator H = p^2/2 + q^2/2 - 0.3 q cos(t), non-autonomous (t and wp are Newton
+ * unknowns; wp moves): test_linsolve's and test_reversible's. */
+static inline int test_forced_create(const dth_model_args *a, void **self, dth_model_info *info)
+{
+    (void)a;
+    *self = NULL;
+    *info = (dth_model_info){.n = 1, .autonomous = 0, .separable = 1};
+    return DTH_OK;
+}
+
+static inline int test_forced_eval(const void *self, const double *y, unsigned what, double *H, double *g, double *h)
+{
+    (void)self;
+    double q = y[0], t = y[1], p = y[2];
+    if (what & DTH_EVAL_H) *H = 0.5 * p * p + 0.5 * q * q - 0.3 * q * cos(t);
+    if (what & DTH_EVAL_GRAD) {
+        g[0] = q - 0.3 * cos(t);
+        g[1] = 0.3 * q * sin(t);
+        g[2] = p;
+    }
+    if (what & DTH_EVAL_HESS) {
+        double hh[9] = {1, 0.3 * sin(t), 0, 0.3 * sin(t), 0.3 * q * cos(t), 0, 0, 0, 1};
+        for (int i = 0; i < 9; i++) h[i] = hh[i];
+    }
+    return 0;
+}
+
+static const dth_model_type test_forced_type = {
+    .name = "forced", .doc = "forced oscillator", .create = test_forced_create, .eval = test_forced_eval};
+
 #endif
