@@ -140,6 +140,7 @@ static int fput_band(const void *self, const double *y, double *band)
 }
 
 static const dth_model_type fput_type = {
+DTH_MODEL_TYPE_HEAD,
     .name = "fput",
     .doc = "FPUT alpha-beta chain with fixed ends (bench_symplectic's user model)",
     .params = fput_params,
@@ -200,6 +201,7 @@ static int hh_hdiff(const void *self, const double *y1, const double *y0, double
 }
 
 static const dth_model_type hh_type = {
+DTH_MODEL_TYPE_HEAD,
     .name = "henon-heiles",
     .doc = "Henon-Heiles (bench_symplectic's user model)",
     .create = hh_create,
@@ -272,6 +274,7 @@ static int rotors_hdiff(const void *self, const double *y1, const double *y0, do
 }
 
 static const dth_model_type rotors_type = {
+DTH_MODEL_TYPE_HEAD,
     .name = "rotors",
     .doc = "two coupled pendula (bench_symplectic's user model)",
     .params = rotors_params,

@@ -900,8 +900,13 @@ int cli_cmd_sweep(int argc, char **argv)
         }
         libs[nlibs++] = h;
         const dth_model_type *t = dlsym(h, colon + 1);
-        if (!t || !t->name) {
+        char why[256];
+        if (!t) {
             cli_error("--model-lib: '%s' has no model table '%s'", file, colon + 1);
+            goto done;
+        }
+        if (dth_model_type_check(t, why, sizeof why)) {
+            cli_error("--model-lib: '%s' in '%s': %s", colon + 1, file, why);
             goto done;
         }
         if (dth_registry_add_model(reg, t)) {

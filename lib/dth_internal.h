@@ -41,6 +41,15 @@ static inline void dth__flow_z(size_t n, const double *grad, double *u)
     dth__flow_y(n, grad, u);
     u[2 * n + 1] = -grad[n];
 }
+/**
+ * Check the head of a table a program or plugin filled (model.h: abi and size first): the magic, a
+ * layout version from 2 to `version` (the current one, whose table has `full` bytes) and a size that
+ * fits the version. `kind` names the table in the message ("model", "regularizer").
+ * @return DTH_OK, DTH_EINVAL (message in err).
+ */
+int dth__abi_check(unsigned abi, size_t size, unsigned version, size_t full, const char *kind, char *err, size_t len);
+/** Copy a checked table of `size` bytes into `dst` (`full` bytes): members past size read as 0. */
+void dth__table_copy(void *dst, size_t full, const void *src, size_t size);
 struct dth_regularizer;
 /** Bytes of state a regularizer instance carries (0: stateless or NULL). */
 size_t dth__reg_state_size(const struct dth_regularizer *r);

@@ -13,7 +13,8 @@
 #include "dth_internal.h"
 
 struct dth_model {
-    const dth_model_type *type;
+    const dth_model_type *type; /* &t: the table as this library's layout */
+    dth_model_type t;           /* the caller's table, checked and copied (members past its size: NULL) */
     void *self;
     dth_model_info info;
     const dth_allocator *alloc;
@@ -106,14 +107,34 @@ static int probe_quadratic(const dth_model *m, unsigned long long *mask)
 
 unsigned long long dth__model_quad_mask(const dth_model *m) { return m ? m->quad_mask : 0; }
 
-int dth_model_new(const dth_model_type *type, const dth_kv *kv, size_t nkv, size_t n_hint,
+int dth_model_type_check(const dth_model_type *t, char *err, size_t errlen)
+{
+    if (!t) {
+        dth__set_err(err, errlen, "no model table (NULL)");
+        return DTH_EINVAL;
+    }
+    int rc = dth__abi_check(t->abi, t->size, DTH_MODEL_TYPE_VERSION, sizeof *t, "model", err, errlen);
+    if (rc) return rc;
+    if (!t->name || !t->name[0] || !t->create || !t->eval) {
+        dth__set_err(err, errlen, "model table '%s' lacks %s", t->name && t->name[0] ? t->name : "(unnamed)",
+                     !t->name || !t->name[0] ? "a name" : !t->create ? "its create callback" : "its eval callback");
+        return DTH_EINVAL;
+    }
+    return DTH_OK;
+}
+
+int dth_model_new(const dth_model_type *utype, const dth_kv *kv, size_t nkv, size_t n_hint,
                   const dth_allocator *alloc, dth_model **out, char *err, size_t errlen)
 {
     if (out) *out = NULL;
-    if (!type || !out || (nkv && !kv) || !type->create || !type->eval) {
+    if (!out || (nkv && !kv)) {
         dth__set_err(err, errlen, "invalid arguments to dth_model_new");
         return DTH_EINVAL;
     }
+    if (dth_model_type_check(utype, err, errlen)) return DTH_EINVAL;
+    dth_model_type tcopy;
+    dth__table_copy(&tcopy, sizeof tcopy, utype, utype->size);
+    const dth_model_type *type = &tcopy;
     for (size_t i = 0; i < nkv; i++) {
         if (!kv[i].key || !kv[i].value) {
             dth__set_err(err, errlen, "parameter %zu has no key or value", i);
@@ -129,7 +150,9 @@ int dth_model_new(const dth_model_type *type, const dth_kv *kv, size_t nkv, size
         dth__set_err(err, errlen, "out of memory");
         return DTH_ENOMEM;
     }
-    m->type = type;
+    m->t = tcopy;
+    m->type = &m->t;
+    type = m->type;
     m->alloc = alloc;
     dth_model_args args = {kv, nkv, n_hint, alloc, err, errlen};
     if (err && errlen) err[0] = '\0';

@@ -3,6 +3,7 @@
 #include <string.h>
 #include "dth/models.h"
 #include "dth/regularize.h"
+#include "dth_internal.h"
 
 struct dth_registry {
     const dth_allocator *alloc;
@@ -33,8 +34,7 @@ void dth_registry_free(dth_registry *r)
 
 int dth_registry_add_model(dth_registry *r, const dth_model_type *type)
 {
-    if (!r || !type || !type->name || !type->name[0] || !type->create || !type->eval)
-        return DTH_EINVAL;
+    if (!r || dth_model_type_check(type, NULL, 0)) return DTH_EINVAL;
     if (dth_registry_find_model(r, type->name)) return DTH_EINVAL;
     if (r->n_models == r->cap_models) {
         size_t cap = r->cap_models ? 2 * r->cap_models : 8;
@@ -68,7 +68,7 @@ const dth_model_type *dth_registry_model_at(const dth_registry *r, size_t i)
 
 int dth_registry_add_regularizer(dth_registry *r, const dth_regularizer_type *type)
 {
-    if (!r || !type || !type->name || !type->name[0] || !type->apply) return DTH_EINVAL;
+    if (!r || dth_regularizer_type_check(type, NULL, 0)) return DTH_EINVAL;
     if (dth_registry_find_regularizer(r, type->name)) return DTH_EINVAL;
     if (r->n_regs == r->cap_regs) {
         size_t cap = r->cap_regs ? 2 * r->cap_regs : 4;
@@ -96,4 +96,36 @@ size_t dth_registry_regularizer_count(const dth_registry *r) { return r ? r->n_r
 const dth_regularizer_type *dth_registry_regularizer_at(const dth_registry *r, size_t i)
 {
     return (r && i < r->n_regs) ? r->regs[i] : NULL;
+}
+
+int dth__abi_check(unsigned abi, size_t size, unsigned version, size_t full, const char *kind, char *err, size_t len)
+{
+    if ((abi & ~0xffu) != DTH_ABI_MAGIC) {
+        dth__set_err(err, len,
+                     "%s table has no layout version (built for a dth before tables were versioned?): rebuild it "
+                     "with DTH_%s_HEAD as its first member",
+                     kind, kind[0] == 'm' ? "MODEL_TYPE" : "REG_TYPE");
+        return DTH_EINVAL;
+    }
+    unsigned v = abi & 0xffu, cur = version & 0xffu;
+    if (v < 2 || v > cur) {
+        dth__set_err(err, len, "%s table has layout version %u, this library reads versions 2 to %u%s", kind, v, cur,
+                     v > cur ? " (built against a newer dth)" : "");
+        return DTH_EINVAL;
+    }
+    /* one layout so far: version 2 is the current table; a later version keeps each earlier
+     * version's size here, so that a smaller table reads as its own layout */
+    if (size != full) {
+        dth__set_err(err, len, "%s table of layout version %u says it has %zu bytes, that layout has %zu", kind, v, size,
+                     full);
+        return DTH_EINVAL;
+    }
+    return DTH_OK;
+}
+
+void dth__table_copy(void *dst, size_t full, const void *src, size_t size)
+{
+    size_t k = size < full ? size : full;
+    memcpy(dst, src, k);
+    memset((char *)dst + k, 0, full - k);
 }

@@ -13,7 +13,8 @@
 #include "integrator_impl.h"
 
 struct dth_regularizer {
-    const dth_regularizer_type *type;
+    const dth_regularizer_type *type; /* &t */
+    dth_regularizer_type t;           /* the caller's table, checked and copied (model.h) */
     void *self;
     const dth_allocator *alloc;
 };
@@ -28,16 +29,36 @@ static int spec_accepts(const dth_regularizer_type *t, const char *key)
     return 0;
 }
 
-int dth_regularizer_new(const dth_regularizer_type *type, const dth_kv *kv, size_t nkv,
+int dth_regularizer_type_check(const dth_regularizer_type *t, char *err, size_t errlen)
+{
+    if (!t) {
+        dth__set_err(err, errlen, "no regularizer table (NULL)");
+        return DTH_EINVAL;
+    }
+    int rc = dth__abi_check(t->abi, t->size, DTH_REG_TYPE_VERSION, sizeof *t, "regularizer", err, errlen);
+    if (rc) return rc;
+    if (!t->name || !t->name[0] || !t->apply) {
+        dth__set_err(err, errlen, "regularizer table '%s' lacks %s", t->name && t->name[0] ? t->name : "(unnamed)",
+                     !t->name || !t->name[0] ? "a name" : "its apply callback");
+        return DTH_EINVAL;
+    }
+    return DTH_OK;
+}
+
+int dth_regularizer_new(const dth_regularizer_type *utype, const dth_kv *kv, size_t nkv,
                         const dth_model *model, const dth_allocator *alloc, dth_regularizer **out,
                         char *err, size_t errlen)
 {
     if (out) *out = NULL;
     if (err && errlen) err[0] = '\0';
-    if (!type || !out || !model || (nkv && !kv) || !type->apply) {
+    if (!out || !model || (nkv && !kv)) {
         if (err && errlen) snprintf(err, errlen, "invalid arguments to dth_regularizer_new");
         return DTH_EINVAL;
     }
+    if (dth_regularizer_type_check(utype, err, errlen)) return DTH_EINVAL;
+    dth_regularizer_type tcopy;
+    dth__table_copy(&tcopy, sizeof tcopy, utype, utype->size);
+    const dth_regularizer_type *type = &tcopy;
     for (size_t i = 0; i < nkv; i++) {
         if (!kv[i].key || !kv[i].value || !spec_accepts(type, kv[i].key)) {
             if (err && errlen)
@@ -48,7 +69,9 @@ int dth_regularizer_new(const dth_regularizer_type *type, const dth_kv *kv, size
     }
     dth_regularizer *r = dth_calloc(alloc, 1, sizeof *r);
     if (!r) return DTH_ENOMEM;
-    r->type = type;
+    r->t = tcopy;
+    r->type = &r->t;
+    type = r->type;
     r->alloc = alloc;
     if (type->create) {
         dth_reg_args a = {kv, nkv, model, alloc, err, errlen};

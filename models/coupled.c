@@ -469,6 +469,7 @@ static int domain(const void *self, const double *y, char *why, size_t len)
 }
 
 const dth_model_type dth_model_coupled = {
+DTH_MODEL_TYPE_HEAD,
     .name = "coupled",
     .doc = "coupled oscillators: N particles in 1-3 dimensions, springs k/2 (|x_i - x_j| - L)^2 (chain, ring, lattice or explicit)",
     .params = params,

@@ -152,6 +152,7 @@ static int hdiff(const void *self, const double *y1, const double *y0, double *d
 }
 
 const dth_model_type dth_model_harmonic = {
+DTH_MODEL_TYPE_HEAD,
     .name = "harmonic",
     .doc = "harmonic oscillator H = sum p_i^2/(2 m_i) + m_i omega_i^2 q_i^2/2 (n degrees of freedom)",
     .params = params,

@@ -281,6 +281,7 @@ static int domain(const void *self, const double *y, char *why, size_t len)
 }
 
 const dth_model_type dth_model_kepler = {
+DTH_MODEL_TYPE_HEAD,
     .name = "kepler",
     .doc = "Kepler problem H = |p|^2/2 - mu/|q| in 2 or 3 Cartesian dimensions",
     .params = params,

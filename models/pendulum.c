@@ -128,6 +128,7 @@ static int exact(const void *self, const double *y0, double t, double *y)
 }
 
 const dth_model_type dth_model_pendulum = {
+DTH_MODEL_TYPE_HEAD,
     .name = "pendulum",
     .doc = "pendulum H = p^2/2 - omega2 cos q (one degree of freedom)",
     .params = params,

@@ -11,6 +11,7 @@ static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
 }
 
 const dth_regularizer_type dth_reg_none = {
+DTH_REG_TYPE_HEAD,
     .name = "none",
     .doc = "raw DTH: no regularization; the run ends with the branch status where no physical root exists",
     .apply = apply,

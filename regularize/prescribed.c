@@ -267,6 +267,7 @@ static int load_state(void *self, const void *buf, size_t len)
 }
 
 const dth_regularizer_type dth_reg_prescribed = {
+DTH_REG_TYPE_HEAD,
     .name = "prescribed",
     .doc = "every step a kicked segment with lambda = arc/|u(zbar)|^alpha at its own midpoint: energy-exact, keeps quadratic invariants, exactly reversible (with fallback=no; fallback steps are not), smooth through psi = 0; not symplectic at any step",
     .params = params,

@@ -431,6 +431,7 @@ static int load_state(void *self, const void *buf, size_t len)
 }
 
 const dth_regularizer_type dth_reg_smooth = {
+DTH_REG_TYPE_HEAD,
     .name = "smooth",
     .doc = "ordinary DTH (symplectic) wherever the step is healthy; around psi = 0 and folds a C-infinity changeover to kicked segments of a step law: energy-exact, keeps quadratic invariants, the step pinned at every crossing, ends only where no law segment exists (refused; dth run then suggests a smaller h); the changeover steps are neither symplectic nor reversible",
     .params = params,

@@ -129,6 +129,7 @@ static int wall_eval(const void *self, const double *y, unsigned what, double *H
 
 static const dth_param_spec wall_params[] = {{"nan", NULL, "return NaN outside (any value)"}};
 static const dth_model_type wall_type = {
+DTH_MODEL_TYPE_HEAD,
     .name = "wall", .doc = "oscillator defined for q < 0.5", .params = wall_params, .n_params = 1,
     .create = wall_create, .destroy = wall_destroy, .eval = wall_eval,
 };
@@ -181,7 +182,7 @@ static int flat_eval(const void *self, const double *y, unsigned what, double *H
     return 0;
 }
 
-static const dth_model_type flat_type = {.name = "flat", .doc = "H_phys = 0", .create = one_dof_create,
+static const dth_model_type flat_type = {DTH_MODEL_TYPE_HEAD, .name = "flat", .doc = "H_phys = 0", .create = one_dof_create,
                                          .eval = flat_eval};
 
 static void test_esingular(void)
@@ -314,7 +315,7 @@ static int fickle_eval(const void *self, const double *y, unsigned what, double 
     return 0;
 }
 
-static const dth_model_type fickle_type = {.name = "fickle", .doc = "oscillator, H alone fails at 0.25 < q < 0.35",
+static const dth_model_type fickle_type = {DTH_MODEL_TYPE_HEAD, .name = "fickle", .doc = "oscillator, H alone fails at 0.25 < q < 0.35",
                                            .create = one_dof_create, .eval = fickle_eval};
 
 /* A regularizer that replaces every step and counts its calls (state a checkpoint keeps). Its
@@ -373,6 +374,7 @@ static int tricky_load(void *self, const void *buf, size_t len)
 
 static const dth_param_spec tricky_params[] = {{"mode", "0", "which bad action"}};
 static const dth_regularizer_type tricky_type = {
+DTH_REG_TYPE_HEAD,
     .name = "tricky", .doc = "test", .params = tricky_params, .n_params = 1, .create = tricky_create,
     .destroy = tricky_destroy, .apply = tricky_apply, .state_size = tricky_size, .save_state = tricky_save,
     .load_state = tricky_load, .replaces_all = tricky_all,
@@ -419,7 +421,7 @@ static int big_eval(const void *self, const double *y, unsigned what, double *H,
     (void)self, (void)y, (void)what, (void)H, (void)g, (void)h;
     return 0;
 }
-static const dth_model_type big_type = {.name = "big", .doc = "n from a global", .create = big_create,
+static const dth_model_type big_type = {DTH_MODEL_TYPE_HEAD, .name = "big", .doc = "n from a global", .create = big_create,
                                         .eval = big_eval};
 
 static void test_absurd_sizes(void)

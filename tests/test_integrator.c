@@ -334,6 +334,7 @@ static int forced_eval(const void *s, const double *y, unsigned what, double *H,
     return 0;
 }
 static const dth_model_type forced = {
+DTH_MODEL_TYPE_HEAD,
     .name = "forced", .doc = "forced oscillator", .create = forced_create, .eval = forced_eval,
 };
 

@@ -53,7 +53,7 @@ static int mass_eval(const void *self, const double *y, unsigned what, double *H
     return 0;
 }
 
-static const dth_model_type mass_type = {.name = "mass", .doc = "non-diagonal mass", .create = mass_create,
+static const dth_model_type mass_type = {DTH_MODEL_TYPE_HEAD, .name = "mass", .doc = "non-diagonal mass", .create = mass_create,
                                          .eval = mass_eval};
 
 /* ---- the comparison ---- */

@@ -37,7 +37,7 @@ static int ns_eval(const void *s, const double *y, unsigned what, double *H, dou
     }
     return 0;
 }
-static const dth_model_type nonsep = {.name = "nonsep", .create = ns_create, .eval = ns_eval};
+static const dth_model_type nonsep = {DTH_MODEL_TYPE_HEAD, .name = "nonsep", .create = ns_create, .eval = ns_eval};
 
 /* Resonantly forced oscillator: H = p^2/2 + q^2/2 - q cos t; q'' + q = cos t. */
 static int na_eval(const void *s, const double *y, unsigned what, double *H, double *g, double *hs)
@@ -59,7 +59,7 @@ static int na_exact(const void *s, const double *y0, double t, double *y)
     y[2] = -q0 * sin(t) + p0 * cos(t) + 0.5 * (sin(t) + t * cos(t));
     return 0;
 }
-static const dth_model_type forced = {.name = "forced", .create = na_create, .eval = na_eval, .exact = na_exact};
+static const dth_model_type forced = {DTH_MODEL_TYPE_HEAD, .name = "forced", .create = na_create, .eval = na_eval, .exact = na_exact};
 
 /* Harmonic oscillator defined only for |q| < 1 (to make steps fail). */
 static int dm_eval(const void *s, const double *y, unsigned what, double *H, double *g, double *hs)
@@ -74,7 +74,7 @@ static int dm_eval(const void *s, const double *y, unsigned what, double *H, dou
     }
     return 0;
 }
-static const dth_model_type domain = {.name = "domain", .create = dm_create, .eval = dm_eval};
+static const dth_model_type domain = {DTH_MODEL_TYPE_HEAD, .name = "domain", .create = dm_create, .eval = dm_eval};
 
 static dth_model *mk(const dth_model_type *t, const dth_kv *kv, size_t nkv, size_t nh)
 {

@@ -107,7 +107,7 @@ static int bad_create(const dth_model_args *a, void **self, dth_model_info *info
     return 0;
 }
 
-static const dth_model_type bad_type = {.name = "bad_pendulum", .doc = "pendulum with a wrong Hessian sign",
+static const dth_model_type bad_type = {DTH_MODEL_TYPE_HEAD, .name = "bad_pendulum", .doc = "pendulum with a wrong Hessian sign",
                                         .create = bad_create, .eval = bad_eval};
 
 static void test_check_verdict(void)
@@ -269,12 +269,60 @@ static void test_pendulum_psi(void)
     dth_model_free(m);
 }
 
+/* A table of the unversioned layout (before dth_model_type had abi and size): name first. */
+struct old_model_type {
+    const char *name, *doc;
+    const dth_param_spec *params;
+    size_t n_params;
+    int (*create)(const dth_model_args *, void **, dth_model_info *);
+    void (*destroy)(void *, const dth_allocator *);
+    int (*eval)(const void *, const double *, unsigned, double *, double *, double *);
+};
+static const struct old_model_type old_type = {"old_pendulum", "an old plugin", NULL, 0, bad_create, NULL, bad_eval};
+
+static void test_table_layout(void)
+{
+    char err[256];
+    dth_model *m = NULL;
+    dth_registry *reg = NULL;
+    const dth_model_type *old = (const dth_model_type *)(const void *)&old_type;
+    /* the old layout: refused by name of the fix, by dth_model_new and by the registry alike */
+    CU_ASSERT(dth_model_type_check(old, err, sizeof err) == DTH_EINVAL);
+    CU_ASSERT(strstr(err, "no layout version") != NULL && strstr(err, "DTH_MODEL_TYPE_HEAD") != NULL);
+    err[0] = 0;
+    CU_ASSERT(dth_model_new(old, NULL, 0, 1, NULL, &m, err, sizeof err) == DTH_EINVAL && m == NULL);
+    CU_ASSERT(strstr(err, "no layout version") != NULL);
+    CU_ASSERT_FATAL(dth_registry_new(NULL, &reg) == DTH_OK);
+    CU_ASSERT(dth_registry_add_model(reg, old) == DTH_EINVAL);
+    CU_ASSERT(dth_registry_model_count(reg) == 0);
+    /* a newer layout, a wrong size, a missing callback */
+    dth_model_type t = bad_type;
+    t.abi = DTH_ABI_MAGIC | 3u;
+    CU_ASSERT(dth_model_type_check(&t, err, sizeof err) == DTH_EINVAL && strstr(err, "newer") != NULL);
+    t = bad_type;
+    t.size = sizeof t - 8;
+    CU_ASSERT(dth_model_type_check(&t, err, sizeof err) == DTH_EINVAL && strstr(err, "bytes") != NULL);
+    t = bad_type;
+    t.eval = NULL;
+    CU_ASSERT(dth_model_type_check(&t, err, sizeof err) == DTH_EINVAL && strstr(err, "eval") != NULL);
+    CU_ASSERT(dth_model_type_check(&bad_type, err, sizeof err) == DTH_OK);
+    CU_ASSERT(dth_registry_add_model(reg, &bad_type) == DTH_OK);
+    /* the same for regularizer tables */
+    dth_regularizer_type r = dth_reg_none;
+    CU_ASSERT(dth_regularizer_type_check(&r, err, sizeof err) == DTH_OK);
+    r.abi = 0;
+    CU_ASSERT(dth_regularizer_type_check(&r, err, sizeof err) == DTH_EINVAL && strstr(err, "DTH_REG_TYPE_HEAD") != NULL);
+    CU_ASSERT(dth_registry_add_regularizer(reg, &r) == DTH_EINVAL);
+    dth_registry_free(reg);
+}
+
 static CU_TestInfo conformance[] = {
     {"derivatives match finite differences", test_derivatives},
     {"psi' matches a difference of psi along the flow", test_dpsi},
     {"exact solutions solve the equations of motion", test_exact},
     {"invariants are constant along the flow", test_invariants},
     {"a wrong Hessian sign fails the check, naming the entry", test_check_verdict},
+    {"tables of an unknown layout are refused with a message", test_table_layout},
     CU_TEST_INFO_NULL,
 };
 static CU_TestInfo params[] = {

@@ -86,6 +86,7 @@ static inline int test_forced_eval(const void *self, const double *y, unsigned w
 }
 
 static const dth_model_type test_forced_type = {
+DTH_MODEL_TYPE_HEAD,
     .name = "forced", .doc = "forced oscillator", .create = test_forced_create, .eval = test_forced_eval};
 
 #endif

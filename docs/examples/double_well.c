@@ -60,6 +60,7 @@ static int third(const void *self, const double *y, const double *u, double *d3)
 }
 
 const dth_model_type example_double_well = {
+DTH_MODEL_TYPE_HEAD,
     .name = "double-well",
     .doc = "double well H = p^2/2 + a (q^4 - q^2)/2 (example of a user model)",
     .params = params,

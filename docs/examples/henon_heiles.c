@@ -58,6 +58,7 @@ static int eval(const void *self, const double *y, unsigned what, double *H, dou
 }
 
 const dth_model_type example_henon_heiles = {
+DTH_MODEL_TYPE_HEAD,
     .name = "henon-heiles",
     .doc = "Henon-Heiles H = |p|^2/2 + |q|^2/2 + lambda (q1^2 q2 - q2^3/3) (example of a user model)",
     .params = params,

@@ -305,6 +305,7 @@ class _PyModelType:
             self.spec[i].doc = cstr(mc.param_docs.get(k, ""))
         self.inames = [cstr(s) for s in mc.invariant_names]
         t = self.table = ffi.new("dth_model_type *")
+        t.abi, t.size = lib().DTH_MODEL_TYPE_VERSION, ffi.sizeof("dth_model_type")
         t.name = cstr(mc.name)
         t.doc = cstr(mc.doc or "")
         t.params = self.spec

@@ -59,7 +59,10 @@ typedef struct dth_model_info {
     size_t bandwidth;
     double K;
 } dth_model_info;
+#define DTH_MODEL_TYPE_VERSION 0x44544802
 typedef struct dth_model_type {
+    unsigned abi;
+    size_t size;
     const char *name;
     const char *doc;
     const dth_param_spec *params;

@@ -125,6 +125,10 @@ grep -q "initial.q\[2\]" "$T/e.err" || fail "element beyond the list not named: 
 expect2 "$SC/pendulum.ini" --vary initial.q=0:1:3 --list "$T/list.csv"
 expect2 "$SC/pendulum.ini" --list "$T/no-such.csv"
 expect2 "$SC/pendulum.ini" --vary initial.q=0:1:3 --model-lib /no/such.so:x
+if [ -n "${DTH_TEST_OLD_PLUGIN:-}" ]; then
+    expect2 "$SC/pendulum.ini" --vary initial.q=0:1:3 --model-lib "$DTH_TEST_OLD_PLUGIN:old_table"
+    grep -q "old_table.*no layout version.*DTH_MODEL_TYPE_HEAD" "$T/e.err" || fail "old plugin table not refused by name: $(cat "$T/e.err")"
+fi
 expect2 "$SC/pendulum.ini" --vary initial.q=0:1:3 --schedule sometimes
 expect2 "$SC/pendulum.ini" --vary initial.q=0:1:3 -o /dev/null/x.csv
 "$DTH" sweep --help | grep -q "megno_t" || fail "--help does not describe the columns"

@@ -82,8 +82,24 @@ enum {
     DTH_EVAL_HESS = 4u  /**< Hessian over y, (2n+1)^2 row-major */
 };
 
+/**
+ * Tables that a program or a plugin fills and the library reads (dth_model_type,
+ * dth_regularizer_type) start with the layout they were compiled against: `abi` (the magic
+ * DTH_ABI_MAGIC with the layout's version in the low byte) and `size` (sizeof the table as the
+ * plugin saw it). Start every such table with its _HEAD macro:
+ *     static const dth_model_type my_model = {DTH_MODEL_TYPE_HEAD, .name = "my", ...};
+ * The library refuses a table without the magic (one built before the tables were versioned, whose
+ * first member was `name`) or of a newer layout than it reads, and never reads past `size`: a
+ * member added to a later layout reads as NULL for a table of an earlier one.
+ */
+#define DTH_ABI_MAGIC 0x44544800u
+/** Layout version of dth_model_type (1: the unversioned layout, refused). */
+#define DTH_MODEL_TYPE_VERSION (DTH_ABI_MAGIC | 2u)
+
 /** A model type: a static table of callbacks. Optional entries may be NULL. */
 typedef struct dth_model_type {
+    unsigned abi;                  /**< DTH_MODEL_TYPE_VERSION (write DTH_MODEL_TYPE_HEAD first) */
+    size_t size;                   /**< sizeof(dth_model_type) where the table was compiled */
     const char *name;              /**< selects the model in scene files */
     const char *doc;               /**< one-line description */
     const dth_param_spec *params;  /**< accepted parameters */
@@ -139,6 +155,18 @@ typedef struct dth_model_type {
      */
     int (*domain)(const void *self, const double *y, char *why, size_t len);
 } dth_model_type;
+
+/** The first two members of every dth_model_type: `{DTH_MODEL_TYPE_HEAD, .name = ...}`. */
+#define DTH_MODEL_TYPE_HEAD DTH_MODEL_TYPE_VERSION, sizeof(dth_model_type)
+
+/**
+ * Whether `t` is a table this library can read: the magic and a layout version it knows in `abi`,
+ * a plausible `size`, a name, and the required callbacks (create, eval). Writes a one-line reason
+ * naming the table into err (may be NULL) when not. dth_model_new and dth_registry_add_model
+ * check every table this way; a loader of plugins (dlsym) calls it for its message.
+ * @return DTH_OK, DTH_EINVAL.
+ */
+DTH_API int dth_model_type_check(const dth_model_type *t, char *err, size_t errlen);
 
 /** An instance: a type plus its state. Opaque. */
 typedef struct dth_model dth_model;

@@ -82,8 +82,13 @@ typedef struct dth_reg_action {
                           dth_integrator_errmsg() then includes it */
 } dth_reg_action;
 
+/** Layout version of dth_regularizer_type (model.h says how tables are versioned). */
+#define DTH_REG_TYPE_VERSION (DTH_ABI_MAGIC | 2u)
+
 /** A regularizer type: a static table of callbacks. */
 typedef struct dth_regularizer_type {
+    unsigned abi;                 /**< DTH_REG_TYPE_VERSION (write DTH_REG_TYPE_HEAD first) */
+    size_t size;                  /**< sizeof(dth_regularizer_type) where the table was compiled */
     const char *name;             /**< selects it in scene files ([regularize] method=) */
     const char *doc;              /**< one-line description (what it preserves, what it gives up) */
     const dth_param_spec *params; /**< accepted parameters */
@@ -120,6 +125,15 @@ typedef struct dth_regularizer_type {
      */
     int (*replaces_all)(const void *self);
 } dth_regularizer_type;
+
+/** The first two members of every dth_regularizer_type: `{DTH_REG_TYPE_HEAD, .name = ...}`. */
+#define DTH_REG_TYPE_HEAD DTH_REG_TYPE_VERSION, sizeof(dth_regularizer_type)
+
+/**
+ * Whether `t` is a table this library can read (model.h: dth_model_type_check), with a one-line
+ * reason in err when not. @return DTH_OK, DTH_EINVAL.
+ */
+DTH_API int dth_regularizer_type_check(const dth_regularizer_type *t, char *err, size_t errlen);
 
 /** An instance: a type plus its state. Opaque. Not shared between integrators running at once. */
 typedef struct dth_regularizer dth_regularizer;
