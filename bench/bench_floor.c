@@ -427,7 +427,7 @@ static double time_lib_opt(const dth_model *m, double h, int compensate, int bra
     dth_options o;
     dth_options_default(&o);
     o.h = h;
-    o.compensate = compensate;
+    o.finish = (dth_finish)compensate;
     o.branch_check = branch_check;
     dth_integrator *it;
     if (dth_integrator_new(m, &o, &it) || dth_integrator_start(it, q0, p0, 0.0) || dth_integrator_step(it, NULL)) {

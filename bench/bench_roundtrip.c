@@ -41,7 +41,7 @@ static rt dth_roundtrip(const dth_model *m, const double *q0, const double *p0, 
     dth_options o;
     dth_options_default(&o);
     o.h = h;
-    o.compensate = compensate;
+    o.finish = (dth_finish)compensate;
     dth_integrator *it = NULL;
     if (dth_integrator_new(m, &o, &it) || dth_integrator_start(it, q0, p0, 0.0)) exit(1);
     size_t n = dth_model_dof(m), N = 2 * n + 2;

@@ -145,13 +145,13 @@ enum { NSTATE = sizeof state_fields / sizeof state_fields[0] };
  * mode, explicit wp and h of dth_options act at the start only; h as it stands is state.) */
 typedef struct optv {
     long branch_check; /* a root finder is attached (banded models have none) */
-    long compensate, max_iter;
+    long finish, max_iter;
     long linsolve;     /* the solver in use (AUTO resolved) */
     double K;
 } optv;
 static const field opt_fields[] = {
     {"branch_check", offsetof(optv, branch_check), K_LONG, C_ANY},
-    {"compensate", offsetof(optv, compensate), K_LONG, C_ANY},
+    {"finish", offsetof(optv, finish), K_LONG, C_ANY},
     {"max_iter", offsetof(optv, max_iter), K_LONG, C_ANY},
     {"linsolve", offsetof(optv, linsolve), K_LONG, C_ANY},
     {"K", offsetof(optv, K), K_F64, C_ANY},
@@ -160,7 +160,7 @@ enum { NOPT = sizeof opt_fields / sizeof opt_fields[0] };
 
 static optv options_of(const dth_integrator *it)
 {
-    optv o = {it->rf != NULL, it->opt.compensate, it->opt.max_iter, (long)it->kind, it->opt.K};
+    optv o = {it->rf != NULL, it->opt.finish, it->opt.max_iter, (long)it->kind, it->opt.K};
     return o;
 }
 

@@ -64,6 +64,20 @@ int dth__parse_list(const char *v, double *out, size_t max, size_t *count);
 
 /* ---- dense LU (linsolve.c: LAPACK, or written out for m <= DTH__SMALL_MAX) ---- */
 
+/** One linear-solver choice (linsolve.c's table). */
+typedef struct dth__linsolve_info {
+    dth_linsolve kind;
+    const char *name;
+    int banded;      /* needs a banded model; no O(m^2) buffers (banded.c) */
+    const char *doc;
+} dth__linsolve_info;
+/** The entry of choice k, NULL if k is not one. */
+const dth__linsolve_info *dth__linsolve_find(dth_linsolve k);
+/** Entry i of the table (0 <= i < its length), else NULL. */
+const dth__linsolve_info *dth__linsolve_at(size_t i);
+/** The solver AUTO means for a model (banded or not) with m Newton unknowns; k itself otherwise. */
+dth_linsolve dth__linsolve_resolve(dth_linsolve k, int banded_model, size_t m);
+
 /** Largest system the small path factors itself (no library call). */
 #define DTH__SMALL_MAX 8
 /** 1 if dth__lu_* take the small path for this choice and size. */

@@ -13,17 +13,6 @@
 #include "lu_small.h"
 #include "newton.h"
 
-void dth_options_default(dth_options *o)
-{
-    memset(o, 0, sizeof *o);
-    o->h = 0.01;
-    o->start = DTH_START_MIDPOINT;
-    o->max_iter = 30;
-    o->branch_check = 1;
-    o->linsolve = DTH_LINSOLVE_AUTO;
-    o->compensate = 1;
-}
-
 const char *dth_region_name(dth_region r)
 {
     switch (r) {
@@ -62,28 +51,19 @@ static void seterr(dth_integrator *it, const char *fmt, ...)
     va_end(ap);
 }
 
-int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integrator **out)
+int dth_integrator_new(const dth_model *model, const dth_options *opt_in, dth_integrator **out)
 {
     if (!out) return DTH_EINVAL;
     *out = NULL;
-    if (!model || !opt || !isfinite(opt->h) || opt->h == 0 || opt->max_iter < 1 ||
-        !isfinite(opt->K) || (opt->has_wp && !isfinite(opt->wp)) ||
-        (opt->start != DTH_START_MIDPOINT && opt->start != DTH_START_VERTEX) || !dth_linsolve_name(opt->linsolve))
-        return DTH_EINVAL;
+    if (!model || !opt_in || opt_in->size != sizeof(dth_options)) return DTH_EINVAL;
+    dth_options o = *opt_in, *opt = &o;
+    int crc = dth_options_check(model, opt, NULL, 0); /* resolves linsolve AUTO */
+    if (crc) return crc;
     size_t n = dth_model_dof(model);
-    /* every buffer below is O(n) or O(n^2) doubles: refuse sizes whose products overflow */
-    if (n == 0 || n > DTH__MAX_DOF) return DTH_EINVAL;
-    int banded_model = dth__model_banded(model);
     dth_linsolve kind = opt->linsolve;
-    if ((kind == DTH_LINSOLVE_BANDED || kind == DTH_LINSOLVE_BANDED_LU) && !banded_model) return DTH_EUNSUPPORTED;
     int auton = dth_model_get_info(model)->autonomous;
     size_t msz = auton ? 2 * n + 1 : 2 * n + 3;
-    if (kind == DTH_LINSOLVE_AUTO)
-        kind = banded_model ? DTH_LINSOLVE_BANDED : msz <= DTH__SMALL_MAX ? DTH_LINSOLVE_SMALL : DTH_LINSOLVE_DENSE;
-    int dense = kind != DTH_LINSOLVE_BANDED && kind != DTH_LINSOLVE_BANDED_LU; /* banded: no O(n^2) buffers */
-    if (dense && msz > (size_t)1 << 15) return DTH_EUNSUPPORTED; /* a dense m x m would not fit */
-    if (opt->compensate < 0 || opt->compensate > 2) return DTH_EINVAL;
-    if (opt->compensate == 2 && !dense) return DTH_EUNSUPPORTED; /* the reversible finish reads H'' (coarse_n) */
+    int dense = !dth__linsolve_find(kind)->banded; /* banded: no O(n^2) buffers */
     const dth_allocator *al = opt->alloc;
     dth_integrator *it = dth_calloc(al, 1, sizeof *it);
     if (!it) return DTH_ENOMEM;
@@ -98,7 +78,7 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     it->auton = auton;
     it->m = (int)msz;
     size_t N = it->N, d = it->d, m = msz;
-    size_t nd = 0, rv = opt->compensate == 2;
+    size_t nd = 0, rv = opt->finish == DTH_FINISH_REVERSIBLE;
     /* one block of doubles, carved below */
     size_t sizes[] = {N, N, N, N, N, N, N, N, N, N, d, (size_t)dense * d * d, N, d, (size_t)dense * m * m, m, m, m,
                       dth_model_work_size(model), (size_t)dense * m * N,
@@ -130,7 +110,7 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integ
     it->act = it->piv + m;
     it->nsmall = auton && dense && dth__lu_small(kind, it->m) && n <= 3 ? (int)n : 0;
     it->small_schur = it->nsmall && kind != DTH_LINSOLVE_SMALL_LU && dth_model_get_info(model)->separable;
-    it->rev = opt->compensate == 2; /* the reversible finish (dense only, above) */
+    it->rev = opt->finish == DTH_FINISH_REVERSIBLE; /* the reversible finish (dense only, above) */
     it->meval = dth_model_get_type(model)->eval;
     it->mhdiff = dth_model_get_type(model)->hdiff;
     it->mself = dth__model_self(model);
@@ -268,7 +248,7 @@ static int rho_direct(dth_integrator *it)
     return DTH_OK;
 }
 
-int dth__integrator_rho_reset(dth_integrator *it) { return it->opt.compensate ? rho_direct(it) : DTH_OK; }
+int dth__integrator_rho_reset(dth_integrator *it) { return it->opt.finish ? rho_direct(it) : DTH_OK; }
 
 /* Inline kernels take nc: the number of degrees of freedom when it is a compile-time constant
  * (the small path instantiates them for n = 1, 2, 3, so their loops unroll; nc > 0 implies an
@@ -390,7 +370,7 @@ static int vertex_offset(dth_integrator *it, const double *y, double Hp, double 
         reset_history(it);
         it->st.dir = h > 0 ? 1.0 : -1.0;
         double Hv, lam0;
-        if ((it->opt.compensate && (rc = rho_direct(it))) ||
+        if ((it->opt.finish && (rc = rho_direct(it))) ||
             (rc = dth_model_eval(it->model, it->st.z, DTH_EVAL_H | DTH_EVAL_GRAD, &Hv, it->grad, NULL))) {
             seterr(it, "model evaluation failed at the initial vertex");
             return rc;
@@ -544,7 +524,7 @@ int dth_integrator_start(dth_integrator *it, const double *q0, const double *p0,
                 seterr(it, "model evaluation failed at the first vertex");
                 return rc;
             }
-        } else if (it->opt.compensate) {
+        } else if (it->opt.finish) {
             /* H(zbar_0) = wp + H_phys = 0 exactly (wp = -H_phys) */
             rc = rho_from_mid(it, it->st.zbar, NULL, it->grad, it->st.z, it->st.zlo, &it->st.rho, &it->st.rholo);
             if (rc) {
@@ -584,7 +564,7 @@ int dth_integrator_set_vertex(dth_integrator *it, const double *z, double lambda
         if (!isfinite(z[j])) return DTH_EINVAL;
     if (z != it->st.z) memcpy(it->st.z, z, it->N * sizeof *z);
     memset(it->st.zlo, 0, it->N * sizeof *it->st.zlo);
-    if (it->opt.compensate) {
+    if (it->opt.finish) {
         int rc = rho_direct(it);
         if (rc) {
             seterr(it, "model evaluation failed at the vertex");
@@ -841,7 +821,7 @@ static const struct dth__linsolver band_ls = {0, band_factor, band_solve, band_t
 
 static const struct dth__linsolver *linsolver_of(dth_linsolve kind)
 {
-    return kind == DTH_LINSOLVE_BANDED || kind == DTH_LINSOLVE_BANDED_LU ? &band_ls : &dense_ls;
+    return dth__linsolve_find(kind)->banded ? &band_ls : &dense_ls;
 }
 
 /*
@@ -1023,7 +1003,7 @@ AI int eval_n(dth_integrator *it, const size_t nc, const double *x, double *F, i
     int m = nc ? (int)(2 * nc + 1) : it->m;
     /* a chord step's compensated constraint (compensated_n) needs the midpoint's low part, and
      * evaluates the model at the coarsened midpoint y (coarse_n) */
-    int fin = !jac && it->opt.compensate;
+    int fin = !jac && it->opt.finish;
     midpoint_n(it, nc, x, it->zb, fin ? it->zblo : NULL);
     /* the model's outputs are not swept for NaN/Inf here (the Hessian alone is (2n+1)^2): a
      * non-finite value shows in the correction, and step_judge finds out why */
@@ -1038,7 +1018,7 @@ AI int eval_n(dth_integrator *it, const size_t nc, const double *x, double *F, i
     }
     int schur = nc && jac && it->small_schur; /* try the Schur complement first: A is not assembled */
     assemble_n(it, nc, x, it->zb, it->Hphys, F, jac && it->ls->hess && !schur ? it->A : NULL);
-    if (!jac) return it->opt.compensate ? compensated_n(it, nc, x, F) : DTH_OK;
+    if (!jac) return it->opt.finish ? compensated_n(it, nc, x, F) : DTH_OK;
     if (schur) {
         it->ss.on = !schur_factor_n(it, nc, x[m - 1]);
         if (it->ss.on) return DTH_OK;
@@ -1142,7 +1122,7 @@ AI int judge_n(dth_integrator *it, const size_t nc, const double *x, const doubl
         if (rc) return rc;
     }
     /* converged: a compensated step still finishes with its chord step (compensated_n) */
-    *verdict = v == DTH__NT_DONE && it->opt.compensate ? DTH__NT_CHORD : v;
+    *verdict = v == DTH__NT_DONE && it->opt.finish ? DTH__NT_CHORD : v;
     return DTH_OK;
 }
 
@@ -1166,7 +1146,7 @@ static int step_judge(void *ctx, const double *x, const double *dx, const double
 static int step_again(void *ctx, const double *x, const double *dx, int chords)
 {
     dth_integrator *it = ctx;
-    if (!it->opt.compensate || chords >= (it->rev ? 6 : 3)) return 0;
+    if (!it->opt.finish || chords >= (it->rev ? 6 : 3)) return 0;
     double dl = dx[it->m - 1], l = x[it->m - 1];
     if (dl * dl > DBL_EPSILON * (l * l)) return 1; /* (dl / l)^2 > eps */
     if (!it->rev) return 0;
@@ -1236,7 +1216,7 @@ AI int newton_n(dth_integrator *it, const size_t nc, const dth__newton_ops *ops,
     if (rc == DTH_ENOCONV && it->nt.verdict == DTH__NT_MAXITER)
         seterr(it, "Newton did not converge in %d iterations (last correction %.3g)", it->nt.iter, it->nt.r);
     if (rc) return rc;
-    midpoint_n(it, nc, x, zb, it->opt.compensate ? it->zblo : NULL);
+    midpoint_n(it, nc, x, zb, it->opt.finish ? it->zblo : NULL);
     rc = it->meval(it->mself, zb, DTH_EVAL_H, &it->Hphys, NULL, NULL);
     if (!rc && !isfinite(it->Hphys)) rc = 1;
     if (rc) {
@@ -1317,7 +1297,7 @@ AI int commit_n(dth_integrator *it, const size_t nc, double lam)
         zl[N - 1] = it->st.zlo[N - 1];
     }
     double rho = it->st.rho, rholo = it->st.rholo;
-    if (it->opt.compensate) {
+    if (it->opt.finish) {
         /* the new vertex's offset measured from this step's midpoint (it->grad is there) */
         /* the exact first step of a midpoint start has its midpoint exact in double */
         int rc;

@@ -7,23 +7,55 @@
  * banded.c has the banded solves.
  */
 #include <math.h>
+#include <string.h>
 #include <lapacke.h>
 #include "dth_internal.h"
 #include "lu_small.h"
 
 _Static_assert(sizeof(lapack_int) == sizeof(int), "pivots are stored as int");
 
+/* The linear-solver seam: one entry per choice (the factor/solve/tangent of each path are the
+ * integrator's, integrator.c's table; banded.c has the banded solves). AUTO resolves by
+ * dth__linsolve_resolve. */
+static const dth__linsolve_info solvers[] = {
+    {DTH_LINSOLVE_AUTO, "auto", 0, "banded for banded models, else small for m <= 8 unknowns, else dense"},
+    {DTH_LINSOLVE_DENSE, "dense", 0, "LAPACK dgetrf/dgetrs on the bordered system: the reference path"},
+    {DTH_LINSOLVE_SMALL, "small", 0, "written out, no library call; the Schur complement for separable models"},
+    {DTH_LINSOLVE_BANDED, "banded", 1, "banded models: the banded Schur complement (Cholesky), else banded LU"},
+    {DTH_LINSOLVE_BANDED_LU, "banded-lu", 1, "banded models: banded LU of the whole step matrix"},
+    {DTH_LINSOLVE_SMALL_LU, "small-lu", 0, "the small path's LU with partial pivoting, never its Schur complement"},
+};
+enum { NSOLVERS = sizeof solvers / sizeof solvers[0] };
+
+const dth__linsolve_info *dth__linsolve_find(dth_linsolve k)
+{
+    for (size_t i = 0; i < NSOLVERS; i++)
+        if (solvers[i].kind == k) return &solvers[i];
+    return NULL;
+}
+
+const dth__linsolve_info *dth__linsolve_at(size_t i) { return i < NSOLVERS ? &solvers[i] : NULL; }
+
+dth_linsolve dth__linsolve_resolve(dth_linsolve k, int banded_model, size_t m)
+{
+    if (k != DTH_LINSOLVE_AUTO) return k;
+    return banded_model ? DTH_LINSOLVE_BANDED : m <= DTH__SMALL_MAX ? DTH_LINSOLVE_SMALL : DTH_LINSOLVE_DENSE;
+}
+
 const char *dth_linsolve_name(dth_linsolve k)
 {
-    switch (k) {
-    case DTH_LINSOLVE_AUTO: return "auto";
-    case DTH_LINSOLVE_DENSE: return "dense";
-    case DTH_LINSOLVE_SMALL: return "small";
-    case DTH_LINSOLVE_BANDED: return "banded";
-    case DTH_LINSOLVE_BANDED_LU: return "banded-lu";
-    case DTH_LINSOLVE_SMALL_LU: return "small-lu";
-    default: return NULL;
-    }
+    const dth__linsolve_info *s = dth__linsolve_find(k);
+    return s ? s->name : NULL;
+}
+
+int dth_linsolve_from_name(const char *name, dth_linsolve *out)
+{
+    for (size_t i = 0; name && i < NSOLVERS; i++)
+        if (strcmp(solvers[i].name, name) == 0) {
+            if (out) *out = solvers[i].kind;
+            return DTH_OK;
+        }
+    return DTH_ENOTFOUND;
 }
 
 int dth__lu_small(dth_linsolve k, int m)

@@ -785,7 +785,7 @@ static int check_integrator(setup_ctx *c, dth_run_setup *rs, const entry *e)
         c->reversible = e;
         int rv;
         if (parse_bool(v, &rv)) return bad(c->err, c->errlen, e, "'%s' is not one of yes, no", v);
-        rs->opt.compensate = rv ? 2 : 1;
+        rs->opt.finish = rv ? DTH_FINISH_REVERSIBLE : DTH_FINISH_COMPENSATED;
     } else if (strcmp(k, "linsolve") == 0) {
         c->linsolve = e;
         dth_linsolve ls;
@@ -1225,7 +1225,7 @@ int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *
                    !dth__model_banded(rs.model)) {
             rc = bad(err, errlen, c.linsolve, "'%s' needs a model with a banded Hessian (model '%s' has a dense one)",
                      dth_linsolve_name(rs.opt.linsolve), type->name);
-        } else if (rs.opt.compensate == 2 &&
+        } else if (rs.opt.finish == DTH_FINISH_REVERSIBLE &&
                    (rs.opt.linsolve == DTH_LINSOLVE_BANDED || rs.opt.linsolve == DTH_LINSOLVE_BANDED_LU ||
                     (rs.opt.linsolve == DTH_LINSOLVE_AUTO && dth__model_banded(rs.model)))) {
             /* the reversible finish reads the dense Hessian at its coarse point (integrator.c, coarse_n) */

@@ -342,7 +342,7 @@ static run_result run_comp(const dth_model *m, double q0, double p0, double h, l
     dth_options o;
     dth_options_default(&o);
     o.h = h;
-    o.compensate = compensate;
+    o.finish = (dth_finish)compensate;
     dth_integrator *it = NULL;
     CU_ASSERT_FATAL(dth_integrator_new(m, &o, &it) == DTH_OK);
     CU_ASSERT_FATAL(dth_integrator_start(it, &q0, &p0, 0) == DTH_OK);

@@ -32,7 +32,7 @@ static trip dth_trip_ls(const dth_model *m, const double *q0, const double *p0, 
     dth_options o;
     dth_options_default(&o);
     o.h = h;
-    o.compensate = compensate;
+    o.finish = (dth_finish)compensate;
     o.linsolve = ls;
     dth_integrator *it = NULL;
     trip r = {0, 0, 0};
@@ -146,7 +146,7 @@ static void test_energy(void)
     dth_options o;
     dth_options_default(&o);
     o.h = 0.05;
-    o.compensate = 2;
+    o.finish = (dth_finish)2;
     dth_integrator *it = NULL;
     CU_ASSERT_EQUAL_FATAL(dth_integrator_new(m, &o, &it), DTH_OK);
     CU_ASSERT_EQUAL_FATAL(dth_integrator_start(it, q, p, 0.0), DTH_OK);
@@ -172,7 +172,7 @@ static void test_tangent(void)
         dth_options o;
         dth_options_default(&o);
         o.h = 0.05;
-        o.compensate = c;
+        o.finish = (dth_finish)c;
         dth_integrator *it = NULL;
         CU_ASSERT_EQUAL_FATAL(dth_integrator_new(m, &o, &it), DTH_OK);
         CU_ASSERT_EQUAL_FATAL(dth_integrator_start(it, q, p, 0.0), DTH_OK);
@@ -197,7 +197,7 @@ static void test_refused(void)
     dth_model *chain = model(&dth_model_coupled, kv, 3, 0);
     dth_options o;
     dth_options_default(&o);
-    o.compensate = 2;
+    o.finish = (dth_finish)2;
     o.linsolve = DTH_LINSOLVE_BANDED; /* no dense Hessian to read the Taylor terms from */
     dth_integrator *it = NULL;
     CU_ASSERT_EQUAL(dth_integrator_new(chain, &o, &it), DTH_EUNSUPPORTED);
@@ -206,9 +206,9 @@ static void test_refused(void)
     CU_ASSERT_EQUAL(dth_integrator_new(chain, &o, &it), DTH_OK);
     dth_integrator_free(it);
     it = NULL;
-    o.compensate = 3;
+    o.finish = (dth_finish)3;
     CU_ASSERT_EQUAL(dth_integrator_new(chain, &o, &it), DTH_EINVAL);
-    o.compensate = -1;
+    o.finish = (dth_finish)-1;
     CU_ASSERT_EQUAL(dth_integrator_new(chain, &o, &it), DTH_EINVAL);
     dth_model_free(chain);
 }

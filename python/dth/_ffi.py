@@ -121,10 +121,14 @@ int dth_registry_add_builtin(dth_registry *r);
 typedef enum dth_start { DTH_START_MIDPOINT = 0, DTH_START_VERTEX = 1 } dth_start;
 typedef enum dth_linsolve {
     DTH_LINSOLVE_AUTO = 0, DTH_LINSOLVE_DENSE = 1, DTH_LINSOLVE_SMALL = 2, DTH_LINSOLVE_BANDED = 3,
-    DTH_LINSOLVE_BANDED_LU = 4
+    DTH_LINSOLVE_BANDED_LU = 4, DTH_LINSOLVE_SMALL_LU = 5
 } dth_linsolve;
+typedef enum dth_finish { DTH_FINISH_PLAIN = 0, DTH_FINISH_COMPENSATED = 1, DTH_FINISH_REVERSIBLE = 2 } dth_finish;
 typedef struct dth_regularizer dth_regularizer;
 typedef struct dth_options {
+    size_t size;
+    const char *method;
+    int order;
     double h;
     dth_start start;
     int has_wp;
@@ -135,7 +139,7 @@ typedef struct dth_options {
     int branch_check;
     dth_regularizer *regularizer;
     dth_linsolve linsolve;
-    int compensate;
+    dth_finish finish;
 } dth_options;
 typedef enum dth_branch {
     DTH_BRANCH_NONE = 0, DTH_BRANCH_MINUS = 1, DTH_BRANCH_PLUS = 2, DTH_BRANCH_GHOST = 3,

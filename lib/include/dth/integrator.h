@@ -61,41 +61,73 @@ typedef enum dth_linsolve {
 /** Name of a linear-solver choice ("auto", "dense", "small", "banded", "banded-lu", "small-lu"), NULL if
  *  unknown. */
 DTH_API const char *dth_linsolve_name(dth_linsolve k);
+/** The choice called `name` into *out. @return DTH_OK, DTH_ENOTFOUND. */
+DTH_API int dth_linsolve_from_name(const char *name, dth_linsolve *out);
 
-/** Options of an integrator. Initialize with dth_options_default(). */
+/**
+ * How a DTH step is finished (its last chord steps and the vertex offset it carries). All three
+ * solve the same equations; they differ in the round-off the step's lambda carries.
+ */
+typedef enum dth_finish {
+    /** The constraint evaluated directly, wp + H_phys(zbar): its round-off eps S (S: the size of the
+     *  terms of H at the midpoint) moves lambda by about 4 eps S / (|psi| lambda^2), which shows at
+     *  tiny steps (docs/performance.md, "Conditioning"). */
+    DTH_FINISH_PLAIN = 0,
+    /** The default: the vertex offset H(z_k) (at its high part over q, t, p) carried from step to
+     *  step in double-double plus H(zbar) - H(z_k) from the model's hdiff, whose round-off scales
+     *  with the step rather than the energy's size; where it has drifted from the direct value by
+     *  more than 4 eps S the step takes the direct value. */
+    DTH_FINISH_COMPENSATED = 1,
+    /** As COMPENSATED without that fallback, with double-double unknowns, exact residual rows and
+     *  the model read at a coarsened midpoint with its Taylor terms, so that a step and the step
+     *  back from its end find the same root to about 2^-100 (round trips exact over 10^4 steps in
+     *  bench_roundtrip). Needs a dense Hessian (a banded linsolve refuses it); about 2.4 times the
+     *  step's cost on the smallest models. */
+    DTH_FINISH_REVERSIBLE = 2
+} dth_finish;
+/** Name of a finish ("plain", "compensated", "reversible"), NULL if unknown. */
+DTH_API const char *dth_finish_name(dth_finish f);
+
+/**
+ * Options of an integrator. Initialize with dth_options_default(), which also sets `size`: the
+ * library refuses options whose size is not the one it was built with (a program compiled against
+ * another layout of this struct).
+ */
 typedef struct dth_options {
-    double h;                   /**< first step; its sign is the direction of travel */
-    dth_start start;            /**< start mode */
+    size_t size;                /**< sizeof(dth_options), set by dth_options_default */
+    const char *method;         /**< how to step: "dth" (NULL means "dth") or a fixed-step baseline of
+                                     methods.h ("midpoint", "gauss4", "rk4", "verlet", "midpoint-proj") */
+    int order;                  /**< order of the DTH method (2); baselines have their own order and
+                                     take the default */
+    double h;                   /**< first step; its sign is the direction of travel (a baseline's step) */
+    dth_start start;            /**< start mode (DTH only) */
     int has_wp;                 /**< vertex start: use `wp` exactly as the vertex's wp */
     double wp;                  /**< explicit wp (has_wp) */
     int max_iter;               /**< Newton iteration limit per step (default 30) */
-    double K;                   /**< the paper's constant K for regions; <= 0: local estimate */
+    double K;                   /**< the paper's constant K for regions (>= 0); 0: local estimate */
     const dth_allocator *alloc; /**< allocation functions, NULL for malloc */
     int branch_check;           /**< classify each step's root and refuse non-physical ones (branch.h);
                                      default 1 (dense models; banded models skip the check) */
     dth_regularizer *regularizer; /**< called where the ordinary step fails or crosses psi = 0
-                                       (regularize.h); borrowed; NULL: raw DTH */
+                                       (regularize.h); borrowed; NULL: raw DTH. DTH only. */
     dth_linsolve linsolve;      /**< linear solver of the Newton system (default AUTO) */
-    int compensate;             /**< default 1: finish each step on the compensated constraint (the
-                                     vertex offset H(z_k) (at its high part over q, t, p) carried
-                                     from step to step in double-double plus H(zbar) - H(z_k) from
-                                     the model's hdiff), whose round-off scales with the step
-                                     rather than the energy's size; where it has drifted from the
-                                     direct value wp + H_phys(zbar) by more than 4 eps S (S: the size
-                                     of the terms of H at the midpoint) the step takes the direct
-                                     value. 2: the reversible finish: as 1 without that fallback,
-                                     with double-double unknowns, exact residual rows and the model
-                                     read at a coarsened midpoint with its Taylor terms, so that a
-                                     step and the step back from its end find the same root to
-                                     about 2^-100 (round trips exact over 10^4 steps in
-                                     bench_roundtrip); needs a dense Hessian (a banded linsolve
-                                     refuses it: DTH_EUNSUPPORTED); about 2.4 times the step's cost on
-                                     the smallest models. 0: the direct value (plain constraint) */
+    dth_finish finish;          /**< how each step is finished (default DTH_FINISH_COMPENSATED) */
 } dth_options;
 
-/** Fill `o` with defaults: h = 0.01, midpoint start, max_iter = 30, K = 0, branch_check = 1,
- *  linsolve = DTH_LINSOLVE_AUTO, compensate = 1. */
+/** Fill `o` with defaults: size, method "dth", order 2, h = 0.01, midpoint start, max_iter = 30,
+ *  K = 0, branch_check = 1, linsolve = DTH_LINSOLVE_AUTO, finish = DTH_FINISH_COMPENSATED. */
 DTH_API void dth_options_default(dth_options *o);
+
+/**
+ * Check `opt` for `model`: every rule dth_integrator_new applies (values in range, the method known
+ * and able to integrate the model, the linear solver and the finish fit the model), each refusal
+ * with a one-line message in err (may be NULL) naming the option and the fix. On success the
+ * choices left to the library are resolved in place: linsolve AUTO becomes the solver a new
+ * integrator would use, method NULL becomes "dth".
+ * @return DTH_OK, DTH_EINVAL (a value out of range, a wrong size), DTH_ENOTFOUND (unknown method),
+ *         DTH_EUNSUPPORTED (a valid option this model cannot take).
+ */
+DTH_API int dth_options_check(const dth_model *model, dth_options *opt, char *err, size_t errlen);
 
 /** Which root a step took (filled by the branch logic; see branch.h). */
 typedef enum dth_branch {
@@ -127,8 +159,9 @@ typedef struct dth_integrator dth_integrator;
 
 /**
  * Create an integrator for `model` (borrowed: it must outlive the integrator). All working
- * memory is allocated here; stepping allocates nothing.
- * @return DTH_OK, DTH_EINVAL (h == 0 or not finite, bad options), DTH_ENOMEM.
+ * memory is allocated here; stepping allocates nothing. The options are checked as
+ * dth_options_check does (call it first for the message).
+ * @return DTH_OK, DTH_ENOMEM, or dth_options_check's status.
  */
 DTH_API int dth_integrator_new(const dth_model *model, const dth_options *opt,
                                dth_integrator **out);

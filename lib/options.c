@@ -1,0 +1,121 @@
+/* SPDX-License-Identifier: MIT */
+/*
+ * The integrator's options contract: defaults, and one check of every rule (ranges, the method,
+ * the linear solver and the finish against the model) with a message naming the option, used by
+ * dth_integrator_new and by scene files alike (the DTH step of the paper's Theorem "DTH Equations").
+ */
+#include <math.h>
+#include <string.h>
+#include "dth_internal.h"
+#include "dth/methods.h"
+
+void dth_options_default(dth_options *o)
+{
+    memset(o, 0, sizeof *o);
+    o->size = sizeof *o;
+    o->method = "dth";
+    o->order = 2;
+    o->h = 0.01;
+    o->start = DTH_START_MIDPOINT;
+    o->max_iter = 30;
+    o->branch_check = 1;
+    o->linsolve = DTH_LINSOLVE_AUTO;
+    o->finish = DTH_FINISH_COMPENSATED;
+}
+
+const char *dth_finish_name(dth_finish f)
+{
+    switch (f) {
+    case DTH_FINISH_PLAIN: return "plain";
+    case DTH_FINISH_COMPENSATED: return "compensated";
+    case DTH_FINISH_REVERSIBLE: return "reversible";
+    default: return NULL;
+    }
+}
+
+/* The rules that hold whatever the model: ranges and known values. */
+static int check_values(const dth_options *o, char *err, size_t len)
+{
+    if (!isfinite(o->h) || o->h == 0) {
+        dth__set_err(err, len, "h = %g: the first step must be finite and nonzero (its sign sets the direction)", o->h);
+        return DTH_EINVAL;
+    }
+    if (o->max_iter < 1) {
+        dth__set_err(err, len, "max_iter = %d: at least one Newton iteration per step", o->max_iter);
+        return DTH_EINVAL;
+    }
+    if (!isfinite(o->K) || o->K < 0) {
+        dth__set_err(err, len, "K = %g: the paper's constant must be finite and >= 0 (0: estimated locally)", o->K);
+        return DTH_EINVAL;
+    }
+    if (o->has_wp && !isfinite(o->wp)) {
+        dth__set_err(err, len, "wp = %g: an explicit wp must be finite", o->wp);
+        return DTH_EINVAL;
+    }
+    if (o->start != DTH_START_MIDPOINT && o->start != DTH_START_VERTEX) {
+        dth__set_err(err, len, "start = %d is not DTH_START_MIDPOINT or DTH_START_VERTEX", (int)o->start);
+        return DTH_EINVAL;
+    }
+    if (!dth__linsolve_find(o->linsolve)) {
+        dth__set_err(err, len, "linsolve = %d is not a dth_linsolve choice", (int)o->linsolve);
+        return DTH_EINVAL;
+    }
+    if (!dth_finish_name(o->finish)) {
+        dth__set_err(err, len, "finish = %d is not a dth_finish choice (plain, compensated, reversible)", (int)o->finish);
+        return DTH_EINVAL;
+    }
+    return DTH_OK;
+}
+
+int dth_options_check(const dth_model *model, dth_options *o, char *err, size_t len)
+{
+    if (!model || !o) {
+        dth__set_err(err, len, "invalid arguments to dth_options_check (NULL model or options)");
+        return DTH_EINVAL;
+    }
+    if (o->size != sizeof *o) {
+        dth__set_err(err, len, "dth_options has size %zu, this library's has %zu: initialize it with dth_options_default "
+                               "(a program built against another dth?)", o->size, sizeof *o);
+        return DTH_EINVAL;
+    }
+    int rc = check_values(o, err, len);
+    if (rc) return rc;
+    const char *method = o->method ? o->method : "dth";
+    if (strcmp(method, "dth") != 0) {
+        dth__set_err(err, len, "method '%s': the integrator steps with method 'dth' (fixed-step baselines: dth_fixed_new)",
+                     method);
+        return dth_fixed_method_doc(method) ? DTH_EUNSUPPORTED : DTH_ENOTFOUND;
+    }
+    if (o->order != 2) {
+        dth__set_err(err, len, "order = %d: method 'dth' has order 2", o->order);
+        return DTH_EUNSUPPORTED;
+    }
+    const char *mname = dth_model_get_type(model)->name;
+    size_t n = dth_model_dof(model);
+    if (n == 0 || n > DTH__MAX_DOF) {
+        dth__set_err(err, len, "model '%s' has %zu degrees of freedom (1 to 2^40 supported)", mname, n);
+        return DTH_EINVAL;
+    }
+    int banded_model = dth__model_banded(model);
+    size_t m = dth_model_get_info(model)->autonomous ? 2 * n + 1 : 2 * n + 3;
+    const dth__linsolve_info *ls = dth__linsolve_find(o->linsolve);
+    if (ls->banded && !banded_model) {
+        dth__set_err(err, len, "linsolve '%s' needs a model with a banded Hessian (model '%s' has a dense one)", ls->name,
+                     mname);
+        return DTH_EUNSUPPORTED;
+    }
+    ls = dth__linsolve_find(dth__linsolve_resolve(o->linsolve, banded_model, m));
+    if (!ls->banded && m > (size_t)1 << 15) {
+        dth__set_err(err, len, "model '%s' has %zu Newton unknowns: a dense solver's %zu x %zu matrix would not fit (a "
+                               "banded model takes linsolve 'banded')", mname, m, m, m);
+        return DTH_EUNSUPPORTED;
+    }
+    if (o->finish == DTH_FINISH_REVERSIBLE && ls->banded) {
+        dth__set_err(err, len, "the reversible finish needs a dense Hessian, and model '%s' takes the banded solver here: "
+                               "linsolve 'dense'", mname);
+        return DTH_EUNSUPPORTED;
+    }
+    o->method = "dth";
+    o->linsolve = ls->kind;
+    return DTH_OK;
+}
