@@ -60,18 +60,18 @@ static rt dth_roundtrip(const dth_model *m, const double *q0, const double *p0, 
 
 static rt midpoint_roundtrip(const dth_model *m, const double *q0, const double *p0, double h, long S)
 {
-    dth_fixed *f = NULL;
-    if (dth_fixed_new(m, "midpoint", h, NULL, &f) || dth_fixed_start(f, q0, p0, 0.0)) exit(1);
+    dth_integrator *f = NULL;
+    if (bench_baseline(m, "midpoint", h, q0, p0, &f)) exit(1);
     size_t n = dth_model_dof(m);
     double y0[64];
-    memcpy(y0, dth_fixed_state(f), (2 * n + 1) * sizeof *y0);
+    memcpy(y0, dth_integrator_vertex(f), (2 * n + 1) * sizeof *y0);
     int rc = 0;
-    for (long k = 0; !rc && k < S; k++) rc = dth_fixed_step(f, NULL);
-    double span = dth_fixed_state(f)[n] - y0[n];
-    dth_fixed_set_h(f, -h);
-    for (long k = 0; !rc && k < S; k++) rc = dth_fixed_step(f, NULL);
-    rt r = measure(n, y0, dth_fixed_state(f), span, rc);
-    dth_fixed_free(f);
+    for (long k = 0; !rc && k < S; k++) rc = dth_integrator_step(f, NULL);
+    double span = dth_integrator_vertex(f)[n] - y0[n];
+    dth_integrator_reverse(f);
+    for (long k = 0; !rc && k < S; k++) rc = dth_integrator_step(f, NULL);
+    rt r = measure(n, y0, dth_integrator_vertex(f), span, rc);
+    dth_integrator_free(f);
     return r;
 }
 

@@ -46,7 +46,6 @@ typedef struct runner {
     const dth_model *m;
     dth_regularizer *reg;
     dth_integrator *it;
-    dth_fixed *fx;
     size_t n;
     double h;                     /* nominal step: DTH's first step, the fixed step otherwise */
     long steps, regularized, crossings;
@@ -97,8 +96,7 @@ static int runner_open(runner *r, const dth_model *m, const char *method, double
             if (!rc) rc = dth_integrator_start(r->it, q0, p0, 0.0);
         }
     } else {
-        rc = dth_fixed_new(m, method, h, NULL, &r->fx);
-        if (!rc) rc = dth_fixed_start(r->fx, q0, p0, 0.0);
+        rc = bench_baseline(m, method, h, q0, p0, &r->it);
     }
     double y0[2 * MAXN + 1] = {0};
     memcpy(y0, q0, r->n * sizeof *y0);
@@ -113,18 +111,16 @@ static int runner_open(runner *r, const dth_model *m, const char *method, double
 
 static const double *runner_y(const runner *r)
 {
-    return r->it ? dth_integrator_vertex(r->it) : dth_fixed_state(r->fx);
+    return dth_integrator_vertex(r->it);
 }
 
 static void runner_close(runner *r)
 {
-    if (r->it || r->fx) r->t_end = runner_y(r)[r->n];
+    if (r->it) r->t_end = runner_y(r)[r->n];
     dth_integrator_free(r->it);
     dth_regularizer_free(r->reg);
-    dth_fixed_free(r->fx);
     r->it = NULL;
     r->reg = NULL;
-    r->fx = NULL;
 }
 
 /* One step; on failure the status and message are kept (the first failure ends the run). */
@@ -133,23 +129,17 @@ static int runner_step(runner *r)
     if (r->status) return r->status;
     int rc;
     double t0 = bench_now();
-    if (r->it) {
-        dth_step_info inf;
-        rc = dth_integrator_step(r->it, &inf);
-        r->secs += bench_now() - t0;
-        if (!rc) {
-            if (inf.flags & DTH_STEP_REGULARIZED) r->regularized++;
-            if (inf.flags & DTH_STEP_CROSSING) r->crossings++;
-        }
-    } else {
-        dth_fixed_info inf;
-        rc = dth_fixed_step(r->fx, &inf);
-        r->secs += bench_now() - t0;
+    dth_step_info inf;
+    rc = dth_integrator_step(r->it, &inf);
+    r->secs += bench_now() - t0;
+    if (!rc) {
+        if (inf.flags & DTH_STEP_REGULARIZED) r->regularized++;
+        if (inf.flags & DTH_STEP_CROSSING) r->crossings++;
     }
     if (rc) {
         r->status = rc;
         snprintf(r->why, sizeof r->why, "%s at step %ld from t = %.10g: %s", dth_status_name(rc), r->steps + 1, runner_y(r)[r->n],
-                 r->it ? dth_integrator_errmsg(r->it) : dth_fixed_errmsg(r->fx));
+                 dth_integrator_errmsg(r->it));
         return rc;
     }
     r->steps++;

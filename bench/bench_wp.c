@@ -17,6 +17,7 @@
 #include <gsl/gsl_errno.h>
 #include <gsl/gsl_odeiv2.h>
 #include "dth/dth.h"
+#include "bench_common.h"
 
 enum { MAXN = 256, MAXREC = 2048 };
 
@@ -264,21 +265,21 @@ static int run(const scene *s, const char *method, double param, double T, int d
         gsl_odeiv2_driver_free(dr);
     } else {
         long N = lround(T / param);
-        dth_fixed *f;
-        rc = dth_fixed_new(s->m, method, T / (double)N, NULL, &f);
+        dth_integrator *f = NULL;
+        rc = bench_baseline(s->m, method, T / (double)N, s->q0, s->p0, &f);
+        if (rc && f) dth_integrator_free(f);
         if (rc) return rc;
-        rc = dth_fixed_start(f, s->q0, s->p0, 0);
         for (k = 0; !rc && k < N;) {
-            rc = dth_fixed_step(f, NULL);
+            rc = dth_integrator_step(f, NULL);
             if (rc) break;
             k++;
             if (diag) {
-                track(tk, dth_fixed_state(f), k, 0);
-                track_inv(tk, dth_fixed_state(f));
+                track(tk, dth_integrator_vertex(f), k, 0);
+                track_inv(tk, dth_integrator_vertex(f));
             }
         }
-        memcpy(y_end, dth_fixed_state(f), d * sizeof *y_end);
-        dth_fixed_free(f);
+        memcpy(y_end, dth_integrator_vertex(f), d * sizeof *y_end);
+        dth_integrator_free(f);
     }
     *steps_out = k;
     return rc;
@@ -449,7 +450,7 @@ int main(int argc, char **argv)
         }
         for (size_t mi = 0; mi < NMETH; mi++) {
             const char *meth = methods_all[mi];
-            if (strcmp(meth, "dth") && !is_gsl(meth) && dth_fixed_check(s->m, meth, NULL, 0)) continue;
+            if (strcmp(meth, "dth") && !is_gsl(meth) && bench_method_check(s->m, meth)) continue;
             if (s->n >= 50 && (!strcmp(meth, "gauss4") || !strcmp(meth, "gsl-rk4imp") || !strcmp(meth, "gsl-rk2imp")))
                 continue; /* dense stage systems of size >= 200: minutes, not seconds */
             const double *par = is_gsl(meth) ? s->tol : s->h;

@@ -61,9 +61,8 @@ typedef struct run_job {
     dth_registry *reg;
     dth_scene *scene;
     dth_run_setup rs;
-    int is_dth;           /* method = dth (it), else a fixed-step baseline (fx) */
+    int is_dth;           /* method = dth, else a fixed-step baseline (no midpoints, wp carried) */
     dth_integrator *it;
-    dth_fixed *fx;
     run_resume res;       /* --resume: the checkpoint read */
     run_out r;            /* rows, outputs, checkpoints: the callbacks' state */
     double *zstart;       /* the first (or the resumed) vertex */
@@ -207,10 +206,6 @@ static int check_setup(run_job *j)
         return CLI_USAGE;
     }
     j->is_dth = strcmp(rs->method, "dth") == 0;
-    if (!j->is_dth && (o->ckpt_path || o->resume_path)) {
-        cli_error("checkpoints are written for method = dth only (this scene uses '%s')", rs->method);
-        return CLI_USAGE;
-    }
     if (!j->is_dth && strcmp(rs->regularize, "none")) {
         cli_error("[regularize] applies to method = dth only (this scene uses '%s')", rs->method);
         return CLI_USAGE;
@@ -250,29 +245,25 @@ static int start_integrator(run_job *j)
     const char *resume_path = j->o.resume_path, *scene_path = j->o.scene_path;
     char err[1024] = "";
     int rc;
-    if (j->is_dth) {
-        rc = dth_integrator_new(rs->model, &rs->opt, &j->it);
-        if (!rc && resume_path) rc = dth_checkpoint_restore(j->it, j->res.buf, j->res.len, err, sizeof err);
-        else if (!rc) rc = dth_integrator_start(j->it, rs->q0, rs->p0, rs->t0);
-        if (rc && resume_path && j->it) {
-            cli_error("%s", err);
-            return CLI_USAGE;
-        }
-    } else {
-        rc = dth_fixed_check(rs->model, rs->method, err, sizeof err);
-        if (rc) {
-            cli_error("%s: method '%s': %s", scene_path, rs->method, err);
-            return CLI_USAGE;
-        }
-        rc = dth_fixed_new(rs->model, rs->method, rs->opt.h, NULL, &j->fx);
-        if (!rc) rc = dth_fixed_start(j->fx, rs->q0, rs->p0, rs->t0);
+    dth_options o = rs->opt;
+    rc = dth_options_check(rs->model, &o, err, sizeof err);
+    if (rc) {
+        cli_error("%s: method '%s': %s", scene_path, rs->method, err);
+        return CLI_USAGE;
+    }
+    rc = dth_integrator_new(rs->model, &rs->opt, &j->it);
+    if (!rc && resume_path) rc = dth_checkpoint_restore(j->it, j->res.buf, j->res.len, err, sizeof err);
+    else if (!rc) rc = dth_integrator_start(j->it, rs->q0, rs->p0, rs->t0);
+    if (rc && resume_path && j->it) {
+        cli_error("%s", err);
+        return CLI_USAGE;
     }
     if (rc) {
         /* a start the step size spoils (a first vertex that overflows, no offset that gives h): name h */
         char hh[96] = "";
         if (rc > 0 && !resume_path) snprintf(hh, sizeof hh, "; integrator.h = %.6g may be too large for this model", rs->opt.h);
         cli_error("%s: cannot start at the initial state: %s (%s)%s", scene_path, dth_strerror(rc),
-                  j->it ? dth_integrator_errmsg(j->it) : j->fx ? dth_fixed_errmsg(j->fx) : "creating the integrator", hh);
+                  j->it ? dth_integrator_errmsg(j->it) : "creating the integrator", hh);
         return rc < 0 && rc != DTH_EINVAL ? CLI_FAIL : CLI_USAGE;
     }
     return GO_ON;
@@ -402,8 +393,7 @@ static void check_start(run_job *j)
 {
     const dth_run_setup *rs = &j->rs;
     double *zstart = j->zstart, hmin;
-    if (j->it) memcpy(zstart, dth_integrator_vertex(j->it), j->r.N * sizeof *zstart);
-    else memcpy(zstart, dth_fixed_state(j->fx), (j->r.N - 1) * sizeof *zstart);
+    memcpy(zstart, dth_integrator_vertex(j->it), j->r.N * sizeof *zstart);
     if (!j->is_dth || j->o.resume_path) return;
     if (dth_step_floor(rs->model, zstart, 1e-6, &hmin, j->r.work) == DTH_OK && fabs(rs->opt.h) < hmin)
         cli_error("warning: |h| = %.3g is below the conditioning limit %.3g at the start: the step size is "
@@ -468,7 +458,7 @@ static void configure(run_job *j, dth_run_config *cfg)
 /* One call of the driver; a callback's write error sets werr. */
 static void drive(run_job *j, const dth_run_config *cfg)
 {
-    j->rc = j->it ? dth_run(j->it, cfg, &j->S) : dth_run_fixed(j->fx, cfg, &j->S);
+    j->rc = dth_run(j->it, cfg, &j->S);
     if (j->rc == DTH_EIO && j->S.stop == DTH_RUN_CALLBACK) j->werr = 1;
 }
 
@@ -477,8 +467,7 @@ static void drive(run_job *j, const dth_run_config *cfg)
 static void roundtrip(run_job *j, dth_run_config *cfg)
 {
     long k1 = j->S.k;
-    if (j->it) dth_integrator_reverse(j->it);
-    else dth_fixed_set_h(j->fx, -j->rs.opt.h);
+    dth_integrator_reverse(j->it);
     j->r.leg = 2;
     cfg->has_t_end = 0;
     cfg->steps = 2 * k1;
@@ -486,9 +475,9 @@ static void roundtrip(run_job *j, dth_run_config *cfg)
     j->S.t_stop = j->S.t;
     drive(j, cfg);
     if (j->rc) return;
-    const double *z = j->it ? dth_integrator_vertex(j->it) : dth_fixed_state(j->fx), *zstart = j->zstart;
+    const double *z = dth_integrator_vertex(j->it), *zstart = j->zstart;
     double e = 0, sc = 0;
-    for (size_t i = 0; i < (j->it ? j->r.N : j->r.N - 1); i++) {
+    for (size_t i = 0; i < (j->is_dth ? j->r.N : j->r.N - 1); i++) { /* a baseline's wp is a constant */
         e = fmax(e, fabs(z[i] - zstart[i]));
         sc = fmax(sc, fabs(zstart[i]));
     }
@@ -568,7 +557,7 @@ static int report(const run_job *j)
     if (S->crossings || S->regularized)
         snprintf(crossing, sizeof crossing, "; %ld psi = 0 crossings, %ld regularized steps, largest step ratio "
                  "at a crossing %.3g", S->crossings, S->regularized, S->max_ratio);
-    const char *emsg = j->it ? dth_integrator_errmsg(j->it) : dth_fixed_errmsg(j->fx);
+    const char *emsg = dth_integrator_errmsg(j->it);
     if (r->too_many) {
         cli_error("stopped at k=%ld, t=%.17g: output.dt = %.3g asks for more than %d rows within one step (a larger "
                   "output.dt, or output.points = vertices; the rows so far are kept)", S->k, S->t, j->rs.dt,
@@ -602,7 +591,6 @@ static void job_free(run_job *j)
     free(j->zstart);
     run_resume_clear(&j->res);
     dth_integrator_free(j->it);
-    dth_fixed_free(j->fx);
     dth_run_setup_clear(&j->rs);
     dth_scene_free(j->scene);
     dth_registry_free(j->reg);

@@ -362,7 +362,6 @@ typedef struct runctx {
     const sweep *sw;
     const dth_run_setup *rs;
     dth_integrator *it;
-    dth_fixed *fx;
     dth_megno *meg;
     int megno_rc;
     size_t n, N, ninv;
@@ -382,12 +381,12 @@ static double rel(double x, double x0) { return x0 != 0 ? fabs(x - x0) / fabs(x0
  * the run. */
 static int account(runctx *c)
 {
-    long k = c->it ? dth_integrator_steps(c->it) : dth_fixed_steps(c->fx);
+    long k = dth_integrator_steps(c->it);
     if (k == c->k_done) return 0;
     c->k_done = k;
     double H;
-    const double *z = c->it ? dth_integrator_vertex(c->it) : dth_fixed_state(c->fx);
-    const double *zm = c->it ? dth_integrator_midpoint(c->it) : z;
+    const double *z = dth_integrator_vertex(c->it), *zm = dth_integrator_midpoint(c->it);
+    if (!zm) zm = z; /* a baseline has no midpoints */
     if (zm && dth_model_eval(c->rs->model, zm, DTH_EVAL_H, &H, NULL, NULL) == DTH_OK) c->eerr = fmax(c->eerr, rel(H, c->E0));
     if (c->inv_ok && dth_model_invariants(c->rs->model, z, c->inv) == DTH_OK)
         for (size_t j = 0; j < c->ninv; j++) c->drift[j] = fmax(c->drift[j], rel(c->inv[j], c->inv0[j]));
@@ -471,14 +470,8 @@ static void run_one(const sweep *sw, long i, double *rec)
     c.n = rs.n;
     c.N = 2 * rs.n + 2;
     int is_dth = !strcmp(rs.method, "dth");
-    if (is_dth) {
-        rc = dth_integrator_new(rs.model, &rs.opt, &c.it);
-        if (!rc) rc = dth_integrator_start(c.it, rs.q0, rs.p0, rs.t0);
-    } else {
-        rc = dth_fixed_check(rs.model, rs.method, NULL, 0);
-        if (!rc) rc = dth_fixed_new(rs.model, rs.method, rs.opt.h, &al, &c.fx);
-        if (!rc) rc = dth_fixed_start(c.fx, rs.q0, rs.p0, rs.t0);
-    }
+    rc = dth_integrator_new(rs.model, &rs.opt, &c.it);
+    if (!rc) rc = dth_integrator_start(c.it, rs.q0, rs.p0, rs.t0);
     if (rc) {
         rec[R_STATUS] = rc;
         rec[R_SETUP] = 1;
@@ -498,7 +491,7 @@ static void run_one(const sweep *sw, long i, double *rec)
     if (c.ninv > SWEEP_MAX_INV) c.ninv = SWEEP_MAX_INV;
     c.inv_ok = c.ninv > 0 && dth_model_invariants(rs.model, y, c.inv0) == DTH_OK;
     free(y);
-    if (sw->megno && c.it && (rc = dth_megno_new(c.it, NULL, &al, &c.meg)) != DTH_OK) {
+    if (sw->megno && is_dth && (rc = dth_megno_new(c.it, NULL, &al, &c.meg)) != DTH_OK) {
         rec[R_STATUS] = rc;
         goto done;
     }
@@ -526,7 +519,7 @@ static void run_one(const sweep *sw, long i, double *rec)
         cfg.dt = rs.dt;
         cfg.sample = on_sample;
     }
-    rc = c.werr ? DTH_EIO : c.it ? dth_run(c.it, &cfg, &S) : dth_run_fixed(c.fx, &cfg, &S);
+    rc = c.werr ? DTH_EIO : dth_run(c.it, &cfg, &S);
     if (!c.werr) account(&c); /* the last step: no progress call follows it */
     if (c.werr) rc = DTH_EIO;
     rec[R_STATUS] = rc;
@@ -554,7 +547,6 @@ done:
     free(c.line);
     dth_megno_free(c.meg);
     dth_integrator_free(c.it);
-    dth_fixed_free(c.fx);
     dth_run_setup_clear(&rs);
     dth_scene_free(scene);
     rec[R_MEM] = (double)cnt.peak;

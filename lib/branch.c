@@ -2,7 +2,8 @@
 /*
  * Branch selection: every real root of the decoupled constraint g(lambda) = H(zbar(lambda, z_k))
  * (paper, Theorem "Decoupling", Lemmas "g_taylor" and "Monotonicity", Theorems EU_1-EU_3 and
- * "ghost"), their classes (minus, plus, ghost, double) and the integrator's root policy.
+ * "ghost") and their classes (minus, plus, ghost, double); the DTH stepper's policy (policy.c) uses
+ * it for its full search.
  */
 #include <math.h>
 #include <stdio.h>
@@ -10,12 +11,10 @@
 #include <gsl/gsl_poly.h>
 #include "dth/branch.h"
 #include "dth_internal.h"
-#include "integrator_impl.h"
+#include "policy.h"
 
-/* Growth of the safety margin: the cheap test accepts a Newton root only with s <= S_CHEAP,
- * safely below the paper's 6/5 (Theorem EU_2 (vi)); between the two the full search decides. */
+/* The physical root's reach: s <= 6/5 (Theorem EU_2 (vi)); beyond it the nearest root is a ghost. */
 #define S_GHOST 1.2
-#define S_CHEAP 1.0
 
 struct dth_rootfinder {
     const dth_model *model;
@@ -29,8 +28,9 @@ struct dth_rootfinder {
     int (*third)(const void *self, const double *y, const double *u, double *d3); /* NULL: none */
     const void *mself;
     int *act, *piv;       /* z-index of each unknown; LU pivots */
-    dth_integrator *host; /* polish with this integrator's Newton (its current vertex) */
-    dth_integrator *own;  /* or with our own integrator (standalone finder) */
+    dth__polish_fn polish; /* polish with the host stepper's Newton (from its current vertex), */
+    void *pctx;
+    dth_integrator *own;   /* or with a DTH integrator of our own (a standalone finder) */
     double *z, *grad, *hess, *u, *A, *F, *v, *work, *seed, *ze, *zf, *rz, *rb1, *rb2, *rb3, *nx, *ndx;
     /* the decoupled solve in progress (solve_at): vertex, lambda, midpoint */
     const double *sz;
@@ -59,8 +59,8 @@ const char *dth_root_class_name(const dth_root *r)
     return dth_branch_name(r->cls);
 }
 
-static int rf_create(const dth_model *model, const dth_root_options *opt, const dth_allocator *alloc,
-                     dth_integrator *host, dth_rootfinder **out)
+int dth__rootfinder_new(const dth_model *model, const dth_root_options *opt, const dth_allocator *alloc,
+                        dth__polish_fn polish, void *ctx, dth_rootfinder **out)
 {
     dth_root_options o;
     if (opt) o = *opt;
@@ -78,7 +78,8 @@ static int rf_create(const dth_model *model, const dth_root_options *opt, const 
     rf->d = 2 * rf->n + 1;
     rf->auton = dth_model_get_info(model)->autonomous;
     rf->M = (int)(rf->auton ? 2 * rf->n : 2 * rf->n + 1);
-    rf->host = host;
+    rf->polish = polish;
+    rf->pctx = ctx;
     rf->nsmall = rf->n <= 3 ? (int)rf->n : 0;
     rf->meval = dth_model_get_type(model)->eval;
     rf->third = dth_model_get_type(model)->third;
@@ -109,7 +110,7 @@ static int rf_create(const dth_model *model, const dth_root_options *opt, const 
             rf->act[a++] = (int)j;
         }
     }
-    if (!rc && !host) {
+    if (!rc && !polish) {
         dth_options io;
         dth_options_default(&io);
         io.h = 1.0;
@@ -132,7 +133,7 @@ int dth_rootfinder_new(const dth_model *model, const dth_root_options *opt, cons
     if (!out) return DTH_EINVAL;
     *out = NULL;
     if (!model) return DTH_EINVAL;
-    return rf_create(model, opt, alloc, NULL, out);
+    return dth__rootfinder_new(model, opt, alloc, NULL, NULL, out);
 }
 
 void dth_rootfinder_free(dth_rootfinder *rf)
@@ -198,17 +199,34 @@ AI int vertex_quantities_n(dth_rootfinder *rf, const size_t nc, const double *z,
     return dth_model_psi(rf->model, z, NULL, dpsi, rf->work);
 }
 
-/* vertex_quantities_n for the path at hand */
+/* vertex_quantities_n's instances: the generic one, and n = 1, 2, 3 (rf->nsmall) */
+#define VQ(N)                                                                                                   \
+    static int vq_##N(dth_rootfinder *rf, const double *z, double *H, double *psi, double *dpsi, double *pabs)  \
+    {                                                                                                           \
+        return vertex_quantities_n(rf, N, z, H, psi, dpsi, pabs);                                               \
+    }
+VQ(0)
+VQ(1)
+VQ(2)
+VQ(3)
+static int (*const vq[4])(dth_rootfinder *, const double *, double *, double *, double *, double *) = {vq_0, vq_1, vq_2,
+                                                                                                       vq_3};
+
 static int vertex_quantities(dth_rootfinder *rf, const double *z, double *H, double *psi, double *dpsi,
                              double *pabs)
 {
-    switch (rf->nsmall) {
-    case 1: return vertex_quantities_n(rf, 1, z, H, psi, dpsi, pabs);
-    case 2: return vertex_quantities_n(rf, 2, z, H, psi, dpsi, pabs);
-    case 3: return vertex_quantities_n(rf, 3, z, H, psi, dpsi, pabs);
-    default: return vertex_quantities_n(rf, 0, z, H, psi, dpsi, pabs);
-    }
+    return vq[rf->nsmall](rf, z, H, psi, dpsi, pabs);
 }
+
+int dth__rootfinder_vertex(dth_rootfinder *rf, const double *z, const double *zlo, double *H, double *psi,
+                           double *dpsi, double *pabs)
+{
+    for (size_t j = 0; j < rf->N; j++) rf->z[j] = z[j] + zlo[j];
+    return vertex_quantities(rf, rf->z, H, psi, dpsi, pabs);
+}
+
+const double *dth__rootfinder_point(const dth_rootfinder *rf) { return rf->z; }
+const double *dth__rootfinder_root_mid(const dth_rootfinder *rf, size_t k) { return rf->rz + k * rf->N; }
 
 /* ---- the decoupled solve as a Newton problem (newton.c): unknowns the active components of zb */
 
@@ -483,20 +501,22 @@ static int extremum(dth_rootfinder *rf, const double *z, pt a, pt b, double *lam
     return DTH_OK;
 }
 
-/* Polish a simple root with the bordered Newton of the step; 1 if confirmed. */
+/* Polish a simple root with the bordered Newton of the step; 1 if confirmed (its midpoint in zbar). */
 static int polish(dth_rootfinder *rf, const double *z, double lam, const double *zb, double lo, double hi,
-                  double *lam_out, double *res)
+                  double *lam_out, double *res, double *zbar)
 {
-    dth_integrator *it = rf->host ? rf->host : rf->own;
     size_t N = rf->N;
-    if (!rf->host && dth_integrator_set_vertex(it, z, 1.0) != DTH_OK) return 0;
     for (size_t j = 0; j < N; j++) rf->ze[j] = zb[j] - z[j];
-    dth__solution sol;
-    if (dth__newton(it, lam, rf->ze, &sol) != DTH_OK) return 0;
+    double l;
+    if (rf->polish) {
+        if (!rf->polish(rf->pctx, lam, rf->ze, &l, res, zbar)) return 0;
+    } else {
+        if (dth_integrator_set_vertex(rf->own, z, 1.0) != DTH_OK) return 0;
+        if (!dth__dth_polish(dth__integrator_core(rf->own), lam, rf->ze, &l, res, zbar)) return 0;
+    }
     double w = 1e-6 * fabs(hi - lo);
-    if (!(sol.lambda >= fmin(lo, hi) - w && sol.lambda <= fmax(lo, hi) + w)) return 0;
-    *lam_out = sol.lambda;
-    *res = sol.residual;
+    if (!(l >= fmin(lo, hi) - w && l <= fmax(lo, hi) + w)) return 0;
+    *lam_out = l;
     return 1;
 }
 
@@ -669,11 +689,10 @@ int dth_find_roots(dth_rootfinder *rf, const double *z, double L, dth_root_set *
         if (r->flags & DTH_ROOT_DOUBLE) continue;
         const double *zk = rf->rz + k * N;
         double lp;
-        if (rf->opt.polish && polish(rf, z, r->lambda, zk, rf->blo[k], rf->bhi[k], &lp, &res)) {
-            dth_integrator *it = rf->host ? rf->host : rf->own;
+        if (rf->opt.polish && polish(rf, z, r->lambda, zk, rf->blo[k], rf->bhi[k], &lp, &res, rf->zf)) {
             r->lambda = lp;
             r->residual = res;
-            memcpy(rf->rz + k * N, it->zb, N * sizeof *it->zb);
+            memcpy(rf->rz + k * N, rf->zf, N * sizeof *rf->zf);
         } else {
             double g, dg;
             if (rf->opt.polish) r->flags |= DTH_ROOT_UNPOLISHED;
@@ -728,126 +747,4 @@ int dth_find_roots(dth_rootfinder *rf, const double *z, double L, dth_root_set *
     classify(out);
     out->evals = rf->evals;
     return DTH_OK;
-}
-
-/* ------------------------------------------------------------------------ integrator policy */
-
-int dth__branch_create(dth_integrator *it)
-{
-    if (!it->opt.branch_check || dth__model_banded(it->model)) return DTH_OK;
-    dth_root_options o;
-    dth_root_options_default(&o);
-    o.K = it->opt.K;
-    o.max_iter = it->opt.max_iter > 30 ? it->opt.max_iter : 30;
-    return rf_create(it->model, &o, it->alloc, it, &it->rf);
-}
-
-void dth__branch_free(dth_integrator *it)
-{
-    if (!it) return;
-    dth_rootfinder_free(it->rf);
-    it->rf = NULL;
-}
-
-/* rf->z = z_k, the double-double vertex rounded to double (the full search starts from it too),
- * and its H, psi, psi' (vertex_quantities_n) */
-AI int branch_vertex_n(dth_rootfinder *rf, const size_t nc, const dth_integrator *it, double *H, double *psi,
-                       double *dpsi, double *pabs)
-{
-    size_t N = nc ? 2 * nc + 2 : rf->N;
-    for (size_t j = 0; j < N; j++) rf->z[j] = it->st.z[j] + it->st.zlo[j];
-    return vertex_quantities_n(rf, nc, rf->z, H, psi, dpsi, pabs);
-}
-
-int dth__branch_select(dth_integrator *it, int rc, dth__solution *sol, dth_branch *branch)
-{
-    dth_rootfinder *rf = it->rf;
-    *branch = DTH_BRANCH_NONE;
-    if (!rf) {
-        /* no branch check: Newton's root as it is, if it goes the right way */
-        if (rc) return rc;
-        if (!(sol->lambda * it->st.dir > 0)) {
-            snprintf(it->errmsg, sizeof it->errmsg, "Newton found lambda = %.17g, against the direction of travel", sol->lambda);
-            return DTH_ENOROOT;
-        }
-        *branch = sol->lambda > 0 ? DTH_BRANCH_PLUS : DTH_BRANCH_MINUS;
-        return DTH_OK;
-    }
-    if (rc < 0) return rc;
-    size_t N = it->N;
-    double H, psi, dpsi, pabs;
-    int vr;
-    switch (rf->nsmall) {
-    case 1: vr = branch_vertex_n(rf, 1, it, &H, &psi, &dpsi, &pabs); break;
-    case 2: vr = branch_vertex_n(rf, 2, it, &H, &psi, &dpsi, &pabs); break;
-    case 3: vr = branch_vertex_n(rf, 3, it, &H, &psi, &dpsi, &pabs); break;
-    default: vr = branch_vertex_n(rf, 0, it, &H, &psi, &dpsi, &pabs); break;
-    }
-    if (vr) return rc ? rc : vr;
-    int pz = fabs(psi) <= 32 * DBL_EPSILON * pabs;
-    long prev_ok = it->st.psi_step == it->st.steps - 1 && it->st.have_prev;
-    /* cheap test: a root ahead, safely physical (Theorem EU_2: s well below 6/5, H/psi > 0), no
-     * sign change of psi since the last vertex, and a step that continues the last one */
-    if (!rc && sol->lambda * it->st.dir > 0 && !pz && H * psi > 0) {
-        double s = -(dpsi / psi) * sol->lambda;
-        double ratio = it->st.have_prev && it->st.lam != 0 ? sol->lambda / it->st.lam : 1.0;
-        int same_sign = !prev_ok || (it->st.psi_prev > 0) == (psi > 0);
-        if (s <= S_CHEAP && same_sign && ratio >= 0.5 && ratio <= 2.0) {
-            *branch = sol->lambda > 0 ? DTH_BRANCH_PLUS : DTH_BRANCH_MINUS;
-            it->st.psi_prev = psi;
-            it->st.psi_step = it->st.steps;
-            return DTH_OK;
-        }
-    }
-    /* the full search on [-L, L] around the expected step */
-    double lref = fmax(fabs(it->st.lam), fabs(it->st.lam_hint));
-    if (!rc && isfinite(sol->lambda)) lref = fmax(lref, 0.5 * fabs(sol->lambda));
-    dth_root_set set;
-    double L = 8 * lref;
-    int fr = dth_find_roots(rf, rf->z, L, &set);
-    if (fr) return rc ? rc : fr;
-    const dth_root *phys = NULL, *dbl = NULL, *ghost = NULL;
-    for (size_t i = 0; i < set.count; i++) {
-        const dth_root *r = &set.root[i];
-        if (!(r->lambda * it->st.dir > 0)) continue;
-        if (r->flags & DTH_ROOT_DOUBLE) {
-            if (!dbl || fabs(r->lambda) < fabs(dbl->lambda)) dbl = r;
-        } else if (r->cls == DTH_BRANCH_GHOST) {
-            if (!ghost || fabs(r->lambda) < fabs(ghost->lambda)) ghost = r;
-        } else if (r->cls == DTH_BRANCH_PLUS || r->cls == DTH_BRANCH_MINUS) {
-            phys = r;
-        }
-    }
-    if (phys && (!dbl || fabs(phys->lambda) < fabs(dbl->lambda))) {
-        /* take it: the step's own Newton from the root's midpoint (refactors for the tangent map) */
-        size_t k = (size_t)(phys - set.root);
-        for (size_t j = 0; j < N; j++) rf->ze[j] = rf->rz[k * N + j] - it->st.z[j];
-        int nr = dth__newton(it, phys->lambda, rf->ze, sol);
-        if (nr) return nr;
-        if (fabs(sol->lambda - phys->lambda) > 1e-6 * fabs(phys->lambda)) {
-            snprintf(it->errmsg, sizeof it->errmsg, "the physical root %.17g did not polish (Newton went to %.17g)",
-                     phys->lambda, sol->lambda);
-            return DTH_ENOCONV;
-        }
-        *branch = phys->cls;
-        it->st.psi_prev = psi;
-        it->st.psi_step = it->st.steps;
-        return DTH_OK;
-    }
-    int st;
-    double rho = pz ? 0 : H / psi;
-    int toward_fold = !pz && -(dpsi / psi) * it->st.dir > 0; /* travelling toward positive s */
-    if (dbl) st = DTH_EFOLD;
-    else if (!pz && rho < 0) st = ghost ? DTH_EGHOST : DTH_ENEGOFFSET;
-    else if (!pz && rho > 0 && toward_fold) st = DTH_EFOLD;
-    else if (ghost) st = DTH_EGHOST;
-    else st = DTH_ENOROOT;
-    /* After a failed Newton, claim "no physical root" only from a complete scan ahead; else (or
-     * for a bare DTH_ENOROOT) Newton's own status says more. */
-    int complete = it->st.dir > 0 ? set.hi >= L * (1 - 1e-12) : set.lo <= -L * (1 - 1e-12);
-    if (rc > 0 && (st == DTH_ENOROOT || !complete)) return rc;
-    snprintf(it->errmsg, sizeof it->errmsg,
-             "no physical root ahead of the vertex (H = %.3g, psi = %.3g, psi' = %.3g, %zu roots in [%.3g, %.3g])",
-             H, psi, dpsi, set.count, set.lo, set.hi);
-    return st;
 }

@@ -18,7 +18,7 @@
 #include <unistd.h>
 #include "dth/checkpoint.h"
 #include "dth_internal.h"
-#include "integrator_impl.h"
+#include "stepper.h"
 #include "tempfile.h"
 
 static const unsigned char MAGIC[8] = {'D', 'T', 'H', 'C', 'K', 'P', 'T', 0};
@@ -124,70 +124,34 @@ static const char *get_str(rd *r, size_t *n)
     return (const char *)get_bytes(r, l);
 }
 
-/* ---- fields: the step state (integrator_impl.h) and the options that change the steps ---- */
+/* ---- fields: the stepper's state sections (stepper.h), the options that change the steps ---- */
 
-enum { K_VEC = 1, K_F64, K_INT, K_LONG };                 /* how a field is held in memory */
-enum { T_F64 = 1, T_I64 = 2 };                            /* how its values are written */
-enum { C_FINITE, C_NONZERO, C_UNIT, C_BOOL, C_SIGN, C_NHIST, C_COUNT, C_PSISTEP, C_ANY };
+enum { T_F64 = 1, T_I64 = 2 }; /* how a field's values are written */
 
-typedef struct field {
-    const char *name;
-    size_t off;
-    int kind, check;
-} field;
-
-#define STATE_ENTRY(name, kind, check, doc) {#name, offsetof(dth__state, name), K_##kind, C_##check},
-static const field state_fields[] = {DTH__STATE_FIELDS(STATE_ENTRY)};
-#undef STATE_ENTRY
-enum { NSTATE = sizeof state_fields / sizeof state_fields[0] };
-
-/* The options a restored run must share with the saved one: they change the steps. (The start
- * mode, explicit wp and h of dth_options act at the start only; h as it stands is state.) */
-typedef struct optv {
-    long branch_check; /* a root finder is attached (banded models have none) */
-    long finish, max_iter;
-    long linsolve;     /* the solver in use (AUTO resolved) */
-    double K;
-} optv;
-static const field opt_fields[] = {
-    {"branch_check", offsetof(optv, branch_check), K_LONG, C_ANY},
-    {"finish", offsetof(optv, finish), K_LONG, C_ANY},
-    {"max_iter", offsetof(optv, max_iter), K_LONG, C_ANY},
-    {"linsolve", offsetof(optv, linsolve), K_LONG, C_ANY},
-    {"K", offsetof(optv, K), K_F64, C_ANY},
-};
-enum { NOPT = sizeof opt_fields / sizeof opt_fields[0] };
-
-static optv options_of(const dth_integrator *it)
-{
-    optv o = {it->rf != NULL, it->opt.finish, it->opt.max_iter, (long)it->kind, it->opt.K};
-    return o;
-}
-
-static int wire_type(int kind) { return kind == K_VEC || kind == K_F64 ? T_F64 : T_I64; }
+static int wire_type(int kind) { return kind == DTH__K_VEC || kind == DTH__K_F64 ? T_F64 : T_I64; }
 
 /* One field: name, wire type, count, values. */
-static void put_field(wr *w, const field *f, const void *base, size_t N)
+static void put_field(wr *w, const dth__field *f, const void *base, size_t veclen)
 {
     const char *p = (const char *)base + f->off;
     put_str(w, f->name);
     put_u32(w, (uint32_t)wire_type(f->kind));
     switch (f->kind) {
-    case K_VEC: {
+    case DTH__K_VEC: {
         const double *v;
         memcpy(&v, p, sizeof v);
-        put_u64(w, N);
-        put_f64s(w, v, N);
+        put_u64(w, veclen);
+        put_f64s(w, v, veclen);
         break;
     }
-    case K_F64: {
+    case DTH__K_F64: {
         double x;
         memcpy(&x, p, sizeof x);
         put_u64(w, 1);
         put_f64(w, x);
         break;
     }
-    case K_INT: {
+    case DTH__K_INT: {
         int x;
         memcpy(&x, p, sizeof x);
         put_u64(w, 1);
@@ -204,32 +168,40 @@ static void put_field(wr *w, const field *f, const void *base, size_t N)
     }
 }
 
+static void put_section(wr *w, const dth__section *sec)
+{
+    put_str(w, sec->name);
+    put_u64(w, sec->veclen);
+    put_u32(w, (uint32_t)sec->nfields);
+    for (size_t i = 0; i < sec->nfields; i++) put_field(w, &sec->fields[i], sec->base, sec->veclen);
+}
+
 static int check_f64(int check, double x)
 {
     switch (check) {
-    case C_ANY: return 1;
-    case C_NONZERO: return isfinite(x) && x != 0;
-    case C_UNIT: return x == 1.0 || x == -1.0;
+    case DTH__C_ANY: return 1;
+    case DTH__C_NONZERO: return isfinite(x) && x != 0;
+    case DTH__C_UNIT: return x == 1.0 || x == -1.0;
     default: return isfinite(x);
     }
 }
 
 static int check_i64(int kind, int check, int64_t x)
 {
-    if (kind == K_INT && (x < INT_MIN || x > INT_MAX)) return 0;
-    if (kind == K_LONG && (x < LONG_MIN || x > LONG_MAX)) return 0;
+    if (kind == DTH__K_INT && (x < INT_MIN || x > INT_MAX)) return 0;
+    if (kind == DTH__K_LONG && (x < LONG_MIN || x > LONG_MAX)) return 0;
     switch (check) {
-    case C_BOOL: return x == 0 || x == 1;
-    case C_SIGN: return x >= -1 && x <= 1;
-    case C_NHIST: return x >= 0 && x <= 3;
-    case C_COUNT: return x >= 0;
-    case C_PSISTEP: return x >= -2;
+    case DTH__C_BOOL: return x == 0 || x == 1;
+    case DTH__C_SIGN: return x >= -1 && x <= 1;
+    case DTH__C_NHIST: return x >= 0 && x <= 3;
+    case DTH__C_COUNT: return x >= 0;
+    case DTH__C_PSISTEP: return x >= -2;
     default: return 1;
     }
 }
 
 /* Read and validate the field the library expects next; *pos: reader position of its values. */
-static int get_field(rd *r, const field *f, size_t N, size_t *pos, char *err, size_t errlen)
+static int get_field(rd *r, const dth__field *f, size_t veclen, size_t *pos, char *err, size_t errlen)
 {
     size_t nl;
     const char *nm = get_str(r, &nl);
@@ -243,7 +215,7 @@ static int get_field(rd *r, const field *f, size_t N, size_t *pos, char *err, si
         dth__set_err(err, errlen, "checkpoint field '%.*s' where this library expects '%s'", (int)nl, nm, f->name);
         return DTH_EPARSE;
     }
-    uint64_t want = f->kind == K_VEC ? N : 1;
+    uint64_t want = f->kind == DTH__K_VEC ? veclen : 1;
     if (type != (uint32_t)wire_type(f->kind) || count != want) {
         dth__set_err(err, errlen, "checkpoint field '%s' has type %u and %llu values (expected %d and %llu)", f->name,
                      (unsigned)type, (unsigned long long)count, wire_type(f->kind), (unsigned long long)want);
@@ -274,18 +246,18 @@ static int get_field(rd *r, const field *f, size_t N, size_t *pos, char *err, si
 }
 
 /* Store a validated field's values (at reader position pos) into base. */
-static void load_field(const rd *r, size_t pos, const field *f, void *base, size_t N)
+static void load_field(const rd *r, size_t pos, const dth__field *f, void *base, size_t veclen)
 {
     rd v = {r->p, r->len, pos, 0};
     char *p = (char *)base + f->off;
-    if (f->kind == K_VEC) {
+    if (f->kind == DTH__K_VEC) {
         double *dst;
         memcpy(&dst, p, sizeof dst);
-        for (size_t j = 0; j < N; j++) dst[j] = get_f64(&v);
-    } else if (f->kind == K_F64) {
+        for (size_t j = 0; j < veclen; j++) dst[j] = get_f64(&v);
+    } else if (f->kind == DTH__K_F64) {
         double x = get_f64(&v);
         memcpy(p, &x, sizeof x);
-    } else if (f->kind == K_INT) {
+    } else if (f->kind == DTH__K_INT) {
         int x = (int)(int64_t)get_u64(&v);
         memcpy(p, &x, sizeof x);
     } else {
@@ -294,29 +266,44 @@ static void load_field(const rd *r, size_t pos, const field *f, void *base, size
     }
 }
 
-/* ---- the state section ---- */
+/* ---- the state part: the method, the model, the options and the stepper's sections ---- */
+
+/* The options section and the state sections of `it` (sections[0] is the options), their count. */
+static size_t sections_of(const dth_integrator *it, dth__section *sec, void *scratch)
+{
+    size_t k = 0;
+    if (it->type->options_section) it->type->options_section(it->state, &sec[k++], scratch);
+    else sec[k++] = (dth__section){"options", NULL, 0, scratch, 0};
+    return k + it->type->sections(it->state, sec + k);
+}
 
 static const char *reg_name(const dth_integrator *it)
 {
-    return it->reg ? dth_regularizer_get_type(it->reg)->name : "";
+    struct dth_regularizer *r = it->type->regularizer ? it->type->regularizer(it->state) : NULL;
+    return r ? dth_regularizer_get_type(r)->name : "";
+}
+
+static struct dth_regularizer *reg_of(const dth_integrator *it)
+{
+    return it->type->regularizer ? it->type->regularizer(it->state) : NULL;
 }
 
 static void put_state(wr *w, const dth_integrator *it)
 {
+    dth__section sec[DTH__MAX_SECTIONS + 1];
+    double scratch[8];
+    size_t ns = sections_of(it, sec, scratch);
+    put_str(w, it->type->name);
     put_str(w, dth_model_get_type(it->model)->name);
     put_u64(w, it->n);
-    put_u32(w, (uint32_t)it->m);
-    put_u32(w, (uint32_t)it->auton);
-    optv o = options_of(it);
-    put_u32(w, NOPT);
-    for (size_t i = 0; i < NOPT; i++) put_field(w, &opt_fields[i], &o, it->N);
-    put_u32(w, NSTATE);
-    for (size_t i = 0; i < NSTATE; i++) put_field(w, &state_fields[i], &it->st, it->N);
+    put_u32(w, (uint32_t)ns);
+    for (size_t i = 0; i < ns; i++) put_section(w, &sec[i]);
     /* the regularizer's own state (a constant fixed at its first step, seeds), as its bytes */
+    struct dth_regularizer *reg = reg_of(it);
     put_str(w, reg_name(it));
-    size_t rl = dth__reg_state_size(it->reg);
+    size_t rl = dth__reg_state_size(reg);
     put_u64(w, rl);
-    if (rl && w->buf && w->len + rl <= w->cap) dth__reg_save_state(it->reg, w->buf + w->len);
+    if (rl && w->buf && w->len + rl <= w->cap) dth__reg_save_state(reg, w->buf + w->len);
     w->len += rl;
 }
 
@@ -324,7 +311,7 @@ int dth_checkpoint_save(const dth_integrator *it, const dth_blob *blobs, size_t 
                         size_t cap, size_t *len)
 {
     if (len) *len = 0;
-    if (!it || !len || (nblobs && !blobs)) return DTH_EINVAL;
+    if (!it || !len || (nblobs && !blobs) || !it->type->sections) return DTH_EINVAL;
     for (size_t i = 0; i < nblobs; i++) {
         if (!blobs[i].name || !blobs[i].name[0] || strlen(blobs[i].name) > MAX_NAME ||
             (blobs[i].size && !blobs[i].data))
@@ -395,50 +382,57 @@ static int open_checked(rd *r, const void *buf, size_t len, char *err, size_t er
     return DTH_OK;
 }
 
-/* The state, validated, as read (values stay in the buffer: reader positions). */
+/* The state, as read (values stay in the buffer: reader positions). */
+enum { MAX_FIELDS = 64 };
 typedef struct st {
-    const char *name;
-    size_t name_len;
+    const char *method, *name;
+    size_t method_len, name_len;
     uint64_t n;
-    uint32_t m, auton;
-    optv opt;
-    size_t pos[NSTATE];   /* reader position of each state field's values */
+    uint32_t nsec;
+    size_t pos_sec;       /* reader position of the first section */
     const char *reg;      /* regularizer type name */
     size_t reg_name_len;
     uint64_t reg_len;     /* bytes of regularizer state */
     size_t pos_reg;
 } st;
 
+/* Skip one section's fields, checking their structure (names, types, counts; values unchecked). */
+static int skip_section(rd *r)
+{
+    size_t nl;
+    get_str(r, &nl);
+    uint64_t veclen = get_u64(r);
+    uint32_t nf = get_u32(r);
+    if (r->bad || nf > MAX_FIELDS || veclen > ((uint64_t)1 << 44)) return DTH_EPARSE;
+    for (uint32_t i = 0; i < nf && !r->bad; i++) {
+        size_t fl;
+        get_str(r, &fl);
+        uint32_t type = get_u32(r);
+        uint64_t count = get_u64(r);
+        if (r->bad || (type != T_F64 && type != T_I64) || (count != 1 && count != veclen) ||
+            count > (r->len - r->pos) / 8)
+            return DTH_EPARSE;
+        get_bytes(r, (size_t)count * 8);
+    }
+    return r->bad ? DTH_EPARSE : DTH_OK;
+}
+
 static int read_state(rd *r, st *s, char *err, size_t errlen)
 {
+    s->method = get_str(r, &s->method_len);
     s->name = get_str(r, &s->name_len);
     s->n = get_u64(r);
-    s->m = get_u32(r);
-    s->auton = get_u32(r);
-    if (r->bad || s->n == 0 || s->n > DTH__MAX_DOF || s->m > 2 * s->n + 3 || s->auton > 1) {
+    s->nsec = get_u32(r);
+    s->pos_sec = r->pos;
+    if (r->bad || s->n == 0 || s->n > DTH__MAX_DOF || s->nsec > DTH__MAX_SECTIONS + 1) {
         dth__set_err(err, errlen, "checkpoint state header is invalid");
         return DTH_EPARSE;
     }
-    size_t N = 2 * (size_t)s->n + 2, pos;
-    uint32_t nf = get_u32(r);
-    if (r->bad || nf != NOPT) {
-        dth__set_err(err, errlen, "checkpoint has %u options, this library %d", (unsigned)nf, (int)NOPT);
-        return DTH_EPARSE;
-    }
-    for (size_t i = 0; i < NOPT; i++) {
-        int rc = get_field(r, &opt_fields[i], N, &pos, err, errlen);
-        if (rc) return rc;
-        load_field(r, pos, &opt_fields[i], &s->opt, N);
-    }
-    nf = get_u32(r);
-    if (r->bad || nf != NSTATE) {
-        dth__set_err(err, errlen, "checkpoint has %u state fields, this library %d", (unsigned)nf, (int)NSTATE);
-        return DTH_EPARSE;
-    }
-    for (size_t i = 0; i < NSTATE; i++) {
-        int rc = get_field(r, &state_fields[i], N, &s->pos[i], err, errlen);
-        if (rc) return rc;
-    }
+    for (uint32_t i = 0; i < s->nsec; i++)
+        if (skip_section(r)) {
+            dth__set_err(err, errlen, "checkpoint state section %u is malformed", (unsigned)i);
+            return DTH_EPARSE;
+        }
     s->reg = get_str(r, &s->reg_name_len);
     s->reg_len = get_u64(r);
     s->pos_reg = r->pos;
@@ -494,53 +488,112 @@ int dth_checkpoint_verify(const void *buf, size_t len, char *err, size_t errlen)
     return verify(buf, len, &r, &s, err, errlen);
 }
 
-int dth_checkpoint_restore(dth_integrator *it, const void *buf, size_t len, char *err, size_t errlen)
+static int same_str(const char *a, const char *b, size_t blen) { return strlen(a) == blen && memcmp(a, b, blen) == 0; }
+
+/* Read the saved section that must match `want` (its name, veclen and fields), validating every
+ * value; pos gets each field's reader position. */
+static int read_section(rd *r, const dth__section *want, size_t *pos, char *err, size_t errlen)
 {
-    if (!it) return DTH_EINVAL;
-    rd r;
-    st s;
-    int rc = verify(buf, len, &r, &s, err, errlen);
-    if (rc) return rc;
-    const char *mname = dth_model_get_type(it->model)->name;
-    if (strlen(mname) != s.name_len || memcmp(mname, s.name, s.name_len) != 0 || s.n != it->n ||
-        s.m != (uint32_t)it->m || s.auton != (uint32_t)it->auton) {
-        dth__set_err(err, errlen, "checkpoint of model '%.*s' with %llu degrees of freedom does not fit model '%s' with %zu",
-                (int)s.name_len, s.name, (unsigned long long)s.n, mname, it->n);
-        return DTH_EINVAL;
+    size_t nl;
+    const char *nm = get_str(r, &nl);
+    uint64_t veclen = get_u64(r);
+    uint32_t nf = get_u32(r);
+    if (r->bad || !same_str(want->name, nm, nl) || veclen != want->veclen || nf != want->nfields) {
+        dth__set_err(err, errlen, "checkpoint section '%.*s' (%u fields of %llu) where this library expects '%s' (%zu of %zu)",
+                     (int)nl, nm ? nm : "", (unsigned)nf, (unsigned long long)veclen, want->name, want->nfields,
+                     want->veclen);
+        return DTH_EPARSE;
     }
-    optv o = options_of(it);
-    for (size_t i = 0; i < NOPT; i++) {
-        const field *f = &opt_fields[i];
-        const char *a = (const char *)&o + f->off, *b = (const char *)&s.opt + f->off;
-        if (memcmp(a, b, f->kind == K_F64 ? sizeof(double) : sizeof(long)) == 0) continue;
-        if (f->kind == K_F64)
+    for (size_t i = 0; i < want->nfields; i++) {
+        int rc = get_field(r, &want->fields[i], want->veclen, &pos[i], err, errlen);
+        if (rc) return rc;
+    }
+    return DTH_OK;
+}
+
+/* The saved options equal the integrator's (they change the steps). */
+static int same_options(const rd *r, const dth__section *o, const size_t *pos, char *err, size_t errlen)
+{
+    double saved[8];
+    dth__section sv = *o;
+    sv.base = saved;
+    for (size_t i = 0; i < o->nfields; i++) {
+        const dth__field *f = &o->fields[i];
+        load_field(r, pos[i], f, saved, 0);
+        const char *a = (const char *)o->base + f->off, *b = (const char *)(void *)saved + f->off;
+        if (memcmp(a, b, f->kind == DTH__K_F64 ? sizeof(double) : sizeof(long)) == 0) continue;
+        if (f->kind == DTH__K_F64)
             dth__set_err(err, errlen, "checkpoint was written with option %s = %.17g, this integrator has %.17g", f->name,
-                         s.opt.K, o.K);
+                         *(const double *)(const void *)b, *(const double *)(const void *)a);
         else
             dth__set_err(err, errlen, "checkpoint was written with option %s = %ld, this integrator has %ld", f->name,
                          *(const long *)(const void *)b, *(const long *)(const void *)a);
         return DTH_EINVAL;
     }
+    (void)sv;
+    return DTH_OK;
+}
+
+int dth_checkpoint_restore(dth_integrator *it, const void *buf, size_t len, char *err, size_t errlen)
+{
+    if (!it) return DTH_EINVAL;
+    if (!it->type->sections) {
+        dth__set_err(err, errlen, "method '%s' has no checkpoints", it->type->name);
+        return DTH_EUNSUPPORTED;
+    }
+    rd r;
+    st s;
+    int rc = verify(buf, len, &r, &s, err, errlen);
+    if (rc) return rc;
+    const char *mname = dth_model_get_type(it->model)->name;
+    if (!same_str(it->type->name, s.method, s.method_len)) {
+        dth__set_err(err, errlen, "checkpoint of method '%.*s', this integrator steps with '%s'", (int)s.method_len, s.method,
+                     it->type->name);
+        return DTH_EINVAL;
+    }
+    if (!same_str(mname, s.name, s.name_len) || s.n != it->n) {
+        dth__set_err(err, errlen, "checkpoint of model '%.*s' with %llu degrees of freedom does not fit model '%s' with %zu",
+                (int)s.name_len, s.name, (unsigned long long)s.n, mname, it->n);
+        return DTH_EINVAL;
+    }
+    dth__section sec[DTH__MAX_SECTIONS + 1];
+    double scratch[8];
+    size_t ns = sections_of(it, sec, scratch);
+    if (s.nsec != ns) {
+        dth__set_err(err, errlen, "checkpoint has %u state sections, this integrator %zu", (unsigned)s.nsec, ns);
+        return DTH_EPARSE;
+    }
+    size_t pos[DTH__MAX_SECTIONS + 1][MAX_FIELDS];
+    rd q = {r.p, r.len, s.pos_sec, 0};
+    for (size_t i = 0; i < ns; i++) {
+        if (sec[i].nfields > MAX_FIELDS) return DTH_EINVAL;
+        rc = read_section(&q, &sec[i], pos[i], err, errlen);
+        if (rc) return rc;
+    }
+    rc = same_options(&q, &sec[0], pos[0], err, errlen);
+    if (rc) return rc;
+    struct dth_regularizer *reg = reg_of(it);
     const char *rname = reg_name(it);
-    if (strlen(rname) != s.reg_name_len || memcmp(rname, s.reg, s.reg_name_len) != 0) {
+    if (!same_str(rname, s.reg, s.reg_name_len)) {
         dth__set_err(err, errlen, "checkpoint was written with %s%.*s%s, this integrator has %s%s%s",
                      s.reg_name_len ? "regularizer '" : "no regularizer", (int)s.reg_name_len, s.reg,
                      s.reg_name_len ? "'" : "", rname[0] ? "regularizer '" : "none", rname, rname[0] ? "'" : "");
         return DTH_EINVAL;
     }
-    if (s.reg_len != dth__reg_state_size(it->reg)) {
+    if (s.reg_len != dth__reg_state_size(reg)) {
         dth__set_err(err, errlen, "checkpoint holds %llu bytes of state of regularizer '%s', this one %zu",
-                     (unsigned long long)s.reg_len, rname, dth__reg_state_size(it->reg));
+                     (unsigned long long)s.reg_len, rname, dth__reg_state_size(reg));
         return DTH_EINVAL;
     }
     /* the regularizer checks its bytes first: nothing is changed if it rejects them */
-    if (s.reg_len && dth__reg_load_state(it->reg, (const unsigned char *)r.p + s.pos_reg, (size_t)s.reg_len)) {
+    if (s.reg_len && dth__reg_load_state(reg, (const unsigned char *)r.p + s.pos_reg, (size_t)s.reg_len)) {
         dth__set_err(err, errlen, "checkpoint regularizer state is rejected by the regularizer");
         return DTH_EPARSE;
     }
     /* everything is valid: commit */
-    for (size_t i = 0; i < NSTATE; i++) load_field(&r, s.pos[i], &state_fields[i], &it->st, it->N);
-    snprintf(it->errmsg, sizeof it->errmsg, "no error");
+    for (size_t i = 1; i < ns; i++)
+        for (size_t f = 0; f < sec[i].nfields; f++) load_field(&q, pos[i][f], &sec[i].fields[f], sec[i].base, sec[i].veclen);
+    if (it->type->restored) it->type->restored(it->state);
     return DTH_OK;
 }
 

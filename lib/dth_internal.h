@@ -57,6 +57,34 @@ size_t dth__reg_state_size(const struct dth_regularizer *r);
 void dth__reg_save_state(const struct dth_regularizer *r, void *buf);
 /** Load it back; -1 if len does not match or the regularizer rejects the bytes. */
 int dth__reg_load_state(struct dth_regularizer *r, const void *buf, size_t len);
+/** The instance's admit callback (regularize.h; the type has one). */
+int dth__reg_admit(struct dth_regularizer *r, const double *za, const double *zb, double lambda);
+/** Nonzero if the instance replaces every step (its type's replaces_all). */
+int dth__reg_replaces_all(const struct dth_regularizer *r);
+struct dth_rootfinder;
+struct dth_root_options;
+/** A root finder whose roots are polished by `polish` (the DTH stepper's own Newton from its
+ *  vertex: policy.h's dth__polish_fn); NULL: by a DTH integrator of its own, set to each vertex. */
+int dth__rootfinder_new(const dth_model *model, const struct dth_root_options *opt, const dth_allocator *alloc,
+                        int (*polish)(void *, double, const double *, double *, double *, double *), void *ctx,
+                        struct dth_rootfinder **out);
+/** The vertex z + zlo (rounded to double) kept in the finder (dth__rootfinder_point), and its H, psi,
+ *  psi' and the scale of psi's round-off. */
+int dth__rootfinder_vertex(struct dth_rootfinder *rf, const double *z, const double *zlo, double *H, double *psi,
+                           double *dpsi, double *pabs);
+const double *dth__rootfinder_point(const struct dth_rootfinder *rf);
+/** The midpoint of root k of the last dth_find_roots (N values). */
+const double *dth__rootfinder_root_mid(const struct dth_rootfinder *rf, size_t k);
+struct dth__dth;
+/** The DTH core of an integrator of method "dth" (dth_core.h), else NULL. */
+struct dth__dth *dth__integrator_core(dth_integrator *it);
+/** The integrator's method carries wp unchanged (a baseline): the dense output's wp flow is 0. */
+int dth__integrator_wp_fixed(const dth_integrator *it);
+/** The integrator's method has midpoints (DTH). */
+int dth__integrator_has_midpoints(const dth_integrator *it);
+/** Solve the DTH step from the core's current vertex seeded with (lam, d0): 1 if it converged,
+ *  with lambda, the residual and the midpoint out (policy.h's dth__polish_fn). */
+int dth__dth_polish(void *core, double lam, const double *d0, double *lam_out, double *res, double *zbar);
 /** printf into a caller's message buffer (err may be NULL or len 0: nothing is written). */
 void dth__set_err(char *err, size_t len, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 /** Parse a comma-separated list of finite doubles; 0 on success. */

@@ -6,8 +6,9 @@
  */
 #include <math.h>
 #include <string.h>
+#include <stdio.h>
 #include "dth_internal.h"
-#include "dth/methods.h"
+#include "stepper.h"
 
 void dth_options_default(dth_options *o)
 {
@@ -80,16 +81,26 @@ int dth_options_check(const dth_model *model, dth_options *o, char *err, size_t 
     }
     int rc = check_values(o, err, len);
     if (rc) return rc;
-    const char *method = o->method ? o->method : "dth";
-    if (strcmp(method, "dth") != 0) {
-        dth__set_err(err, len, "method '%s': the integrator steps with method 'dth' (fixed-step baselines: dth_fixed_new)",
-                     method);
-        return dth_fixed_method_doc(method) ? DTH_EUNSUPPORTED : DTH_ENOTFOUND;
+    const dth__stepper_type *type = dth__stepper_find(o->method);
+    if (!type) {
+        char names[160] = "dth";
+        for (size_t i = 0; i < dth__baseline_count(); i++) {
+            size_t l = strlen(names);
+            snprintf(names + l, sizeof names - l, ", %s", dth__baseline_at(i)->name);
+        }
+        dth__set_err(err, len, "unknown method '%s' (available: %s)", o->method, names);
+        return DTH_ENOTFOUND;
     }
     if (o->order != 2) {
-        dth__set_err(err, len, "order = %d: method 'dth' has order 2", o->order);
+        dth__set_err(err, len, "order = %d: method '%s' has order %s", o->order, type->name,
+                     type == &dth__stepper_dth ? "2" : "of its own (leave order at 2)");
         return DTH_EUNSUPPORTED;
     }
+    if (type != &dth__stepper_dth && o->regularizer) {
+        dth__set_err(err, len, "a regularizer applies to method = dth only (this is method '%s')", type->name);
+        return DTH_EUNSUPPORTED;
+    }
+    if (type->check && (rc = type->check(model, o, err, len)) != DTH_OK) return rc;
     const char *mname = dth_model_get_type(model)->name;
     size_t n = dth_model_dof(model);
     if (n == 0 || n > DTH__MAX_DOF) {
@@ -115,7 +126,7 @@ int dth_options_check(const dth_model *model, dth_options *o, char *err, size_t 
                                "linsolve 'dense'", mname);
         return DTH_EUNSUPPORTED;
     }
-    o->method = "dth";
+    o->method = type->name;
     o->linsolve = ls->kind;
     return DTH_OK;
 }

@@ -10,7 +10,6 @@
 #include <string.h>
 #include "dth/regularize.h"
 #include "dth_internal.h"
-#include "integrator_impl.h"
 
 struct dth_regularizer {
     const dth_regularizer_type *type; /* &t */
@@ -110,6 +109,16 @@ int dth__reg_load_state(dth_regularizer *r, const void *buf, size_t len)
 {
     if (len != dth__reg_state_size(r)) return -1;
     return len ? r->type->load_state(r->self, buf, len) : 0;
+}
+
+int dth__reg_admit(dth_regularizer *r, const double *za, const double *zb, double lambda)
+{
+    return r->type->admit(r->self, za, zb, lambda);
+}
+
+int dth__reg_replaces_all(const dth_regularizer *r)
+{
+    return r && r->type->replaces_all && r->type->replaces_all(r->self);
 }
 
 int dth_regularizer_apply(dth_regularizer *r, const dth_reg_event *ev, dth_reg_action *act)
@@ -457,193 +466,5 @@ int dth_kicked_segment(const dth_model *model, const double *z, const double *zl
     dz[N - 1] = 0;
     *mu = x[q];
     if (residual) *residual = fabs(c.wp + c.H);
-    return DTH_OK;
-}
-
-/* ------------------------------------------------------------------ the integrator's hook */
-
-static int psi_sign_at(dth_integrator *it, const double *z, int *sign)
-{
-    double psi;
-    int rc = dth_model_psi(it->model, z, &psi, NULL, it->work);
-    if (rc) return rc;
-    *sign = psi > 0 ? 1 : (psi < 0 ? -1 : 0);
-    return DTH_OK;
-}
-
-/* The sign of psi at the current vertex, computed once and then carried from step to step. */
-static int known_psi_sign(dth_integrator *it)
-{
-    if (it->st.psi_known) return DTH_OK;
-    int r = psi_sign_at(it, it->st.z, &it->st.psi_sign);
-    if (!r) it->st.psi_known = 1;
-    return r;
-}
-
-/* The event the hook sees at the current vertex (plain: the ordinary step's outcome, or NULL). */
-static dth_reg_event reg_event(dth_integrator *it, int rc, int plain_ok, const double *dd, double plain_lambda, int sb)
-{
-    dth_reg_event ev = {it->model, it->N, it->st.z, it->st.zlo, it->st.lam, it->st.dir, it->st.psi_sign, rc, plain_ok ? dd : NULL,
-                        plain_ok ? plain_lambda : 0.0, plain_ok ? sb : 0, it->st.have_prev ? it->st.dprev : NULL, 0};
-    return ev;
-}
-
-static int reg_apply(dth_integrator *it, const dth_reg_event *ev, dth_reg_action *act, dth_step_info *info)
-{
-    size_t N = it->N;
-    double *ad = it->rbuf + 3 * N;
-    memset(ad, 0, N * sizeof *ad);
-    *act = (dth_reg_action){DTH_REG_KEEP, 0.0, ad, 0.0, 0, NULL};
-    int r = dth_regularizer_apply(it->reg, ev, act);
-    info->iters += act->iters;
-    if (!r && act->what != DTH_REG_KEEP && act->what != DTH_REG_REPLACE) {
-        act->why = "it answered an unknown action";
-        r = DTH_EREFUSED;
-    }
-    if (r)
-        snprintf(it->errmsg, sizeof it->errmsg, "regularizer '%s' stopped the run: %s",
-                 dth_regularizer_get_type(it->reg)->name, act->why ? act->why : dth_strerror(r));
-    return r;
-}
-
-static int reg_finish(dth_integrator *it, const dth_reg_action *act, int rc, int plain_ok, const dth__solution *sol,
-                      dth_branch br, dth_step_info *info);
-
-int dth__reg_replaces_all(const dth_integrator *it)
-{
-    const dth_regularizer_type *t = it->reg ? dth_regularizer_get_type(it->reg) : NULL;
-    return t && t->replaces_all && t->replaces_all(it->reg->self);
-}
-
-int dth__reg_pre(dth_integrator *it, dth_step_info *info)
-{
-    int r0 = known_psi_sign(it);
-    if (r0) return r0;
-    dth_reg_event ev = reg_event(it, DTH_EUNSUPPORTED, 0, NULL, 0, 0);
-    ev.plain_pending = 1;
-    dth_reg_action act;
-    int r = reg_apply(it, &ev, &act, info);
-    if (r) return r;
-    if (act.what == DTH_REG_KEEP) {
-        /* compute the ordinary step; dth__reg_step then takes it. Its failure, if any, writes the
-         * message afresh */
-        it->errmsg[0] = '\0';
-        return DTH__REG_PLAIN;
-    }
-    return reg_finish(it, &act, DTH_EUNSUPPORTED, 0, NULL, DTH_BRANCH_REG, info);
-}
-
-int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_branch br, dth_step_info *info, int pre)
-{
-    size_t N = it->N;
-    int m = it->m;
-    double *cand = it->rbuf, *dd = it->rbuf + N;
-    if (rc < 0) return rc;
-    int plain_ok = rc == DTH_OK && sol->lambda * it->st.dir > 0;
-    if (rc == DTH_OK && !plain_ok) {
-        snprintf(it->errmsg, sizeof it->errmsg, "Newton found lambda = %.17g, against the direction of travel", sol->lambda);
-        rc = DTH_ENOROOT;
-    }
-    int r0 = known_psi_sign(it);
-    if (r0) return r0;
-    int sa = it->st.psi_sign, sb = 0;
-    if (plain_ok) {
-        for (size_t j = 0; j < N; j++) dd[j] = 0;
-        for (int a = 0; a < m - 1; a++) dd[it->act[a]] = it->x[a];
-        if (it->auton) dd[it->n] = 0.5 * sol->lambda;
-    }
-    dth_reg_action act;
-    if (pre) {
-        /* the hook was asked before the ordinary step (dth__reg_pre) and kept it */
-        act = (dth_reg_action){DTH_REG_KEEP, 0.0, it->rbuf + 3 * N, 0.0, 0, NULL};
-        if (!plain_ok) {
-            /* say that the hook had no step of its own here */
-            const char *name = dth_regularizer_get_type(it->reg)->name;
-            if (!it->errmsg[0]) snprintf(it->errmsg, sizeof it->errmsg, "%s", dth_strerror(rc));
-            size_t len = strlen(it->errmsg);
-            snprintf(it->errmsg + len, sizeof it->errmsg - len, " (regularizer '%s' had no step here and kept the ordinary one)", name);
-        } else if (!it->errmsg[0]) {
-            snprintf(it->errmsg, sizeof it->errmsg, "no error");
-        }
-        return reg_finish(it, &act, rc, plain_ok, sol, br, info);
-    }
-    if (plain_ok) {
-        for (size_t j = 0; j < N; j++) cand[j] = it->st.z[j] + (2 * dd[j] + it->st.zlo[j]);
-        int r = psi_sign_at(it, cand, &sb);
-        if (r) return r;
-        int admit = 1;
-        if (sb == sa && it->reg->type->admit) {
-            admit = it->reg->type->admit(it->reg->self, it->st.z, cand, sol->lambda);
-            if (admit < 0) return DTH_EMODEL;
-        }
-        if (sb == sa && admit) {
-            r = dth__integrator_commit(it, sol->lambda);
-            if (r) return r;
-            it->st.psi_sign = sb;
-            info->lambda = sol->lambda;
-            info->iters = sol->iters;
-            info->residual = sol->residual;
-            info->branch = br;
-            return DTH_OK;
-        }
-    }
-    /* the ordinary step failed or crossed psi = 0: ask the regularizer */
-    dth_reg_event ev = reg_event(it, rc, plain_ok, dd, sol->lambda, sb);
-    int r = reg_apply(it, &ev, &act, info);
-    if (r) return r;
-    return reg_finish(it, &act, rc, plain_ok, sol, br, info);
-}
-
-/* Commit the hook's answer: its segment, or the ordinary step (plain_ok). Every check is done
- * before the state is touched. */
-static int reg_finish(dth_integrator *it, const dth_reg_action *act, int rc, int plain_ok, const dth__solution *sol,
-                      dth_branch br, dth_step_info *info)
-{
-    size_t N = it->N;
-    int r, sa = it->st.psi_sign, sb = 0;
-    double *dd = it->rbuf + N, *zt = it->rbuf + 2 * N, *ad = it->rbuf + 3 * N;
-    int replace = act->what == DTH_REG_REPLACE;
-    if (!replace && !plain_ok) return rc;
-    /* check everything, and the sign of psi at the new vertex, before touching the state */
-    const double *dk = replace ? ad : dd;
-    double lam = replace ? act->lambda : sol->lambda;
-    if (replace && (!(lam * it->st.dir > 0) || !isfinite(lam))) {
-        snprintf(it->errmsg, sizeof it->errmsg, "regularizer '%s' answered a step %.17g against the direction of travel",
-                 dth_regularizer_get_type(it->reg)->name, lam);
-        return DTH_EREFUSED;
-    }
-    for (size_t j = 0; j < N; j++) {
-        if (replace && (!isfinite(dk[j]) || (it->auton && j == N - 1 && dk[j] != 0))) {
-            snprintf(it->errmsg, sizeof it->errmsg, "regularizer '%s' answered a non-finite offset or one that changes wp",
-                     dth_regularizer_get_type(it->reg)->name);
-            return DTH_EREFUSED;
-        }
-        zt[j] = it->st.z[j] + (it->st.zlo[j] + 2 * dk[j]);
-    }
-    r = psi_sign_at(it, zt, &sb);
-    if (r) return r;
-    if (replace) dth__integrator_set_solution(it, dk, lam);
-    /* it->x / it->zb hold the ordinary solution otherwise. After a replacing segment's commit the
-     * carried vertex offset is evaluated afresh, which may fail: keep a copy of the vectors for
-     * dth_integrator_step to undo the step with */
-    if (replace) dth__state_snapshot(it);
-    r = dth__integrator_commit(it, lam);
-    if (r) return r;
-    if (replace) {
-        it->st.fact_valid = 0; /* no factors of this segment: no tangent map */
-        info->residual = act->residual;
-        info->branch = DTH_BRANCH_REG;
-        info->flags |= DTH_STEP_REGULARIZED;
-    } else {
-        info->residual = sol->residual;
-        info->branch = br;
-    }
-    if (sb != sa) info->flags |= DTH_STEP_CROSSING;
-    it->st.psi_sign = sb;
-    it->st.psi_known = 1;
-    info->lambda = lam;
-    /* a regularizer's segment: the carried vertex offset afresh (an ordinary step kept here has it
-     * already) */
-    if (replace) return dth__integrator_rho_reset(it);
     return DTH_OK;
 }

@@ -7,8 +7,8 @@
 #include <math.h>
 #include <string.h>
 #include "dth/run.h"
+#include "dth_internal.h"
 #include "dth/scene.h"
-#include "integrator_impl.h"
 
 void dth_run_state_init(dth_run_state *st)
 {
@@ -116,11 +116,10 @@ typedef struct drv {
     const dth_run_config *cfg;
     dth_run_state *st;
     dth_integrator *it;
-    dth_fixed *fx;
     const dth_model *model;
     size_t n, N;
     double dir;
-    double wp;            /* baseline: its constant wp */
+    int wp_fixed;         /* the method carries wp unchanged (a baseline): its flow is 0 */
     double *za, *zb, *zm; /* the last step's vertices and midpoint */
     double *ua, *ub;      /* flows at za, zb */
     double *zi, *zr;      /* scratch points */
@@ -134,31 +133,12 @@ typedef struct drv {
     int cb_failed;        /* a sample or checkpoint callback failed: no final checkpoint */
 } drv;
 
-static void vertex_now(drv *d, double *z)
-{
-    if (d->it) {
-        memcpy(z, dth_integrator_vertex(d->it), d->N * sizeof *z);
-    } else {
-        memcpy(z, dth_fixed_state(d->fx), (d->N - 1) * sizeof *z);
-        z[d->N - 1] = d->wp;
-    }
-}
-
-static int do_step(drv *d, dth_step_info *info)
-{
-    if (d->it) return dth_integrator_step(d->it, info);
-    memset(info, 0, sizeof *info);
-    dth_fixed_info fi;
-    int rc = dth_fixed_step(d->fx, &fi);
-    info->lambda = dth_fixed_h(d->fx);
-    info->iters = fi.iters;
-    return rc;
-}
+static void vertex_now(drv *d, double *z) { memcpy(z, dth_integrator_vertex(d->it), d->N * sizeof *z); }
 
 static int flow(drv *d, const double *z, double *u)
 {
     int rc = dth_flow(d->model, z, u, d->work);
-    if (!rc && d->fx) u[d->N - 1] = 0; /* a baseline carries wp unchanged */
+    if (!rc && d->wp_fixed) u[d->N - 1] = 0; /* a baseline carries wp unchanged */
     return rc;
 }
 
@@ -410,7 +390,7 @@ static int drive(drv *d)
 
     /* a resumed run whose last segment was cut (by t_end or a terminal event): the rest of it,
      * on the segment rebuilt from the midpoint (round-off of z_(k-1) = 2 zbar - z_k) */
-    const double *mid = d->it ? dth_integrator_midpoint(d->it) : NULL;
+    const double *mid = dth_integrator_midpoint(d->it);
     if (mid && st->k > 0 && before(d, st->t_stop, st->t)) {
         for (size_t j = 0; j < N; j++) d->za[j] = 2 * mid[j] - d->zb[j];
         d->ua_ok = d->ub_ok = 0;
@@ -445,7 +425,7 @@ static int drive(drv *d)
             }
         }
         dth_step_info info;
-        rc = do_step(d, &info);
+        rc = dth_integrator_step(d->it, &info);
         if (rc) {
             ended_by = DTH_RUN_FAILED;
             break;
@@ -459,7 +439,7 @@ static int drive(drv *d)
         d->ub_ok = 0;
         vertex_now(d, d->zb);
         /* a regularizer's segment has its midpoint too (z_k + d) */
-        double hi = open_segment(d, &info, st->k, d->it ? dth_integrator_midpoint(d->it) : NULL);
+        double hi = open_segment(d, &info, st->k, dth_integrator_midpoint(d->it));
         for (size_t e = 0; e < cfg->nevents; e++)
             if ((rc = ev_eval(d, e, d->zb, &d->gb[e])) != 0) goto cb;
         rc = segment(d, st->t_stop, hi, lo_closed, &t_stop, &stop_event);
@@ -533,12 +513,12 @@ cb:
     return rc;
 }
 
-static int run_common(dth_integrator *it, dth_fixed *fx, const dth_run_config *cfg, dth_run_state *st)
+int dth_run(dth_integrator *it, const dth_run_config *cfg, dth_run_state *st)
 {
-    if (!cfg || !st || (!it && !fx)) return DTH_EINVAL;
+    if (!cfg || !st || !it) return DTH_EINVAL;
     if (cfg->every < 1) return DTH_EINVAL;
     if (cfg->points == DTH_POINTS_TIMES && !cfg->times && !(cfg->dt > 0 && isfinite(cfg->dt))) return DTH_EINVAL;
-    if (cfg->points == DTH_POINTS_MIDPOINTS && !it) return DTH_EINVAL;
+    if (cfg->points == DTH_POINTS_MIDPOINTS && !dth__integrator_has_midpoints(it)) return DTH_EINVAL;
     if (cfg->nevents && !cfg->events) return DTH_EINVAL;
     for (size_t e = 0; e < cfg->nevents; e++)
         if (!cfg->events[e].g) return DTH_EINVAL;
@@ -548,12 +528,12 @@ static int run_common(dth_integrator *it, dth_fixed *fx, const dth_run_config *c
     d.cfg = cfg;
     d.st = st;
     d.it = it;
-    d.fx = fx;
-    d.model = it ? dth_integrator_model(it) : dth_fixed_model(fx);
+    d.model = dth_integrator_model(it);
+    d.wp_fixed = dth__integrator_wp_fixed(it);
     d.n = dth_model_dof(d.model);
     d.N = 2 * d.n + 2;
     size_t N = d.N, ne = cfg->nevents;
-    d.dir = it ? it->st.dir : dth_fixed_h(fx) > 0 ? 1.0 : -1.0;
+    d.dir = dth_integrator_direction(it);
     size_t nd = 7 * N + (2 * d.n + 1) + 5 * ne + 1;
     double *blk = dth_calloc(cfg->alloc, nd, sizeof *blk);
     int *dev = dth_calloc(cfg->alloc, ne + 1, sizeof *dev);
@@ -578,16 +558,8 @@ static int run_common(dth_integrator *it, dth_fixed *fx, const dth_run_config *c
     d.tev = p;
     d.dev = dev;
     int rc = DTH_OK;
-    if (fx) {
-        if (!st->started) {
-            double H;
-            rc = dth_model_eval(d.model, dth_fixed_state(fx), DTH_EVAL_H, &H, NULL, NULL);
-            st->wp_fixed = -H;
-        }
-        d.wp = st->wp_fixed;
-    }
-    if (!rc && cfg->has_t_end && !st->started) {
-        double t = (it ? dth_integrator_vertex(it) : dth_fixed_state(fx))[d.n];
+    if (cfg->has_t_end && !st->started) {
+        double t = dth_integrator_vertex(it)[d.n];
         double t0 = isnan(cfg->t0) ? t : cfg->t0;
         if (d.dir * (cfg->t_end - t0) < 0) rc = DTH_EINVAL;
     }
@@ -595,16 +567,4 @@ static int run_common(dth_integrator *it, dth_fixed *fx, const dth_run_config *c
     dth_free(cfg->alloc, blk);
     dth_free(cfg->alloc, dev);
     return rc;
-}
-
-int dth_run(dth_integrator *it, const dth_run_config *cfg, dth_run_state *st)
-{
-    if (!it) return DTH_EINVAL;
-    return run_common(it, NULL, cfg, st);
-}
-
-int dth_run_fixed(dth_fixed *fx, const dth_run_config *cfg, dth_run_state *st)
-{
-    if (!fx) return DTH_EINVAL;
-    return run_common(NULL, fx, cfg, st);
 }

@@ -745,15 +745,18 @@ static int check_integrator(setup_ctx *c, dth_run_setup *rs, const entry *e)
     long x;
     if (strcmp(k, "method") == 0) {
         c->method = e;
-        if (strcmp(v, "dth") != 0 && !dth_fixed_method_doc(v)) {
-            char avail[256] = "dth";
-            for (size_t i = 0; i < dth_fixed_method_count(); i++) {
+        size_t i = 0;
+        while (dth_method_name(i) && strcmp(v, dth_method_name(i)) != 0) i++;
+        if (!dth_method_name(i)) {
+            char avail[256] = "";
+            for (size_t j = 0; dth_method_name(j); j++) {
                 size_t l = strlen(avail);
-                snprintf(avail + l, sizeof avail - l, ", %s", dth_fixed_method_name(i));
+                snprintf(avail + l, sizeof avail - l, "%s%s", j ? ", " : "", dth_method_name(j));
             }
             return bad(c->err, c->errlen, e, "unknown method '%s' (available: %s)", v, avail);
         }
         snprintf(rs->method, sizeof rs->method, "%s", v);
+        rs->opt.method = dth_method_name(i); /* static storage: the setup may be copied */
     } else if (strcmp(k, "start") == 0) {
         c->start = e;
         if (strcmp(v, "midpoint") == 0) rs->opt.start = DTH_START_MIDPOINT;

@@ -34,7 +34,7 @@ static cli_ckpt sample(void)
     S->prev_crossing = 1;
     S->stop = DTH_RUN_RUNNING;
     S->t_stop = 61.2;
-    S->wp_fixed = -0.5;
+    S->in.proj_iters = 3;
     c.scene_hash = 0x0123456789abcdefULL;
     c.out = (cli_ckpt_out){strdup("/data/run/o.csv"), strdup("/data/run/o.csv.tmp.77.AbCdEf"), 123456, 0xfeedULL};
     c.ev = (cli_ckpt_out){strdup(""), strdup(""), 0, CLI_FNV_OFFSET};

@@ -17,7 +17,7 @@
 #include "cu_main.h"
 #include "dth/dth.h"
 #include "dth_internal.h"
-#include "integrator_impl.h"
+#include "dth_core.h"
 #include "test_util.h"
 
 /* ---- a separable model whose T'' is not diagonal (the small path's Schur complement does not apply) ---- */
@@ -70,7 +70,7 @@ static dth_integrator *make(const dth_model *m, double h, dth_linsolve ls, const
     o.branch_check = 0; /* the same root from both: the paths are what is compared */
     dth_integrator *it = NULL;
     CU_ASSERT_EQUAL_FATAL(dth_integrator_new(m, &o, &it), DTH_OK);
-    if (it->band) dth__band_lapack_only(it->band, band_lapack);
+    if (dth__integrator_core(it)->band) dth__band_lapack_only(dth__integrator_core(it)->band, band_lapack);
     CU_ASSERT_EQUAL_FATAL(dth_integrator_start(it, q, p, 0.0), DTH_OK);
     return it;
 }
@@ -109,7 +109,7 @@ static double compare(const dth_model *m, double h, dth_linsolve ls, const doubl
         dth_step_info sr, so;
         CU_ASSERT_EQUAL_FATAL(dth_integrator_step(ref, &sr), DTH_OK);
         CU_ASSERT_EQUAL_FATAL(dth_integrator_step(oth, &so), DTH_OK);
-        if (want_mode && k > 0 && dth__band_mode(oth->band) != want_mode) other_mode++;
+        if (want_mode && k > 0 && dth__band_mode(dth__integrator_core(oth)->band) != want_mode) other_mode++;
         double lam = sr.lambda, kappa = DBL_EPSILON * sc / (fabs(psi) * lam * lam / 8);
         if (k == 0) kappa = DBL_EPSILON; /* the exact first step of a midpoint start: no solve */
         double dl = fabs(so.lambda - lam) / fabs(lam), dz = 0;
@@ -130,7 +130,7 @@ static double compare(const dth_model *m, double h, dth_linsolve ls, const doubl
     }
     printf("\n    %-8s n = %zu, %s%s vs dense: largest difference %.2f x the conditioning bound, tangent maps %.1e",
            dth_model_get_type(m)->name, n, dth_linsolve_name(ls),
-           oth->band ? (dth__band_mode(oth->band) == 1 ? (band_lapack ? " (Schur, dpbtrf)" : " (Schur, LDL^T)") : " (LU)") : "",
+           dth__integrator_core(oth)->band ? (dth__band_mode(dth__integrator_core(oth)->band) == 1 ? (band_lapack ? " (Schur, dpbtrf)" : " (Schur, LDL^T)") : " (LU)") : "",
            worst, tworst);
     CU_ASSERT(worst <= 4);
     CU_ASSERT(tworst <= 1e-11);
@@ -147,7 +147,7 @@ static int schur_used(const dth_model *m, double h, dth_linsolve ls, const doubl
     dth_integrator *it = make(m, h, ls, q, p);
     CU_ASSERT_EQUAL(dth_integrator_step(it, NULL), DTH_OK); /* the exact first step */
     CU_ASSERT_EQUAL(dth_integrator_step(it, NULL), DTH_OK);
-    int on = it->small_schur && it->ss.on;
+    int on = dth__integrator_core(it)->small_schur && dth__integrator_core(it)->ss.on;
     dth_integrator_free(it);
     return on;
 }
@@ -179,7 +179,7 @@ static void test_small(void)
             CU_ASSERT_EQUAL_FATAL(dth_integrator_step(r, &sr), DTH_OK);
             CU_ASSERT_EQUAL_FATAL(dth_integrator_step(o, &so), DTH_OK);
             worst = fmax(worst, fabs(so.lambda - sr.lambda) / fabs(sr.lambda));
-            neg += o->ss.on && o->ss.K[0] < 0;
+            neg += dth__integrator_core(o)->ss.on && dth__integrator_core(o)->ss.K[0] < 0;
         }
         printf("\n    pendulum near the top, K < 0 in %d steps: lambda up to %.0f agrees to %.1e", neg,
                dth_integrator_lambda(r), worst);
@@ -277,9 +277,9 @@ static void test_schur_indefinite(void)
     dth_step_info si;
     CU_ASSERT_EQUAL(dth_integrator_step(it, &si), DTH_OK);
     int rc = dth_integrator_step(it, &si);
-    if (rc == DTH_OK) CU_ASSERT_EQUAL(dth__band_mode(it->band), BAND_SCHUR_LU);
+    if (rc == DTH_OK) CU_ASSERT_EQUAL(dth__band_mode(dth__integrator_core(it)->band), BAND_SCHUR_LU);
     printf("\n    compressed stiff chain: step %s, banded mode %d (2: LU of the Schur complement)",
-           dth_strerror(rc), dth__band_mode(it->band));
+           dth_strerror(rc), dth__band_mode(dth__integrator_core(it)->band));
     CU_ASSERT_EQUAL(rc, DTH_OK);
     dth_integrator_free(it);
     compare(m, 0.15, DTH_LINSOLVE_BANDED, q, p, 3, 0); /* omega h = 3: the fourth step has no root */

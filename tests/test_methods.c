@@ -83,6 +83,35 @@ static dth_model *mk(const dth_model_type *t, const dth_kv *kv, size_t nkv, size
     return m;
 }
 
+/* The baselines through the integrator (dth_options.method): the methods after "dth". */
+static size_t baseline_count(void) { return dth_method_count() - 1; }
+static const char *baseline_name(size_t i) { return dth_method_name(i + 1); }
+
+static int fixed_new(const dth_model *m, const char *meth, double h, dth_integrator **f)
+{
+    dth_options o;
+    dth_options_default(&o);
+    o.method = meth;
+    o.h = h;
+    return dth_integrator_new(m, &o, f);
+}
+
+static int fixed_check(const dth_model *m, const char *meth, char *why, size_t len)
+{
+    dth_options o;
+    dth_options_default(&o);
+    o.method = meth;
+    return dth_options_check(m, &o, why, len);
+}
+
+/* The step of a baseline, changed: the state set again (as it is) with step h. */
+static int fixed_set_h(dth_integrator *f, double h)
+{
+    double z[16];
+    memcpy(z, dth_integrator_vertex(f), dth_integrator_dim(f) * sizeof *z);
+    return dth_integrator_set_vertex(f, z, h);
+}
+
 static int exact(const dth_model *m, const double *y0, double t, double *y)
 {
     return dth_model_get_type(m)->exact(dth__model_self(m), y0, t, y);
@@ -93,11 +122,11 @@ static double global_error(const dth_model *m, const char *meth, const double *q
                            double T, long steps)
 {
     size_t n = dth_model_dof(m), d = 2 * n + 1;
-    dth_fixed *f = NULL;
-    CU_ASSERT_FATAL(dth_fixed_new(m, meth, T / (double)steps, NULL, &f) == DTH_OK);
-    CU_ASSERT_FATAL(dth_fixed_start(f, q0, p0, 0) == DTH_OK);
-    for (long k = 0; k < steps; k++) CU_ASSERT_FATAL(dth_fixed_step(f, NULL) == DTH_OK);
-    const double *y = dth_fixed_state(f);
+    dth_integrator *f = NULL;
+    CU_ASSERT_FATAL(fixed_new(m, meth, T / (double)steps, &f) == DTH_OK);
+    CU_ASSERT_FATAL(dth_integrator_start(f, q0, p0, 0) == DTH_OK);
+    for (long k = 0; k < steps; k++) CU_ASSERT_FATAL(dth_integrator_step(f, NULL) == DTH_OK);
+    const double *y = dth_integrator_vertex(f);
     double y0[16], ye[16], e = 0;
     memcpy(y0, q0, n * sizeof *q0);
     y0[n] = 0;
@@ -106,7 +135,7 @@ static double global_error(const dth_model *m, const char *meth, const double *q
     CU_ASSERT_DOUBLE_EQUAL(y[n], T, 1e-14 * T);
     for (size_t j = 0; j < d; j++)
         if (j != n) e = fmax(e, fabs(y[j] - ye[j]));
-    dth_fixed_free(f);
+    dth_integrator_free(f);
     return e;
 }
 
@@ -115,32 +144,32 @@ static double global_error(const dth_model *m, const char *meth, const double *q
 static void test_names(void)
 {
     dth_model *m = mk(&dth_model_pendulum, NULL, 0, 1), *ns = mk(&nonsep, NULL, 0, 1), *na = mk(&forced, NULL, 0, 1);
-    dth_fixed *f = NULL;
-    CU_ASSERT(dth_fixed_method_count() == 5);
-    for (size_t i = 0; i < dth_fixed_method_count(); i++) {
-        const char *name = dth_fixed_method_name(i);
-        CU_ASSERT_PTR_NOT_NULL(dth_fixed_method_doc(name));
-        CU_ASSERT(dth_fixed_new(m, name, 0.1, NULL, &f) == DTH_OK);
-        CU_ASSERT_STRING_EQUAL(dth_fixed_name(f), name);
-        dth_fixed_free(f);
+    dth_integrator *f = NULL;
+    CU_ASSERT(baseline_count() == 5);
+    for (size_t i = 0; i < baseline_count(); i++) {
+        const char *name = baseline_name(i);
+        CU_ASSERT_PTR_NOT_NULL(dth_method_doc(name));
+        CU_ASSERT(fixed_new(m, name, 0.1, &f) == DTH_OK);
+        CU_ASSERT_STRING_EQUAL(dth_integrator_method(f), name);
+        dth_integrator_free(f);
     }
-    CU_ASSERT_PTR_NULL(dth_fixed_method_name(5));
-    CU_ASSERT(dth_fixed_new(m, "euler", 0.1, NULL, &f) == DTH_ENOTFOUND && f == NULL);
-    CU_ASSERT(dth_fixed_new(m, "rk4", 0.0, NULL, &f) == DTH_EINVAL);
-    CU_ASSERT(dth_fixed_new(m, "rk4", NAN, NULL, &f) == DTH_EINVAL);
+    CU_ASSERT_PTR_NULL(baseline_name(5));
+    CU_ASSERT(fixed_new(m, "euler", 0.1, &f) == DTH_ENOTFOUND && f == NULL);
+    CU_ASSERT(fixed_new(m, "rk4", 0.0, &f) == DTH_EINVAL);
+    CU_ASSERT(fixed_new(m, "rk4", NAN, &f) == DTH_EINVAL);
     char why[160];
-    CU_ASSERT(dth_fixed_new(ns, "verlet", 0.1, NULL, &f) == DTH_EUNSUPPORTED && f == NULL);
-    CU_ASSERT(dth_fixed_check(ns, "verlet", why, sizeof why) == DTH_EUNSUPPORTED);
+    CU_ASSERT(fixed_new(ns, "verlet", 0.1, &f) == DTH_EUNSUPPORTED && f == NULL);
+    CU_ASSERT(fixed_check(ns, "verlet", why, sizeof why) == DTH_EUNSUPPORTED);
     CU_ASSERT_PTR_NOT_NULL(strstr(why, "separable"));
     CU_ASSERT_PTR_NOT_NULL(strstr(why, "nonsep"));
-    CU_ASSERT(dth_fixed_check(na, "midpoint-proj", why, sizeof why) == DTH_EUNSUPPORTED);
+    CU_ASSERT(fixed_check(na, "midpoint-proj", why, sizeof why) == DTH_EUNSUPPORTED);
     CU_ASSERT_PTR_NOT_NULL(strstr(why, "autonomous"));
-    CU_ASSERT(dth_fixed_check(ns, "gauss4", why, sizeof why) == DTH_OK);
+    CU_ASSERT(fixed_check(ns, "gauss4", why, sizeof why) == DTH_OK);
     /* stepping before start */
-    CU_ASSERT(dth_fixed_new(m, "midpoint", 0.1, NULL, &f) == DTH_OK);
-    CU_ASSERT(dth_fixed_step(f, NULL) == DTH_EINVAL);
-    dth_fixed_free(f);
-    dth_fixed_free(NULL);
+    CU_ASSERT(fixed_new(m, "midpoint", 0.1, &f) == DTH_OK);
+    CU_ASSERT(dth_integrator_step(f, NULL) == DTH_EINVAL);
+    dth_integrator_free(f);
+    dth_integrator_free(NULL);
     dth_model_free(m);
     dth_model_free(ns);
     dth_model_free(na);
@@ -149,15 +178,15 @@ static void test_names(void)
 /* Convergence orders against exact solutions: log2 of the error ratio at h and h/2. */
 static void check_orders(const dth_model *m, const double *q0, const double *p0, double T, long N)
 {
-    for (size_t i = 0; i < dth_fixed_method_count(); i++) {
-        const char *name = dth_fixed_method_name(i);
-        if (dth_fixed_check(m, name, NULL, 0)) continue;
+    for (size_t i = 0; i < baseline_count(); i++) {
+        const char *name = baseline_name(i);
+        if (fixed_check(m, name, NULL, 0)) continue;
         double e1 = global_error(m, name, q0, p0, T, N), e2 = global_error(m, name, q0, p0, T, 2 * N);
         double ord = log2(e1 / e2);
-        dth_fixed *f;
-        CU_ASSERT_FATAL(dth_fixed_new(m, name, 1, NULL, &f) == DTH_OK);
-        int want = dth_fixed_order(f);
-        dth_fixed_free(f);
+        dth_integrator *f;
+        CU_ASSERT_FATAL(fixed_new(m, name, 1, &f) == DTH_OK);
+        int want = dth_integrator_order(f);
+        dth_integrator_free(f);
         CU_ASSERT(fabs(ord - want) < 0.25);
         if (fabs(ord - want) >= 0.25) fprintf(stderr, "%s: order %.3f (errors %.3g %.3g)\n", name, ord, e1, e2);
     }
@@ -184,48 +213,48 @@ static void test_quadratic_invariants(void)
     const char *gauss[] = {"midpoint", "gauss4"};
     for (int g = 0; g < 2; g++) {
         double q0[2] = {1, -0.3}, p0[2] = {0.2, 0.7}, I0[2], I[2], dmax = 0;
-        dth_fixed *f;
-        CU_ASSERT_FATAL(dth_fixed_new(h2, gauss[g], 0.3, NULL, &f) == DTH_OK);
-        CU_ASSERT_FATAL(dth_fixed_start(f, q0, p0, 0) == DTH_OK);
-        dth_model_get_type(h2)->invariants(dth__model_self(h2), dth_fixed_state(f), I0);
+        dth_integrator *f;
+        CU_ASSERT_FATAL(fixed_new(h2, gauss[g], 0.3, &f) == DTH_OK);
+        CU_ASSERT_FATAL(dth_integrator_start(f, q0, p0, 0) == DTH_OK);
+        dth_model_get_type(h2)->invariants(dth__model_self(h2), dth_integrator_vertex(f), I0);
         for (int k = 0; k < 2000; k++) {
-            CU_ASSERT_FATAL(dth_fixed_step(f, NULL) == DTH_OK);
-            dth_model_get_type(h2)->invariants(dth__model_self(h2), dth_fixed_state(f), I);
+            CU_ASSERT_FATAL(dth_integrator_step(f, NULL) == DTH_OK);
+            dth_model_get_type(h2)->invariants(dth__model_self(h2), dth_integrator_vertex(f), I);
             for (int i = 0; i < 2; i++) dmax = fmax(dmax, fabs(I[i] - I0[i]) / I0[i]);
         }
         CU_ASSERT(dmax < 1e-13);
         if (dmax >= 1e-13) fprintf(stderr, "%s: harmonic invariant drift %.3g\n", gauss[g], dmax);
-        dth_fixed_free(f);
+        dth_integrator_free(f);
         /* Kepler e = 0.6 from pericentre: L = q x p (invariant 0) */
         double kq[2] = {0.4, 0}, kp[2] = {0, sqrt(1.6 / 0.4)}, L0[8], L[8];
-        CU_ASSERT_FATAL(dth_fixed_new(kep, gauss[g], 0.02, NULL, &f) == DTH_OK);
-        CU_ASSERT_FATAL(dth_fixed_start(f, kq, kp, 0) == DTH_OK);
-        dth_model_get_type(kep)->invariants(dth__model_self(kep), dth_fixed_state(f), L0);
+        CU_ASSERT_FATAL(fixed_new(kep, gauss[g], 0.02, &f) == DTH_OK);
+        CU_ASSERT_FATAL(dth_integrator_start(f, kq, kp, 0) == DTH_OK);
+        dth_model_get_type(kep)->invariants(dth__model_self(kep), dth_integrator_vertex(f), L0);
         dmax = 0;
         for (int k = 0; k < 1000; k++) {
-            CU_ASSERT_FATAL(dth_fixed_step(f, NULL) == DTH_OK);
-            dth_model_get_type(kep)->invariants(dth__model_self(kep), dth_fixed_state(f), L);
+            CU_ASSERT_FATAL(dth_integrator_step(f, NULL) == DTH_OK);
+            dth_model_get_type(kep)->invariants(dth__model_self(kep), dth_integrator_vertex(f), L);
             dmax = fmax(dmax, fabs(L[0] - L0[0]));
         }
         CU_ASSERT(dmax < 1e-13);
-        dth_fixed_free(f);
+        dth_integrator_free(f);
     }
     /* Verlet on the oscillator (omega = 1, 2.5): p^2 + w^2 (1 - h^2 w^2/4) q^2 per mode */
     double q0[2] = {1, -0.3}, p0[2] = {0.2, 0.7}, h = 0.3, w[2] = {1, 2.5}, J0[2], dmax = 0;
-    dth_fixed *f;
-    CU_ASSERT_FATAL(dth_fixed_new(h2, "verlet", h, NULL, &f) == DTH_OK);
-    CU_ASSERT_FATAL(dth_fixed_start(f, q0, p0, 0) == DTH_OK);
+    dth_integrator *f;
+    CU_ASSERT_FATAL(fixed_new(h2, "verlet", h, &f) == DTH_OK);
+    CU_ASSERT_FATAL(dth_integrator_start(f, q0, p0, 0) == DTH_OK);
     for (int i = 0; i < 2; i++) J0[i] = p0[i] * p0[i] + w[i] * w[i] * (1 - h * h * w[i] * w[i] / 4) * q0[i] * q0[i];
     for (int k = 0; k < 2000; k++) {
-        CU_ASSERT_FATAL(dth_fixed_step(f, NULL) == DTH_OK);
-        const double *y = dth_fixed_state(f);
+        CU_ASSERT_FATAL(dth_integrator_step(f, NULL) == DTH_OK);
+        const double *y = dth_integrator_vertex(f);
         for (int i = 0; i < 2; i++) {
             double J = y[3 + i] * y[3 + i] + w[i] * w[i] * (1 - h * h * w[i] * w[i] / 4) * y[i] * y[i];
             dmax = fmax(dmax, fabs(J - J0[i]) / J0[i]);
         }
     }
     CU_ASSERT(dmax < 1e-13);
-    dth_fixed_free(f);
+    dth_integrator_free(f);
     dth_model_free(h2);
     dth_model_free(kep);
 }
@@ -235,17 +264,17 @@ static void test_rk4_damping(void)
 {
     dth_model *m = mk(&dth_model_harmonic, NULL, 0, 1);
     double q0 = 1, p0 = 0, h = 0.5, E0 = 0.5;
-    dth_fixed *f;
-    CU_ASSERT_FATAL(dth_fixed_new(m, "rk4", h, NULL, &f) == DTH_OK);
-    CU_ASSERT_FATAL(dth_fixed_start(f, &q0, &p0, 0) == DTH_OK);
+    dth_integrator *f;
+    CU_ASSERT_FATAL(fixed_new(m, "rk4", h, &f) == DTH_OK);
+    CU_ASSERT_FATAL(dth_integrator_start(f, &q0, &p0, 0) == DTH_OK);
     double r = 1 - pow(h, 6) / 72 + pow(h, 8) / 576;
     for (int k = 1; k <= 200; k++) {
-        CU_ASSERT_FATAL(dth_fixed_step(f, NULL) == DTH_OK);
-        const double *y = dth_fixed_state(f);
+        CU_ASSERT_FATAL(dth_integrator_step(f, NULL) == DTH_OK);
+        const double *y = dth_integrator_vertex(f);
         double E = 0.5 * (y[0] * y[0] + y[2] * y[2]);
         CU_ASSERT_DOUBLE_EQUAL(E, E0 * pow(r, k), 1e-14);
     }
-    dth_fixed_free(f);
+    dth_integrator_free(f);
     dth_model_free(m);
 }
 
@@ -254,24 +283,24 @@ static void test_projection(void)
 {
     dth_model *m = mk(&dth_model_pendulum, NULL, 0, 1);
     double q0 = 2.0, p0 = 0, E0 = -cos(2.0), dproj = 0, dmid = 0;
-    dth_fixed *f, *g;
-    CU_ASSERT_FATAL(dth_fixed_new(m, "midpoint-proj", 0.2, NULL, &f) == DTH_OK);
-    CU_ASSERT_FATAL(dth_fixed_new(m, "midpoint", 0.2, NULL, &g) == DTH_OK);
-    CU_ASSERT_FATAL(dth_fixed_start(f, &q0, &p0, 0) == DTH_OK);
-    CU_ASSERT_FATAL(dth_fixed_start(g, &q0, &p0, 0) == DTH_OK);
+    dth_integrator *f, *g;
+    CU_ASSERT_FATAL(fixed_new(m, "midpoint-proj", 0.2, &f) == DTH_OK);
+    CU_ASSERT_FATAL(fixed_new(m, "midpoint", 0.2, &g) == DTH_OK);
+    CU_ASSERT_FATAL(dth_integrator_start(f, &q0, &p0, 0) == DTH_OK);
+    CU_ASSERT_FATAL(dth_integrator_start(g, &q0, &p0, 0) == DTH_OK);
     for (int k = 0; k < 1000; k++) {
-        dth_fixed_info inf;
-        CU_ASSERT_FATAL(dth_fixed_step(f, &inf) == DTH_OK);
+        dth_step_info inf;
+        CU_ASSERT_FATAL(dth_integrator_step(f, &inf) == DTH_OK);
         CU_ASSERT(inf.iters >= 1 && inf.proj_iters >= 1 && inf.proj_iters <= 5);
-        CU_ASSERT_FATAL(dth_fixed_step(g, NULL) == DTH_OK);
-        const double *y = dth_fixed_state(f), *x = dth_fixed_state(g);
+        CU_ASSERT_FATAL(dth_integrator_step(g, NULL) == DTH_OK);
+        const double *y = dth_integrator_vertex(f), *x = dth_integrator_vertex(g);
         dproj = fmax(dproj, fabs(0.5 * y[2] * y[2] - cos(y[0]) - E0));
         dmid = fmax(dmid, fabs(0.5 * x[2] * x[2] - cos(x[0]) - E0));
     }
     CU_ASSERT(dproj < 1e-14);
     CU_ASSERT(dmid > 1e-4); /* the projection did something */
-    dth_fixed_free(f);
-    dth_fixed_free(g);
+    dth_integrator_free(f);
+    dth_integrator_free(g);
     dth_model_free(m);
 }
 
@@ -282,18 +311,19 @@ static void test_reversible(void)
     const char *sym[] = {"midpoint", "gauss4", "verlet"};
     for (int s = 0; s < 3; s++) {
         double q0[2] = {0.4, 0}, p0[2] = {0, 2}, dev = 0;
-        dth_fixed *f;
-        CU_ASSERT_FATAL(dth_fixed_new(m, sym[s], 0.01, NULL, &f) == DTH_OK);
-        CU_ASSERT_FATAL(dth_fixed_start(f, q0, p0, 0) == DTH_OK);
-        for (int k = 0; k < 300; k++) CU_ASSERT_FATAL(dth_fixed_step(f, NULL) == DTH_OK);
-        CU_ASSERT(dth_fixed_set_h(f, -0.01) == DTH_OK);
-        for (int k = 0; k < 300; k++) CU_ASSERT_FATAL(dth_fixed_step(f, NULL) == DTH_OK);
-        const double *y = dth_fixed_state(f);
+        dth_integrator *f;
+        CU_ASSERT_FATAL(fixed_new(m, sym[s], 0.01, &f) == DTH_OK);
+        CU_ASSERT_FATAL(dth_integrator_start(f, q0, p0, 0) == DTH_OK);
+        for (int k = 0; k < 300; k++) CU_ASSERT_FATAL(dth_integrator_step(f, NULL) == DTH_OK);
+        dth_integrator_reverse(f);
+        CU_ASSERT(dth_integrator_lambda(f) == -0.01);
+        for (int k = 0; k < 300; k++) CU_ASSERT_FATAL(dth_integrator_step(f, NULL) == DTH_OK);
+        const double *y = dth_integrator_vertex(f);
         dev = fmax(fmax(fabs(y[0] - q0[0]), fabs(y[1] - q0[1])), fmax(fabs(y[3] - p0[0]), fabs(y[4] - p0[1])));
         CU_ASSERT(dev < 1e-11);
         CU_ASSERT(fabs(y[2]) < 1e-15);
-        CU_ASSERT(dth_fixed_steps(f) == 600);
-        dth_fixed_free(f);
+        CU_ASSERT(dth_integrator_steps(f) == 600);
+        dth_integrator_free(f);
     }
     dth_model_free(m);
 }
@@ -302,24 +332,24 @@ static void test_reversible(void)
 static void test_failed_step(void)
 {
     dth_model *m = mk(&domain, NULL, 0, 1);
-    for (size_t i = 0; i < dth_fixed_method_count(); i++) {
-        const char *name = dth_fixed_method_name(i);
+    for (size_t i = 0; i < baseline_count(); i++) {
+        const char *name = baseline_name(i);
         double q0 = 0.9, p0 = 1.0, before[3];
-        dth_fixed *f;
-        CU_ASSERT_FATAL(dth_fixed_new(m, name, 0.001, NULL, &f) == DTH_OK);
-        CU_ASSERT_FATAL(dth_fixed_start(f, &q0, &p0, 0) == DTH_OK);
-        for (int k = 0; k < 10; k++) CU_ASSERT_FATAL(dth_fixed_step(f, NULL) == DTH_OK);
-        memcpy(before, dth_fixed_state(f), sizeof before);
-        CU_ASSERT(dth_fixed_set_h(f, 0.5) == DTH_OK);
-        int rc = dth_fixed_step(f, NULL);
+        dth_integrator *f;
+        CU_ASSERT_FATAL(fixed_new(m, name, 0.001, &f) == DTH_OK);
+        CU_ASSERT_FATAL(dth_integrator_start(f, &q0, &p0, 0) == DTH_OK);
+        for (int k = 0; k < 10; k++) CU_ASSERT_FATAL(dth_integrator_step(f, NULL) == DTH_OK);
+        memcpy(before, dth_integrator_vertex(f), sizeof before);
+        CU_ASSERT(fixed_set_h(f, 0.5) == DTH_OK); /* counts steps afresh */
+        int rc = dth_integrator_step(f, NULL);
         CU_ASSERT(rc == DTH_EDOMAIN);
-        CU_ASSERT(memcmp(before, dth_fixed_state(f), sizeof before) == 0);
-        CU_ASSERT(dth_fixed_steps(f) == 10);
-        CU_ASSERT_PTR_NOT_NULL(strstr(dth_fixed_errmsg(f), "model evaluation failed"));
-        CU_ASSERT(dth_fixed_set_h(f, 0.001) == DTH_OK);
-        CU_ASSERT(dth_fixed_step(f, NULL) == DTH_OK);
-        CU_ASSERT(dth_fixed_state(f)[0] > before[0]);
-        dth_fixed_free(f);
+        CU_ASSERT(memcmp(before, dth_integrator_vertex(f), sizeof before) == 0);
+        CU_ASSERT(dth_integrator_steps(f) == 0);
+        CU_ASSERT_PTR_NOT_NULL(strstr(dth_integrator_errmsg(f), "model evaluation failed"));
+        CU_ASSERT(fixed_set_h(f, 0.001) == DTH_OK);
+        CU_ASSERT(dth_integrator_step(f, NULL) == DTH_OK);
+        CU_ASSERT(dth_integrator_vertex(f)[0] > before[0]);
+        dth_integrator_free(f);
     }
     dth_model_free(m);
 }
@@ -490,18 +520,18 @@ static void test_large_steps(void)
         if (hs[i] >= 2) CU_ASSERT(r.rc > 0);
     }
     /* fixed-step methods at h = 5: finite or a status */
-    for (size_t i = 0; i < dth_fixed_method_count(); i++) {
+    for (size_t i = 0; i < baseline_count(); i++) {
         double q0 = 1, p0 = 0;
-        dth_fixed *f;
-        CU_ASSERT_FATAL(dth_fixed_new(m, dth_fixed_method_name(i), 5, NULL, &f) == DTH_OK);
-        CU_ASSERT_FATAL(dth_fixed_start(f, &q0, &p0, 0) == DTH_OK);
+        dth_integrator *f;
+        CU_ASSERT_FATAL(fixed_new(m, baseline_name(i), 5, &f) == DTH_OK);
+        CU_ASSERT_FATAL(dth_integrator_start(f, &q0, &p0, 0) == DTH_OK);
         for (int k = 0; k < 100; k++) {
-            int rc = dth_fixed_step(f, NULL);
-            const double *y = dth_fixed_state(f);
+            int rc = dth_integrator_step(f, NULL);
+            const double *y = dth_integrator_vertex(f);
             CU_ASSERT(isfinite(y[0]) && isfinite(y[2]));
             if (rc) break;
         }
-        dth_fixed_free(f);
+        dth_integrator_free(f);
     }
     dth_model_free(m);
 }

@@ -63,19 +63,23 @@ static trip dth_trip(const dth_model *m, const double *q0, const double *p0, dou
 
 static double midpoint_trip(const dth_model *m, const double *q0, const double *p0, double h, long S)
 {
-    dth_fixed *f = NULL;
-    CU_ASSERT_EQUAL_FATAL(dth_fixed_new(m, "midpoint", h, NULL, &f), DTH_OK);
-    CU_ASSERT_EQUAL_FATAL(dth_fixed_start(f, q0, p0, 0.0), DTH_OK);
+    dth_integrator *f = NULL;
+    dth_options o;
+    dth_options_default(&o);
+    o.method = "midpoint";
+    o.h = h;
+    CU_ASSERT_EQUAL_FATAL(dth_integrator_new(m, &o, &f), DTH_OK);
+    CU_ASSERT_EQUAL_FATAL(dth_integrator_start(f, q0, p0, 0.0), DTH_OK);
     size_t n = dth_model_dof(m);
     double y0[MAXZ], d = 0, sc = 1;
-    memcpy(y0, dth_fixed_state(f), (2 * n + 1) * sizeof *y0);
-    for (long k = 0; k < S; k++) CU_ASSERT_EQUAL_FATAL(dth_fixed_step(f, NULL), DTH_OK);
-    dth_fixed_set_h(f, -h);
-    for (long k = 0; k < S; k++) CU_ASSERT_EQUAL_FATAL(dth_fixed_step(f, NULL), DTH_OK);
-    const double *y = dth_fixed_state(f);
+    memcpy(y0, dth_integrator_vertex(f), (2 * n + 1) * sizeof *y0);
+    for (long k = 0; k < S; k++) CU_ASSERT_EQUAL_FATAL(dth_integrator_step(f, NULL), DTH_OK);
+    dth_integrator_reverse(f);
+    for (long k = 0; k < S; k++) CU_ASSERT_EQUAL_FATAL(dth_integrator_step(f, NULL), DTH_OK);
+    const double *y = dth_integrator_vertex(f);
     for (size_t i = 0; i < n; i++) sc = fmax(sc, fmax(fabs(y0[i]), fabs(y0[n + 1 + i])));
     for (size_t i = 0; i < n; i++) d = fmax(d, fmax(fabs(y[i] - y0[i]), fabs(y[n + 1 + i] - y0[n + 1 + i])) / sc);
-    dth_fixed_free(f);
+    dth_integrator_free(f);
     return d;
 }
 

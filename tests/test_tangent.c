@@ -15,7 +15,7 @@
 #include <string.h>
 #include "cu_main.h"
 #include "dth/dth.h"
-#include "integrator_impl.h"
+#include "dth_core.h"
 #include "test_util.h"
 #include "../docs/examples/henon_heiles.h"
 
@@ -198,7 +198,7 @@ static void check(const dth_model *m, ld_model f, const double *q0, const double
     ld Mr[MAXZ * MAXZ], zl[MAXZ], dl[MAXZ], lam_ld;
     for (int k = 0; k < steps; k++) {
         /* the vertex as the library holds it: a double-double sum */
-        for (int j = 0; j < N; j++) zl[j] = (ld)it->st.z[j] + (ld)it->st.zlo[j];
+        for (int j = 0; j < N; j++) zl[j] = (ld)dth__integrator_core(it)->st.z[j] + (ld)dth__integrator_core(it)->st.zlo[j];
         dth_step_info info;
         CU_ASSERT_EQUAL_FATAL(dth_integrator_step(it, &info), DTH_OK);
         if (k == 0 || k % every) continue;

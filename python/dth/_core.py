@@ -678,7 +678,6 @@ class Simulation:
         self._reg = _Registry(models)
         self._rs = ffi.new("dth_run_setup *")
         self._it = ffi.NULL
-        self._fx = ffi.NULL
         self._megno = None
         self._st = ffi.new("dth_run_state *")
         err = ffi.new("char[]", _ERRLEN)
@@ -709,46 +708,35 @@ class Simulation:
                 raise DthError(-1, "%s: model '%s' fails its derivative check at the initial state: %s "
                                "(check_model=False runs it anyway)" % (self.scene.name, self.model_name,
                                                                       ffi.string(rep.message).decode()))
-        if self.method == "dth":
-            ip = ffi.new("dth_integrator **")
-            rc = L.dth_integrator_new(rs.model, ffi.addressof(rs, "opt"), ip)
-            if rc:
-                self.close()
-                raise DthError(rc, "cannot create the integrator")
-            self._it = ip[0]
-            if _restore is not None:
-                buf, st = _restore
-                rc = L.dth_checkpoint_restore(self._it, buf, len(buf), err, _ERRLEN)
-                _raise_pending()
-                if rc:
-                    self.close()
-                    raise DthError(rc, _err(err))
-                ffi.memmove(self._st, st, ffi.sizeof("dth_run_state"))
-            else:
-                rc = L.dth_integrator_start(self._it, rs.q0, rs.p0, rs.t0)
-                _raise_pending()
-                if rc:
-                    msg = ffi.string(L.dth_integrator_errmsg(self._it)).decode()
-                    self.close()
-                    raise DthError(rc, "%s: cannot start at the initial state: %s (%s)" % (
-                        self.scene.name, strerror(rc), msg))
-        else:
-            if _restore is not None:
-                raise DthError(-8, "checkpoints hold DTH runs only")
-            why = ffi.new("char[]", 256)
-            rc = L.dth_fixed_check(rs.model, rs.method, why, 256)
-            if rc:
-                self.close()
-                raise DthError(rc, "method '%s': %s" % (self.method, _err(why)))
-            fp = ffi.new("dth_fixed **")
-            rc = L.dth_fixed_new(rs.model, rs.method, rs.opt.h, ffi.NULL, fp)
-            if not rc:
-                self._fx = fp[0]
-                rc = L.dth_fixed_start(self._fx, rs.q0, rs.p0, rs.t0)
+        why = ffi.new("char[]", 256)
+        opt = ffi.new("dth_options *")
+        opt[0] = rs.opt
+        rc = L.dth_options_check(rs.model, opt, why, 256)
+        if rc:
+            self.close()
+            raise DthError(rc, "method '%s': %s" % (self.method, _err(why)))
+        ip = ffi.new("dth_integrator **")
+        rc = L.dth_integrator_new(rs.model, ffi.addressof(rs, "opt"), ip)
+        if rc:
+            self.close()
+            raise DthError(rc, "cannot create the integrator")
+        self._it = ip[0]
+        if _restore is not None:
+            buf, st = _restore
+            rc = L.dth_checkpoint_restore(self._it, buf, len(buf), err, _ERRLEN)
             _raise_pending()
             if rc:
                 self.close()
-                raise DthError(rc, "%s: cannot start at the initial state: %s" % (self.scene.name, strerror(rc)))
+                raise DthError(rc, _err(err))
+            ffi.memmove(self._st, st, ffi.sizeof("dth_run_state"))
+        else:
+            rc = L.dth_integrator_start(self._it, rs.q0, rs.p0, rs.t0)
+            _raise_pending()
+            if rc:
+                msg = ffi.string(L.dth_integrator_errmsg(self._it)).decode()
+                self.close()
+                raise DthError(rc, "%s: cannot start at the initial state: %s (%s)" % (
+                    self.scene.name, strerror(rc), msg))
 
     def close(self):
         """Free the C objects (also done when the object is collected)."""
@@ -759,9 +747,6 @@ class Simulation:
         if getattr(self, "_it", ffi.NULL) != ffi.NULL:
             L.dth_integrator_free(self._it)
             self._it = ffi.NULL
-        if getattr(self, "_fx", ffi.NULL) != ffi.NULL:
-            L.dth_fixed_free(self._fx)
-            self._fx = ffi.NULL
         if getattr(self, "_rs", None) is not None:
             L.dth_run_setup_clear(self._rs)
             self._rs = None
@@ -780,10 +765,7 @@ class Simulation:
     def vertex(self):
         """The current vertex z_k (q, t, p, wp) as a numpy array (DTH), or the state (q, t, p, wp)."""
         N = 2 * self.n + 2
-        if self._it != ffi.NULL:
-            return np.array(ffi.unpack(lib().dth_integrator_vertex(self._it), N))
-        y = ffi.unpack(lib().dth_fixed_state(self._fx), N - 1)
-        return np.array(y + [self._st.wp_fixed])
+        return np.array(ffi.unpack(lib().dth_integrator_vertex(self._it), N))
 
     @property
     def steps(self):
@@ -861,10 +843,7 @@ class Simulation:
                 return 0
             cfg.progress, cfg.progress_every = on_progress, 1
         st = self._st
-        if self._it != ffi.NULL:
-            rc = L.dth_run(self._it, cfg, st)
-        else:
-            rc = L.dth_run_fixed(self._fx, cfg, st)
+        rc = L.dth_run(self._it, cfg, st)
         _raise_pending()
         if meg is not None:
             meg.update()  # the last step (no progress call follows it)
@@ -875,8 +854,7 @@ class Simulation:
         r.status_name = status_name(rc)
         msg = ""
         if rc > 0:
-            msg = ffi.string(L.dth_integrator_errmsg(self._it) if self._it != ffi.NULL
-                             else L.dth_fixed_errmsg(self._fx)).decode()
+            msg = ffi.string(L.dth_integrator_errmsg(self._it)).decode()
         r.message = msg
         r.stop = _STOP.get(st.stop, str(st.stop))
         r.steps, r.t_stop = st.k, st.t_stop
@@ -894,7 +872,7 @@ class Simulation:
         format version). Returns the bytes; with `path`, also writes them crash-safely."""
         L = lib()
         if self._it == ffi.NULL:
-            raise DthError(-8, "checkpoints hold DTH runs only")
+            raise DthError(-1, "the simulation is closed")
         scene = self._text.encode()
         meta = json.dumps({"version": 1, "scene_name": self.scene.name}).encode()
         st = bytes(ffi.buffer(self._st))

@@ -151,9 +151,11 @@ typedef struct dth_step_info {
     double residual;
     dth_branch branch;
     unsigned flags;
+    int proj_iters;
 } dth_step_info;
 enum { DTH_STEP_REGULARIZED = 1, DTH_STEP_CROSSING = 2 };
 typedef struct dth_integrator dth_integrator;
+int dth_options_check(const dth_model *model, dth_options *opt, char *err, size_t errlen);
 int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integrator **out);
 void dth_integrator_free(dth_integrator *it);
 int dth_integrator_start(dth_integrator *it, const double *q0, const double *p0, double t0);
@@ -162,6 +164,9 @@ int dth_integrator_step(dth_integrator *it, dth_step_info *info);
 const double *dth_integrator_vertex(const dth_integrator *it);
 const double *dth_integrator_midpoint(const dth_integrator *it);
 double dth_integrator_lambda(const dth_integrator *it);
+double dth_integrator_direction(const dth_integrator *it);
+const char *dth_integrator_method(const dth_integrator *it);
+int dth_integrator_order(const dth_integrator *it);
 long dth_integrator_steps(const dth_integrator *it);
 size_t dth_integrator_dim(const dth_integrator *it);
 const char *dth_integrator_errmsg(const dth_integrator *it);
@@ -179,13 +184,9 @@ const char *dth_region_name(dth_region r);
 const char *dth_branch_name(dth_branch b);
 
 /* methods.h */
-typedef struct dth_fixed dth_fixed;
-int dth_fixed_new(const dth_model *model, const char *method, double h, const dth_allocator *alloc, dth_fixed **out);
-int dth_fixed_check(const dth_model *model, const char *method, char *why, size_t len);
-void dth_fixed_free(dth_fixed *f);
-int dth_fixed_start(dth_fixed *f, const double *q0, const double *p0, double t0);
-const double *dth_fixed_state(const dth_fixed *f);
-const char *dth_fixed_errmsg(const dth_fixed *f);
+size_t dth_method_count(void);
+const char *dth_method_name(size_t i);
+const char *dth_method_doc(const char *name);
 
 /* run.h */
 typedef enum dth_points { DTH_POINTS_VERTICES = 0, DTH_POINTS_MIDPOINTS = 1, DTH_POINTS_TIMES = 2 } dth_points;
@@ -237,7 +238,6 @@ typedef struct dth_run_state {
     int prev_crossing;
     int stop;
     double t_stop;
-    double wp_fixed;
 } dth_run_state;
 void dth_run_state_init(dth_run_state *st);
 typedef struct dth_run_config {
@@ -263,7 +263,6 @@ typedef struct dth_run_config {
 } dth_run_config;
 void dth_run_config_default(dth_run_config *cfg);
 int dth_run(dth_integrator *it, const dth_run_config *cfg, dth_run_state *st);
-int dth_run_fixed(dth_fixed *fx, const dth_run_config *cfg, dth_run_state *st);
 
 /* scene.h */
 typedef struct dth_scene dth_scene;

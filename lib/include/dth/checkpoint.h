@@ -36,7 +36,7 @@ extern "C" {
 /* 4: state as named fields from one list (adds the branch policy's memory psi_prev, psi_step and
  *    the carried vertex offset rho), the options that change the steps, the regularizer's name;
  * 3: the predictor's three offsets; no LU factors (the tangent refactors) */
-#define DTH_CHECKPOINT_VERSION 5
+#define DTH_CHECKPOINT_VERSION 6
 
 /** A named blob of caller data stored alongside the state. */
 typedef struct dth_blob {

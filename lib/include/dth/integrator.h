@@ -146,6 +146,7 @@ typedef struct dth_step_info {
     double residual; /**< |H(zbar)| at the accepted midpoint */
     dth_branch branch; /**< which root was taken */
     unsigned flags;  /**< DTH_STEP_* flags */
+    int proj_iters;  /**< baseline "midpoint-proj": iterations of its energy projection, else 0 */
 } dth_step_info;
 
 /** dth_step_info.flags */
@@ -154,7 +155,8 @@ enum {
     DTH_STEP_CROSSING = 2u     /**< psi changed sign across this step */
 };
 
-/** The integrator: state plus preallocated workspace. Opaque. */
+/** The integrator: a method (the DTH step or a fixed-step baseline, dth_options.method) with its
+ *  state and preallocated workspace. Opaque. Accessors accept NULL (NULL, NaN or 0 back). */
 typedef struct dth_integrator dth_integrator;
 
 /**
@@ -195,8 +197,14 @@ DTH_API void dth_integrator_reverse(dth_integrator *it);
 DTH_API const double *dth_integrator_vertex(const dth_integrator *it);
 /** The midpoint of the last step (length 2n+2), or NULL before the first step. */
 DTH_API const double *dth_integrator_midpoint(const dth_integrator *it);
-/** The incoming (last) step lambda, 0 before the first step of a vertex start. */
+/** The incoming (last) step lambda, 0 before the first step of a vertex start (a baseline: its h). */
 DTH_API double dth_integrator_lambda(const dth_integrator *it);
+/** The direction of travel, +1 or -1 (NaN for NULL). */
+DTH_API double dth_integrator_direction(const dth_integrator *it);
+/** The method's name ("dth", or a baseline's: methods.h). */
+DTH_API const char *dth_integrator_method(const dth_integrator *it);
+/** The method's order. */
+DTH_API int dth_integrator_order(const dth_integrator *it);
 /**
  * The energy the trajectory conserves: -wp at the current vertex, which every midpoint carries
  * (H(zbar) = wp + H_phys = 0) for an autonomous model. With a midpoint start it is H_phys of the

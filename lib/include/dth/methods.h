@@ -1,12 +1,15 @@
 /* SPDX-License-Identifier: MIT */
 /**
- * @file methods.h  Fixed-step baseline integrators of the physical system, for comparison with
- * DTH (paper, section 1: the symplectic and energy-conserving methods SEM integration competes
- * with), and the conditioning limit of the DTH step (paper, Lemma g_taylor: g'(lambda) ~ -psi
- * lambda / 4, so lambda is fixed by a second-order effect).
+ * @file methods.h  The methods an integrator steps with (dth_options.method): the DTH step and
+ * fixed-step baselines of the physical system, for comparison with DTH (paper, section 1: the
+ * symplectic and energy-conserving methods SEM integration competes with); and the conditioning
+ * limits of the DTH step (paper, Lemma g_taylor: g'(lambda) ~ -psi lambda / 4, so lambda is fixed
+ * by a second-order effect).
  *
- * The baselines integrate y = (q, t, p) (length 2n+1) with dy/dt = (dH/dp, 1, -dH/dq), using
- * the model's gradient and Hessian through dth_model_eval. Methods, selected by name:
+ * The baselines integrate y = (q, t, p) with dy/dt = (dH/dp, 1, -dH/dq), using the model's gradient
+ * and Hessian through dth_model_eval, with the step dth_options.h; an integrator of a baseline
+ * reports the extended state z = (q, t, p, wp) with wp = -H_phys at the start, carried unchanged
+ * (so H(z) is the energy error), has no midpoints and no tangent map. Methods, selected by name:
  *   "midpoint"       implicit midpoint rule (1-stage Gauss), Newton with LU;
  *   "gauss4"         2-stage Gauss-Legendre, order 4, symplectic, Newton on the stage system;
  *   "rk4"            classical explicit Runge-Kutta, order 4;
@@ -14,7 +17,9 @@
  *   "midpoint-proj"  implicit midpoint followed by the simple orthogonal projection onto the
  *                    initial energy along grad_(q,p) H (not symmetric, not symplectic);
  *                    autonomous models only.
- * The state update is compensated (y kept as a double-double sum), like the DTH vertex.
+ * The state update is compensated (y kept as a double-double sum), like the DTH vertex. The step
+ * record (dth_step_info) of a baseline has lambda = h, its Newton iterations, and for
+ * "midpoint-proj" the projection's iterations in proj_iters.
  */
 #ifndef DTH_METHODS_H
 #define DTH_METHODS_H
@@ -26,71 +31,12 @@
 extern "C" {
 #endif
 
-/** A fixed-step integrator of the physical system. Opaque. */
-typedef struct dth_fixed dth_fixed;
-
-/** Record of one fixed step. */
-typedef struct dth_fixed_info {
-    int iters;       /**< Newton iterations (LU factorizations) of the step, 0 if explicit */
-    int proj_iters;  /**< projection iterations (midpoint-proj), else 0 */
-} dth_fixed_info;
-
-/** Number of methods dth_fixed_new accepts. */
-DTH_API size_t dth_fixed_method_count(void);
+/** Number of methods dth_options.method accepts ("dth" first, then the baselines). */
+DTH_API size_t dth_method_count(void);
 /** Name of method i (0 <= i < count), NULL out of range. */
-DTH_API const char *dth_fixed_method_name(size_t i);
+DTH_API const char *dth_method_name(size_t i);
 /** One-line description of the method called `name`, NULL if unknown. */
-DTH_API const char *dth_fixed_method_doc(const char *name);
-
-/**
- * Create a fixed-step integrator with step h (its sign is the direction) for `model` (borrowed).
- * All working memory is allocated here; stepping allocates nothing.
- * @return DTH_OK; DTH_ENOTFOUND (unknown method name); DTH_EINVAL (h == 0 or not finite, NULL
- * argument); DTH_EUNSUPPORTED ("verlet" on a non-separable model, "midpoint-proj" on a
- * non-autonomous one: dth_fixed_new writes no message, see dth_fixed_check); DTH_ENOMEM.
- */
-DTH_API int dth_fixed_new(const dth_model *model, const char *method, double h,
-                          const dth_allocator *alloc, dth_fixed **out);
-
-/**
- * Can `method` integrate `model`? Writes a one-line reason into `why` (may be NULL) when not.
- * @return DTH_OK, DTH_ENOTFOUND, DTH_EUNSUPPORTED.
- */
-DTH_API int dth_fixed_check(const dth_model *model, const char *method, char *why, size_t len);
-
-/** Free; NULL is a no-op. */
-DTH_API void dth_fixed_free(dth_fixed *f);
-
-/**
- * Set the initial state. @return DTH_OK, DTH_EINVAL (non-finite input), DTH_EDOMAIN /
- * DTH_EMODEL from the model.
- */
-DTH_API int dth_fixed_start(dth_fixed *f, const double *q0, const double *p0, double t0);
-
-/**
- * One step of size h. On failure the state is exactly as before the call.
- * @return DTH_OK, DTH_ENOCONV (Newton or projection did not converge), DTH_ESINGULAR,
- * DTH_EDOMAIN, DTH_EMODEL, DTH_EINVAL (not started).
- */
-DTH_API int dth_fixed_step(dth_fixed *f, dth_fixed_info *info);
-
-/** Change the step size for the following steps. @return DTH_OK, DTH_EINVAL. */
-DTH_API int dth_fixed_set_h(dth_fixed *f, double h);
-
-/** The current state y = (q, t, p), length 2n+1. */
-DTH_API const double *dth_fixed_state(const dth_fixed *f);
-/** Steps taken since start. */
-DTH_API long dth_fixed_steps(const dth_fixed *f);
-/** The current step size h (signed). */
-DTH_API double dth_fixed_h(const dth_fixed *f);
-/** The model it integrates. */
-DTH_API const dth_model *dth_fixed_model(const dth_fixed *f);
-/** The method's name. */
-DTH_API const char *dth_fixed_name(const dth_fixed *f);
-/** Classical order of the method. */
-DTH_API int dth_fixed_order(const dth_fixed *f);
-/** Detail of the last failure (a fixed string if none). */
-DTH_API const char *dth_fixed_errmsg(const dth_fixed *f);
+DTH_API const char *dth_method_doc(const char *name);
 
 /**
  * Conditioning limit of the DTH step at the vertex z (length 2n+2). The step lambda solves

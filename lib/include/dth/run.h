@@ -41,7 +41,6 @@
 #include <stddef.h>
 #include "dth/model.h"
 #include "dth/integrator.h"
-#include "dth/methods.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -142,7 +141,6 @@ typedef struct dth_run_state {
     int stop;            /**< dth_run_stop: why the last call returned */
     double t_stop;       /**< samples and events are handed out for times after this one: where the
                               last call ended (t_end, a terminal event) or the start */
-    double wp_fixed;     /**< a baseline's constant wp (-H_phys at its start) */
 } dth_run_state;
 
 /** Zero a state (a fresh run). */
@@ -191,7 +189,8 @@ struct dth_run_setup; /* scene.h */
 DTH_API void dth_run_config_from_setup(dth_run_config *cfg, const struct dth_run_setup *rs);
 
 /**
- * Run the DTH integrator `it` (started, or restored from a checkpoint) as `cfg` says, from the
+ * Run the integrator `it` (started, or restored from a checkpoint; the DTH step or a baseline,
+ * whose wp, absent from its state, is -H_phys at its start: its H(z) is the energy error) as `cfg` says, from the
  * loop state `st` (zeroed: a fresh run; else one saved by an earlier call, whose vertex the
  * integrator must be at). On return `st` says where and why it stopped.
  * @return DTH_OK (the end, or a terminal event); a failed step's status (positive: the trajectory
@@ -200,10 +199,6 @@ DTH_API void dth_run_config_from_setup(dth_run_config *cfg, const struct dth_run
  *   DTH_ENOMEM.
  */
 DTH_API int dth_run(dth_integrator *it, const dth_run_config *cfg, dth_run_state *st);
-
-/** The same for a fixed-step baseline (methods.h). wp, absent from its state, is -H_phys at the
- *  start (so the extended H is the energy error); no MIDPOINTS. */
-DTH_API int dth_run_fixed(dth_fixed *fx, const dth_run_config *cfg, dth_run_state *st);
 
 /**
  * Dense output on one step: the point at time t (written to z, 2n+2 values, z[n] = t) of the

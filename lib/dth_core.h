@@ -1,21 +1,24 @@
 /* SPDX-License-Identifier: MIT */
-/* The integrator's private state, shared by integrator.c and the branch/regularization code. */
-#ifndef DTH_INTEGRATOR_IMPL_H
-#define DTH_INTEGRATOR_IMPL_H
+/*
+ * The DTH stepper's private state (paper, Theorem "DTH Equations"), shared by its own files only:
+ * dth_step.c (the stepper type: predict -> Newton -> candidate -> policy -> commit), dth_start.c
+ * (start modes), dth_newton.c (the Newton system, its finishes, the commit), dth_tangent.c, and the
+ * checkpoint's field tables (checkpoint.c reads the state through them).
+ */
+#ifndef DTH_DTH_CORE_H
+#define DTH_DTH_CORE_H
 
 #include <stdarg.h>
 #include "dth/integrator.h"
 #include "dth_internal.h"
+#include "fields.h"
+#include "policy.h"
 
 /*
  * The step state: everything that carries from one step to the next, nothing else (no workspace,
  * no options). This one list declares the fields of dth__state and generates the checkpoint's
- * field table (checkpoint.c), so a field cannot be left out of a checkpoint; the regularizer's
- * own state is saved through its type. X(name, kind, check, meaning):
- *   kind  VEC: N = 2n+2 doubles behind a pointer; F64: double; INT: int; LONG: long
- *   check what a restored value must satisfy (checkpoint.c): FINITE, NONZERO (finite, != 0),
- *         UNIT (+1 or -1), BOOL (0 or 1), SIGN (-1, 0, 1), NHIST (0..3), COUNT (>= 0),
- *         PSISTEP (>= -2)
+ * field table (fields.h), so a field cannot be left out of a checkpoint; the policy's state has
+ * its own list (policy.h). X(name, kind, check, meaning), kinds and checks as fields.h says.
  */
 #define DTH__STATE_FIELDS(X)                                                                        \
     X(z, VEC, FINITE, "vertex z_k, high part")                                                      \
@@ -37,28 +40,12 @@
     X(have_mid, INT, BOOL, "zbar holds a midpoint")                                                 \
     X(pending_exact, INT, BOOL, "midpoint start: the exact first step is still to be taken")        \
     X(fact_valid, INT, BOOL, "the last step was an ordinary DTH step (a tangent map exists)")       \
-    X(steps, LONG, COUNT, "steps since the start")                                                  \
-    X(psi_known, INT, BOOL, "psi_sign holds the sign of psi at z_k (regularizers)")                 \
-    X(psi_sign, INT, SIGN, "sign of psi at z_k")                                                    \
-    X(psi_prev, F64, FINITE, "branch policy: psi at the vertex of the last root it accepted")       \
-    X(psi_step, LONG, PSISTEP, "branch policy: that vertex's step count (-2: none)")
+    X(steps, LONG, COUNT, "steps since the start")
 
-#define DTH__CTYPE_VEC double *
-#define DTH__CTYPE_F64 double
-#define DTH__CTYPE_INT int
-#define DTH__CTYPE_LONG long
-#define DTH__STATE_MEMBER(name, kind, check, doc) DTH__CTYPE_##kind name;
 typedef struct dth__state {
-    DTH__STATE_FIELDS(DTH__STATE_MEMBER)
+    DTH__STATE_FIELDS(DTH__FIELD_MEMBER)
 } dth__state;
-#undef DTH__STATE_MEMBER
-/* how many VEC fields the list has */
-#define DTH__STATE_ISVEC(name, kind, check, doc) +DTH__ISVEC_##kind
-#define DTH__ISVEC_VEC 1
-#define DTH__ISVEC_F64 0
-#define DTH__ISVEC_INT 0
-#define DTH__ISVEC_LONG 0
-enum { DTH__STATE_NVEC = 0 DTH__STATE_FIELDS(DTH__STATE_ISVEC) };
+
 /**
  * The small path's Schur complement (linsolve small, autonomous separable H = T(p) + V(q) with
  * diagonal positive T'', n <= 3): the bordered step matrix [[B, c], [g^T, 0]] with
@@ -77,16 +64,32 @@ typedef struct dth__small_schur {
     double sinv, hl;   /* 1 / the bordered Schur complement -g^T B^-1 c; lambda / 2 */
 } dth__small_schur;
 
-struct dth_integrator {
+typedef struct dth__dth dth__dth;
+
+/** Outcome of a Newton solve. */
+typedef struct dth__solution {
+    double lambda;
+    double residual;
+    int iters;
+} dth__solution;
+
+/** The path-specific kernels (dth_newton.c): the generic one and the small path's for n = 1, 2, 3. */
+typedef struct dth__kernels {
+    int (*newton)(dth__dth *it, double lam0, const double *d0, int max_iter, dth__solution *sol);
+    int (*commit)(dth__dth *it, double lam, int replaced);
+} dth__kernels;
+
+struct dth__dth {
     const dth_model *model;
     const dth_allocator *alloc;
-    dth_options opt;
+    dth_options opt;  /* as checked: linsolve resolved */
     size_t n, N, d;   /* dof, extended dim 2n+2, physical dim 2n+1 */
     int auton;        /* autonomous model: t and wp rows in closed form */
     int m;            /* Newton unknowns: active components of d, then lambda */
     int *act;         /* z-index of each active unknown (m-1 of them) */
     dth_linsolve kind; /* the linear solver in use (never AUTO) */
-    const struct dth__linsolver *ls; /* its entry in the linear-solver table (integrator.c) */
+    const struct dth__linsolver *ls; /* its factor/solve/tangent (dth_newton.c) */
+    const dth__kernels *kern;        /* the kernels of the path at hand */
     int nsmall;       /* n (1..3) where the step takes the small path (autonomous, written out), else 0 */
     int small_schur;  /* the small path may use its Schur complement (separable model, not small-lu) */
     dth__small_schur ss;
@@ -95,7 +98,8 @@ struct dth_integrator {
     int (*meval)(const void *self, const double *y, unsigned what, double *H, double *grad, double *hess);
     int (*mhdiff)(const void *self, const double *y1, const double *y0, double *dH); /* NULL: dth__model_hdiff's rule */
     const void *mself;
-    dth__state st;    /* the step state (above): everything a checkpoint holds */
+    dth__state st;    /* the step state (above): everything a checkpoint holds but the policy's */
+    dth__policy pol;  /* the policy stage: which root, and what replaces a step (policy.h) */
     /* workspace: nothing here carries from one step to the next */
     double *dnew;     /* scratch for the next offset (rotates with st.dprev..st.dprev3) */
     double *hwork;    /* 2(2n+1) doubles for dth__model_hdiff (models without their own hdiff) */
@@ -107,7 +111,7 @@ struct dth_integrator {
     double *vcsrc;            /* the vertex vc was made from (its cache key; NaN-free: compared by bits) */
     double *yprev;            /* the evaluation point before yc (step_again: cells alternating) */
     int ypinned;              /* yc is pinned for the rest of this solve (step_again) */
-    int rev;                  /* the reversible finish (opt.compensate == 2 on a dense path): coarse_n */
+    int rev;                  /* the reversible finish (opt.finish == DTH_FINISH_REVERSIBLE): coarse_n */
     double Hphys;     /* H_phys at it->zb after the last step evaluation */
     double bs[4];     /* block scales (q, t, p, wp) of the Newton solve in progress (step_judge) */
     double ibq, ibp;  /* 1 / bs[0], 1 / bs[2] */
@@ -115,75 +119,54 @@ struct dth_integrator {
     dth__newton_track nt; /* progress of the current Newton solve (messages) */
     double *block;
     struct dth__band *band; /* banded step solve (banded.c), NULL for the dense path */
-    struct dth_rootfinder *rf; /* branch selection (branch.c), NULL when opt.branch_check is off */
-    /* regularization (regularize.c): the hook and its workspace (its state: st.psi_sign, and the
-     * regularizer's own, saved through its type) */
-    dth_regularizer *reg;
-    double *rbuf;     /* 4 N doubles of hook workspace */
-    double *snap;     /* with a regularizer: DTH__STATE_NVEC x N doubles, the vectors of st while a step
-                         may fail after committing (a regularizer's segment: the vertex offset afresh) */
-    int snapped;      /* snap holds the vectors of this step's start */
-    unsigned char *regsnap; /* the regularizer's own state at the start of the step (restored on failure) */
-    size_t regsnap_len;
     char errmsg[192];
 };
 
-/** Outcome of a Newton solve. */
-typedef struct dth__solution {
-    double lambda;
-    double residual;
-    int iters;
-} dth__solution;
+/** printf into it->errmsg. */
+void dth__seterr(dth__dth *it, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
+/* ---- dth_newton.c: the Newton system and the commit ---- */
+/** Point it->ls and it->kern at the path's table entries (after it->kind, it->nsmall are set). */
+void dth__newton_setup(dth__dth *it);
 /**
- * Newton on the bordered system from the current vertex, seeded with lambda0 and the offset
- * d0 (length 2n+2), finished by chord steps on the compensated constraint (opt.compensate). On
- * success it->x holds (d, lambda), it->zb the midpoint and it->zblo its low part; the factors of
- * the last iteration stay with the linear solver (it->A / it->piv, it->ss, or the band). Does not
- * change the vertex.
+ * Newton on the bordered system from the current vertex, seeded with lambda0 and the offset d0
+ * (length 2n+2), finished by chord steps on the compensated constraint (opt.finish). On success
+ * it->x holds (d, lambda), it->zb the midpoint and it->zblo its low part; the factors of the last
+ * iteration stay with the linear solver. Does not change the vertex.
  */
-int dth__newton(dth_integrator *it, double lam0, const double *d0, dth__solution *sol);
+static inline int dth__newton(dth__dth *it, double lam0, const double *d0, int max_iter, dth__solution *sol)
+{
+    return it->kern->newton(it, lam0, d0, max_iter, sol);
+}
+/**
+ * Commit the solution in it->x / it->zb as the next vertex z + 2 d (double-double), atomically: the
+ * state changes only if the new vertex and its carried offset are computed. replaced: the segment
+ * is a regularizer's (dth__set_solution), whose vertex offset is evaluated afresh at the new vertex
+ * and which has no tangent map.
+ */
+static inline int dth__commit(dth__dth *it, double lam, int replaced) { return it->kern->commit(it, lam, replaced); }
+/** Put the step with offset d (zbar - z_k, length N; autonomous: its t and wp entries are not read)
+ *  and lambda in it->x, its midpoint in it->zb, for dth__commit. */
+void dth__set_solution(dth__dth *it, const double *d, double lam);
+/** The root of the cubic model of the constraint near `target` (Lemma g_taylor), else target. */
+double dth__cubic_predict(double Hk, double psi, double dpsi, double target);
+/** The last step's tangent map by its path's solver (the dense one: dth__dense_tangent). */
+int dth__tangent(dth__dth *it, double *M);
+int dth__dense_tangent(dth__dth *it, double *M);
 
-/* ---- branch selection (branch.c) ---- */
-/** Allocate it->rf if opt.branch_check is on (dense models only). */
-int dth__branch_create(dth_integrator *it);
-/** Free it->rf. */
-void dth__branch_free(dth_integrator *it);
-/**
- * Decide the step's root after Newton returned `rc` / `sol` from the predictor: keep Newton's
- * root if the cheap test shows it physical, else search all roots and take the physical one ahead
- * (it->x / it->zb then hold its solution, *sol updated). Otherwise DTH_ENEGOFFSET, DTH_EGHOST,
- * DTH_EFOLD or DTH_ENOROOT (the vertex is untouched).
- */
-int dth__branch_select(dth_integrator *it, int rc, dth__solution *sol, dth_branch *branch);
+/* ---- dth_start.c: start modes ---- */
+/** The vertex offset H(z) evaluated directly at the vertex z (+ zlo, wp's low part), over y at the
+ *  high part (coarsened in the reversible finish, kept in it->vc). */
+int dth__rho_direct(dth__dth *it, const double *z, const double *zlo, double *rho, double *rholo);
+/** The reversible finish's exact first step of a midpoint start (dhi + dlo: its offset in
+ *  double-double); leaves the model read at the coarse point of zbar. */
+int dth__exact_offset_rev(dth__dth *it, const double *zbar, double h, double *dhi, double *dlo);
+int dth__dth_start(void *s, const double *q0, const double *p0, double t0);
+int dth__dth_set_vertex(void *s, const double *z, double lambda);
+void dth__dth_reverse(void *s);
 
-/* ---- regularization (regularize.c) ---- */
-/** Commit the solution in it->x / it->zb as the next vertex (integrator.c). */
-int dth__integrator_commit(dth_integrator *it, double lam);
-/** Put the step with offset d (zbar - z_k, length N; autonomous: its t and wp entries are not
- *  read, t advances by lambda/2 and wp stays) and lambda in it->x, its midpoint in it->zb, for
- *  dth__integrator_commit. */
-void dth__integrator_set_solution(dth_integrator *it, const double *d, double lam);
-/**
- * With a regularizer attached: take the ordinary step `rc` / `sol` (root `br`) if it succeeded
- * without changing the sign of psi, else call the hook and commit what it decides. pre != 0: the
- * hook was already asked (dth__reg_pre) and kept the ordinary step; commit it, or return its status.
- */
-int dth__reg_step(dth_integrator *it, int rc, const dth__solution *sol, dth_branch br, dth_step_info *info, int pre);
-/** After a step that is not an ordinary DTH step (a regularizer's): the carried vertex offset
- *  from a direct evaluation at the new vertex (no-op when opt.compensate is off). */
-int dth__integrator_rho_reset(dth_integrator *it);
-/** Copy the vectors of the step state into it->snap (before a commit that a later failure of the
- *  same step must undo); dth_integrator_step copies them back if the step fails. */
-void dth__state_snapshot(dth_integrator *it);
-/** Nonzero if the attached regularizer replaces every step (its type's replaces_all). */
-int dth__reg_replaces_all(const dth_integrator *it);
-/** dth__reg_pre's answer: the hook kept the ordinary step, which is still to be computed. */
-#define DTH__REG_PLAIN 1000
-/**
- * For a regularizer that replaces every step: ask the hook before any ordinary step is computed
- * (ev.plain_pending = 1). Returns DTH_OK (its step is committed), a status, or DTH__REG_PLAIN.
- */
-int dth__reg_pre(dth_integrator *it, dth_step_info *info);
+/* ---- dth_step.c: the stepper ---- */
+/** The policy's read-only view of the vertex (the candidate's members are filled per step). */
+void dth__view_vertex(const dth__dth *it, dth__view *v);
 
 #endif

@@ -1,16 +1,17 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Fixed-step baselines of the physical system (Runge-Kutta methods as Butcher tables with one
- * explicit and one implicit (Gauss) driver, Stormer-Verlet, midpoint + energy projection) that
- * DTH is compared against (paper, section 1), and the DTH step's conditioning limit (paper,
- * Lemma g_taylor).
+ * Fixed-step baselines of the physical system that DTH is compared against (paper, section 1):
+ * Runge-Kutta methods as Butcher tables with one explicit and one implicit (Gauss) driver,
+ * Stormer-Verlet, midpoint + energy projection. Each method is a type of the stepper table
+ * (stepper.h); a new Runge-Kutta method is one entry of `methods` below.
  */
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
 #include "dth_internal.h"
-#include "dth/methods.h"
+#include "dd.h"
+#include "stepper.h"
 
 typedef enum kind { KIND_ERK, KIND_GAUSS, KIND_VERLET } kind;
 
@@ -35,37 +36,41 @@ static const double g2_b[] = {0.5, 0.5}, g2_c[] = {0.5 - SQRT3 / 6, 0.5 + SQRT3 
 static const double rk4_A[] = {0, 0, 0, 0, 0.5, 0, 0, 0, 0, 0.5, 0, 0, 0, 0, 1, 0};
 static const double rk4_b[] = {1.0 / 6, 1.0 / 3, 1.0 / 3, 1.0 / 6}, rk4_c[] = {0, 0.5, 0.5, 1};
 
+/* Each method's name and description, once: for its table entry and its stepper type. */
+#define M0 "midpoint", "implicit midpoint rule (1-stage Gauss), order 2, symplectic"
+#define M1 "gauss4", "2-stage Gauss-Legendre, order 4, symplectic"
+#define M2 "rk4", "classical Runge-Kutta, order 4, explicit"
+#define M3 "verlet", "Stormer-Verlet (kick-drift-kick), order 2, symplectic, separable H only"
+#define M4 "midpoint-proj", "implicit midpoint + orthogonal projection onto the initial energy, order 2"
 static const method methods[] = {
-    {"midpoint", "implicit midpoint rule (1-stage Gauss), order 2, symplectic", KIND_GAUSS, 1, 2, 0,
-     g1_A, g1_b, g1_c, g1_d},
-    {"gauss4", "2-stage Gauss-Legendre, order 4, symplectic", KIND_GAUSS, 2, 4, 0, g2_A, g2_b, g2_c, NULL},
-    {"rk4", "classical Runge-Kutta, order 4, explicit", KIND_ERK, 4, 4, 0, rk4_A, rk4_b, rk4_c, NULL},
-    {"verlet", "Stormer-Verlet (kick-drift-kick), order 2, symplectic, separable H only", KIND_VERLET, 1, 2, 0,
-     NULL, NULL, NULL, NULL},
-    {"midpoint-proj", "implicit midpoint + orthogonal projection onto the initial energy, order 2",
-     KIND_GAUSS, 1, 2, 1, g1_A, g1_b, g1_c, g1_d},
+    {M0, KIND_GAUSS, 1, 2, 0, g1_A, g1_b, g1_c, g1_d},
+    {M1, KIND_GAUSS, 2, 4, 0, g2_A, g2_b, g2_c, NULL},
+    {M2, KIND_ERK, 4, 4, 0, rk4_A, rk4_b, rk4_c, NULL},
+    {M3, KIND_VERLET, 1, 2, 0, NULL, NULL, NULL, NULL},
+    {M4, KIND_GAUSS, 1, 2, 1, g1_A, g1_b, g1_c, g1_d},
 };
 enum { NMETHODS = sizeof methods / sizeof methods[0], MAX_ITER = 30, MAX_PROJ_ITER = 20 };
 
-struct dth_fixed {
+typedef struct dth_fixed {
     const dth_model *model;
     const dth_allocator *alloc;
     const method *m;
     size_t n, d, M;   /* dof, physical dim 2n+1, Newton unknowns s*d */
     double h;
-    double *y, *ylo;  /* state y = y + ylo (double-double) */
+    double *y, *ylo;  /* state y = y + ylo (double-double), N = 2n + 2 entries: (q, t, p) and wp = -E0 */
     double *Z, *Zp;   /* stage offsets Y_i - y (s*d); Zp: last step's, the predictor */
     double *Y, *K;    /* a stage point (d); stage slopes (s*d) */
     double *grad, *hess, *Jf; /* d, d*d, s*d*d (df/dy at each stage) */
     double *A, *F, *dZ, *delta, *fq; /* Newton matrix M*M, residual M, correction M, update d, Verlet force n */
     dth__newton_track nt;
     int *piv;
-    double E0;        /* initial energy (projection) */
+    double E0;        /* initial energy (projection; -wp) */
     int started, have_prev, have_force;
     long steps;
+    size_t N, Zlen;   /* 2n + 2; the predictor's s d */
     double *block;
     char errmsg[160];
-};
+} dth_fixed;
 
 static void seterr(dth_fixed *f, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 static void seterr(dth_fixed *f, const char *fmt, ...)
@@ -76,81 +81,56 @@ static void seterr(dth_fixed *f, const char *fmt, ...)
     va_end(ap);
 }
 
-static const method *find(const char *name)
+/* The model rules of method m (dth_options_check calls them through the type). */
+static int check_method(const method *m, const dth_model *model, char *why, size_t len)
 {
-    if (!name) return NULL;
-    for (size_t i = 0; i < NMETHODS; i++)
-        if (strcmp(methods[i].name, name) == 0) return &methods[i];
-    return NULL;
-}
-
-size_t dth_fixed_method_count(void) { return NMETHODS; }
-const char *dth_fixed_method_name(size_t i) { return i < NMETHODS ? methods[i].name : NULL; }
-const char *dth_fixed_method_doc(const char *name)
-{
-    const method *m = find(name);
-    return m ? m->doc : NULL;
-}
-
-int dth_fixed_check(const dth_model *model, const char *name, char *why, size_t len)
-{
-    const method *m = find(name);
-    if (why && len) why[0] = '\0';
-    if (!model) return DTH_EINVAL;
-    if (!m) {
-        if (why && len) snprintf(why, len, "unknown method '%s'", name ? name : "(null)");
-        return DTH_ENOTFOUND;
-    }
     const dth_model_info *inf = dth_model_get_info(model);
     if (m->k == KIND_VERLET && !inf->separable) {
-        if (why && len)
-            snprintf(why, len, "method 'verlet' needs a separable H = T(p) + V(q, t); model '%s' is not",
+        dth__set_err(why, len, "method 'verlet' needs a separable H = T(p) + V(q, t); model '%s' is not",
                      dth_model_get_type(model)->name);
         return DTH_EUNSUPPORTED;
     }
     if (m->project && !inf->autonomous) {
-        if (why && len)
-            snprintf(why, len, "method '%s' projects onto a conserved energy; model '%s' is not autonomous",
-                     m->name, dth_model_get_type(model)->name);
+        dth__set_err(why, len, "method '%s' projects onto a conserved energy; model '%s' is not autonomous", m->name,
+                     dth_model_get_type(model)->name);
         return DTH_EUNSUPPORTED;
     }
+    if (m->k != KIND_VERLET && m->k != KIND_ERK && m->k != KIND_GAUSS) return DTH_EINVAL;
     return DTH_OK;
 }
 
-void dth_fixed_free(dth_fixed *f)
+static void destroy(void *s)
 {
+    dth_fixed *f = s;
     if (!f) return;
     dth_free(f->alloc, f->block);
     dth_free(f->alloc, f->piv);
     dth_free(f->alloc, f);
 }
 
-int dth_fixed_new(const dth_model *model, const char *name, double h, const dth_allocator *alloc,
-                  dth_fixed **out)
+static int create_method(const method *m, const dth_model *model, const dth_options *o, void **out)
 {
-    if (!out) return DTH_EINVAL;
-    *out = NULL;
-    if (!model || !name || !isfinite(h) || h == 0) return DTH_EINVAL;
-    int rc = dth_fixed_check(model, name, NULL, 0);
-    if (rc) return rc;
+    const dth_allocator *alloc = o->alloc;
     dth_fixed *f = dth_calloc(alloc, 1, sizeof *f);
     if (!f) return DTH_ENOMEM;
     f->model = model;
     f->alloc = alloc;
-    f->m = find(name);
-    f->h = h;
+    f->m = m;
+    f->h = o->h;
     f->n = dth_model_dof(model);
     f->d = 2 * f->n + 1;
+    f->N = f->d + 1;
     size_t s = (size_t)f->m->s, d = f->d;
+    f->Zlen = s * d;
     f->M = f->m->k == KIND_GAUSS ? s * d : 0;
     size_t M = f->M, gauss = f->m->k == KIND_GAUSS; /* only the implicit methods need Jacobians */
-    size_t sizes[] = {d, d, s * d, s * d, d, s * d, d, gauss * d * d, gauss * s * d * d, M * M, M, M, d, f->n};
+    size_t sizes[] = {f->N, f->N, s * d, s * d, d, s * d, d, gauss * d * d, gauss * s * d * d, M * M, M, M, d, f->n};
     size_t nd = 0;
     for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) nd += sizes[i];
     f->block = dth_calloc(alloc, nd, sizeof(double));
     f->piv = dth_calloc(alloc, M ? M : 1, sizeof(int));
     if (!f->block || !f->piv) {
-        dth_fixed_free(f);
+        destroy(f);
         return DTH_ENOMEM;
     }
     double *p = f->block;
@@ -165,44 +145,33 @@ int dth_fixed_new(const dth_model *model, const char *name, double h, const dth_
     return DTH_OK;
 }
 
-int dth_fixed_set_h(dth_fixed *f, double h)
+/* The step h, changed: the predictor's stage offsets scale with it. */
+static void set_h(dth_fixed *f, double h)
 {
-    if (!f || !isfinite(h) || h == 0) return DTH_EINVAL;
     if (f->have_prev) /* stage offsets scale with h: keep the predictor consistent */
         for (size_t k = 0; k < (size_t)f->m->s * f->d; k++) f->Zp[k] *= h / f->h;
     f->h = h;
-    return DTH_OK;
 }
 
-const double *dth_fixed_state(const dth_fixed *f) { return f->y; }
-long dth_fixed_steps(const dth_fixed *f) { return f->steps; }
-double dth_fixed_h(const dth_fixed *f) { return f->h; }
-const dth_model *dth_fixed_model(const dth_fixed *f) { return f->model; }
-const char *dth_fixed_name(const dth_fixed *f) { return f->m->name; }
-int dth_fixed_order(const dth_fixed *f) { return f->m->order; }
-const char *dth_fixed_errmsg(const dth_fixed *f) { return f->errmsg; }
-
-int dth_fixed_start(dth_fixed *f, const double *q0, const double *p0, double t0)
+/* The state y (q, t, p) and its energy; wp = -E0 carried with it. */
+static int set_state(dth_fixed *f, const double *y)
 {
-    if (!f || !q0 || !p0 || !isfinite(t0)) return DTH_EINVAL;
-    size_t n = f->n, d = f->d;
-    for (size_t i = 0; i < n; i++)
-        if (!isfinite(q0[i]) || !isfinite(p0[i])) {
-            seterr(f, "initial value %zu is not finite", i);
+    size_t d = f->d;
+    double E;
+    for (size_t j = 0; j < d; j++)
+        if (!isfinite(y[j])) {
+            seterr(f, "initial value %zu is not finite", j);
             return DTH_EINVAL;
         }
-    double *y = f->Y, E;
-    memcpy(y, q0, n * sizeof *y);
-    y[n] = t0;
-    memcpy(y + n + 1, p0, n * sizeof *y);
     int rc = dth_model_eval(f->model, y, DTH_EVAL_H, &E, NULL, NULL);
     if (rc) {
         seterr(f, "model evaluation failed at the initial state: %s", dth_strerror(rc));
         return rc;
     }
     memcpy(f->y, y, d * sizeof *y);
-    memset(f->ylo, 0, d * sizeof *y);
+    memset(f->ylo, 0, f->N * sizeof *y);
     f->E0 = E;
+    f->y[d] = -E;
     f->started = 1;
     f->have_prev = 0;
     f->have_force = 0;
@@ -210,13 +179,43 @@ int dth_fixed_start(dth_fixed *f, const double *q0, const double *p0, double t0)
     return DTH_OK;
 }
 
-/* Error-free sum: s + e == a + b exactly (Knuth's TwoSum). */
-static inline double two_sum(double a, double b, double *e)
+static int start(void *s, const double *q0, const double *p0, double t0)
 {
-    double s = a + b, bb = s - a;
-    *e = (a - (s - bb)) + (b - bb);
-    return s;
+    dth_fixed *f = s;
+    if (!q0 || !p0 || !isfinite(t0)) return DTH_EINVAL;
+    size_t n = f->n;
+    double *y = f->Y;
+    memcpy(y, q0, n * sizeof *y);
+    y[n] = t0;
+    memcpy(y + n + 1, p0, n * sizeof *y);
+    return set_state(f, y);
 }
+
+/* z (q, t, p, wp): the state; lambda: the step from here on (its sign the direction). */
+static int set_vertex(void *s, const double *z, double lambda)
+{
+    dth_fixed *f = s;
+    if (!z || !isfinite(lambda) || lambda == 0) return DTH_EINVAL;
+    int rc = set_state(f, z);
+    if (rc) return rc;
+    f->h = lambda;
+    return DTH_OK;
+}
+
+static void reverse(void *s)
+{
+    dth_fixed *f = s;
+    set_h(f, -f->h);
+}
+
+static const double *vertex(const void *s) { return ((const dth_fixed *)s)->y; }
+static const double *midpoint(const void *s) { (void)s; return NULL; }
+static double lambda(const void *s) { return ((const dth_fixed *)s)->h; }
+static double direction(const void *s) { return ((const dth_fixed *)s)->h > 0 ? 1.0 : -1.0; }
+static double energy(const void *s) { return ((const dth_fixed *)s)->E0; }
+static long steps(const void *s) { return ((const dth_fixed *)s)->steps; }
+static int order(const void *s) { return ((const dth_fixed *)s)->m->order; }
+static const char *errmsg(const void *s) { return ((const dth_fixed *)s)->errmsg; }
 
 /* Y = y + (ylo + off): a point near the state, rounded once. */
 static void point(const dth_fixed *f, const double *off, double *Y)
@@ -506,16 +505,15 @@ fail:
     return rc;
 }
 
-int dth_fixed_step(dth_fixed *f, dth_fixed_info *info)
+/* One step of size h; on failure the state is exactly as before (y changes only in advance). */
+static int step(void *s, dth_step_info *info)
 {
-    dth_fixed_info tmp;
-    if (!info) info = &tmp;
-    memset(info, 0, sizeof *info);
-    if (!f) return DTH_EINVAL;
+    dth_fixed *f = s;
     if (!f->started) {
-        seterr(f, "dth_fixed_step before dth_fixed_start");
+        seterr(f, "a step before the start");
         return DTH_EINVAL;
     }
+    info->lambda = f->h;
     int rc;
     switch (f->m->k) {
     case KIND_ERK:
@@ -536,39 +534,59 @@ int dth_fixed_step(dth_fixed *f, dth_fixed_info *info)
     }
     if (rc) return rc;
     f->steps++;
+    snprintf(f->errmsg, sizeof f->errmsg, "no error");
     return DTH_OK;
 }
 
-int dth_step_floor(const dth_model *model, const double *z, double rel_tol, double *h_min, double *work)
+/* ---- checkpoint sections: the state (N-vectors), the predictor's stage offsets, Verlet's force ---- */
+
+#define FIXED_STATE(X)                                                                              \
+    X(y, VEC, FINITE, "the state (q, t, p) and wp = -E0, high part")                               \
+    X(ylo, VEC, FINITE, "its low part")                                                             \
+    X(h, F64, NONZERO, "the step (its sign the direction)")                                         \
+    X(E0, F64, FINITE, "the initial energy")                                                        \
+    X(started, INT, BOOL, "started")                                                                \
+    X(have_prev, INT, BOOL, "Zp holds the last step's stage offsets")                               \
+    X(have_force, INT, BOOL, "fq holds the force at the state (Verlet)")                            \
+    X(steps, LONG, COUNT, "steps since the start")
+#define ENTRY(name, kind, check, doc) DTH__FIELD(dth_fixed, name, kind, check),
+static const dth__field state_fields[] = {FIXED_STATE(ENTRY)};
+#undef ENTRY
+static const dth__field zp_field[] = {DTH__FIELD(dth_fixed, Zp, VEC, FINITE)};
+static const dth__field fq_field[] = {DTH__FIELD(dth_fixed, fq, VEC, FINITE)};
+
+static size_t sections(void *s, dth__section *out)
 {
-    if (!model || !z || !h_min || !work || !(rel_tol > 0 && rel_tol <= 1)) return DTH_EINVAL;
-    size_t n = dth_model_dof(model), d = 2 * n + 1;
-    double Hp, psi;
-    double *g = work; /* the first d doubles; dth_model_psi uses the whole of work afterwards */
-    int rc = dth_model_eval(model, z, DTH_EVAL_H | DTH_EVAL_GRAD, &Hp, g, NULL);
-    if (rc) return rc;
-    double S = fabs(z[d]) + fabs(Hp);
-    for (size_t j = 0; j < d; j++) S += fabs(g[j] * z[j]);
-    rc = dth_model_psi(model, z, &psi, NULL, work);
-    if (rc) return rc;
-    if (psi == 0) {
-        *h_min = INFINITY;
-        return DTH_ESINGULAR;
-    }
-    *h_min = sqrt(4 * DBL_EPSILON * S / (fabs(psi) * rel_tol));
-    return DTH_OK;
+    dth_fixed *f = s;
+    out[0] = (dth__section){"state", state_fields, sizeof state_fields / sizeof state_fields[0], f, f->N};
+    out[1] = (dth__section){"predictor", zp_field, 1, f, f->Zlen};
+    out[2] = (dth__section){"force", fq_field, 1, f, f->n};
+    return 3;
 }
 
-int dth_step_ceiling(const dth_model *model, const double *z, double *h_max, double *work)
-{
-    if (!model || !z || !h_max || !work) return DTH_EINVAL;
-    double psi, dpsi;
-    int rc = dth_model_psi(model, z, &psi, &dpsi, work);
-    if (rc) return rc;
-    if (psi == 0) {
-        *h_max = 0;
-        return DTH_ESINGULAR;
+/* One stepper type per method: the table's entries, with their own create and check. */
+#define BASELINE(i)                                                                                             \
+    static int create_##i(const dth_model *model, const dth_options *o, void **out)                           \
+    {                                                                                                           \
+        return create_method(&methods[i], model, o, out);                                                      \
+    }                                                                                                           \
+    static int check_##i(const dth_model *model, const dth_options *o, char *why, size_t len)                 \
+    {                                                                                                           \
+        (void)o;                                                                                                \
+        return check_method(&methods[i], model, why, len);                                                     \
     }
-    *h_max = dpsi != 0 ? 1.2 * fabs(psi / dpsi) : INFINITY;
-    return DTH_OK;
-}
+BASELINE(0)
+BASELINE(1)
+BASELINE(2)
+BASELINE(3)
+BASELINE(4)
+#define TYPE(i, NAME_DOC)                                                                                       \
+    {NAME_DOC, .check = check_##i, .create = create_##i, .destroy = destroy, .start = start,               \
+     .set_vertex = set_vertex, .step = step, .reverse = reverse, .vertex = vertex, .midpoint = midpoint,       \
+     .lambda = lambda, .direction = direction, .energy = energy, .steps = steps, .order = order,               \
+     .errmsg = errmsg, .wp_fixed = 1, .sections = sections}
+static const dth__stepper_type types[NMETHODS] = {TYPE(0, M0), TYPE(1, M1), TYPE(2, M2), TYPE(3, M3), TYPE(4, M4)};
+_Static_assert(NMETHODS == 5, "one BASELINE and TYPE entry per method");
+
+size_t dth__baseline_count(void) { return NMETHODS; }
+const dth__stepper_type *dth__baseline_at(size_t i) { return i < NMETHODS ? &types[i] : NULL; }
