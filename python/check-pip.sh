@@ -17,10 +17,10 @@ trap 'rm -rf "$tmp"' EXIT
 "$py" -m venv --system-site-packages "$tmp/v" >"$tmp/venv.log" 2>&1 || {
     cat "$tmp/venv.log"; echo "check-pip: $py -m venv failed (Debian python3-venv): skipped"; exit 77; }
 
-# the copy: what pip reads of a checkout (no build directories, no git, no figures)
+# the copy: what pip reads of a checkout (no build directories, git, figures, or the README's venv v/)
 mkdir "$tmp/checkout"
 (cd "$src" && tar --exclude='./build*' --exclude=./.git --exclude='./.mesonpy-*' --exclude=./out \
-    --exclude=./docs/figures -cf - .) | tar -C "$tmp/checkout" -xf -
+    --exclude=./docs/figures --exclude=./v -cf - .) | tar -C "$tmp/checkout" -xf -
 # as on a fresh machine: no pip configuration of this one (index, find-links), no DTH_LIBRARY, no
 # LD_LIBRARY_PATH (meson test points it at the build directory)
 unset DTH_LIBRARY PYTHONPATH LD_LIBRARY_PATH
