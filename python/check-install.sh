@@ -1,8 +1,8 @@
 #!/bin/sh
 # SPDX-License-Identifier: MIT
 # meson install into a temporary root, then import the *installed* Python package and run the
-# installed pendulum scene with it: the package, its _config.py and the library land where the
-# Python module of meson says. Usage: check-install.sh BUILDDIR PYTHON
+# installed pendulum scene with it: the package (with its scenes/), its _config.py and the library
+# land where the Python module of meson says. Usage: check-install.sh BUILDDIR PYTHON
 set -eu
 build=$1
 py=$2
@@ -12,7 +12,7 @@ meson install -C "$build" --destdir "$tmp/root" --no-rebuild --quiet >/dev/null
 cfg=$(find "$tmp/root" -path '*/dth/_config.py' | head -n 1)
 [ -n "$cfg" ] || { echo "check-install: the Python package was not installed" >&2; exit 1; }
 site=$(dirname "$(dirname "$cfg")")
-for f in __init__.py _core.py _ffi.py; do
+for f in __init__.py _core.py _ffi.py scenes/pendulum.ini; do
     [ -f "$site/dth/$f" ] || { echo "check-install: dth/$f not installed" >&2; exit 1; }
 done
 # _config.LIBRARY names the library at its final place (prefix/libdir): here under the destdir

@@ -7,20 +7,42 @@ cd "$(dirname "$0")/.."
 builddir=${1:-build}
 [ $# -gt 0 ] && shift
 
+# python3-mesonpy, python3-venv, python3-pip: `pip install --no-build-isolation .` of the Python
+# package (pyproject.toml, docs/python.md)
 packages=(gcc pkg-config meson ninja-build liblapacke-dev libopenblas-dev libcunit1-dev
           libinih-dev libgsl-dev gnuplot-nox libhdf5-dev
-          python3-cffi python3-numpy python3-pytest python3-matplotlib libopenmpi-dev openmpi-bin)
+          python3-cffi python3-numpy python3-pytest python3-matplotlib
+          python3-mesonpy python3-venv python3-pip libopenmpi-dev openmpi-bin)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
+
+sudo=""
+[ "$(id -u)" -eq 0 ] || sudo="sudo"
+# apt-get waiting for another apt or dpkg (unattended-upgrades, a second setup.sh) instead of failing
+# with status 100: DPkg::Lock::Timeout covers dpkg's locks only, so a run that still finds a lock
+# busy (the package lists', the archives') is retried, for up to 10 minutes in all.
+apt() {
+  local deadline=$(( $(date +%s) + 600 )) err
+  err=$(mktemp)
+  while :; do
+    if $sudo env DEBIAN_FRONTEND=noninteractive apt-get -o DPkg::Lock::Timeout=600 "$@" 2>"$err"; then
+      rm -f "$err"; return 0
+    fi
+    if grep -q -e 'Could not get lock' -e 'Unable to lock' "$err" && [ "$(date +%s)" -lt "$deadline" ]; then
+      [ -n "${waited:-}" ] || echo "setup: another apt or dpkg holds its lock; waiting" >&2
+      waited=1
+      sleep 5
+      continue
+    fi
+    cat "$err" >&2; rm -f "$err"; return 1
+  done
+}
 if [ ${#missing[@]} -gt 0 ]; then
   echo "setup: installing ${missing[*]}" >&2
-  sudo=""
-  [ "$(id -u)" -eq 0 ] || sudo="sudo"
-  export DEBIAN_FRONTEND=noninteractive
-  $sudo apt-get update -qq
-  $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+  apt update -qq
+  apt install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 
 if [ ! -f "$builddir/build.ninja" ]; then
@@ -29,21 +51,19 @@ elif [ $# -gt 0 ]; then
   meson setup --reconfigure "$builddir" "$@" >/dev/null
 fi
 ninja -C "$builddir" >/dev/null
-# The Python package runs from the checkout (it finds build/libdth.so itself; another build
-# directory: DTH_LIBRARY=BUILDDIR/libdth.so): a .pth file in Debian's site directory of the system
-# python3 puts python/ on its path, so `python3 -c "import dth"` works after this script (meson
-# install installs the package for good; remove the .pth file to undo).
-pth_note="export PYTHONPATH=$PWD/python"
-if [ "$builddir" = build ] && [ -x /usr/bin/python3 ]; then
-  site=$(/usr/bin/python3 -c 'import site; print(site.getsitepackages()[0])' 2>/dev/null || true)
-  if [ -n "$site" ]; then
-    sudo=""
-    [ "$(id -u)" -eq 0 ] || sudo="sudo"
-    if $sudo mkdir -p "$site" 2>/dev/null && echo "$PWD/python" | $sudo tee "$site/dth-checkout.pth" >/dev/null 2>&1; then
-      pth_note="python3 finds it through $site/dth-checkout.pth"
+
+# Earlier versions of this script wrote dth-checkout.pth (this checkout's python/) into the site
+# directory of /usr/bin/python3, so that the last checkout set up won every `import dth` on the
+# machine. Remove that file if it is ours (it names this checkout); another checkout's is left.
+if [ -x /usr/bin/python3 ]; then
+  for site in $(/usr/bin/python3 -c 'import site; print(*site.getsitepackages())' 2>/dev/null || true); do
+    pth=$site/dth-checkout.pth
+    if [ -f "$pth" ] && [ "$(cat "$pth")" = "$PWD/python" ]; then
+      $sudo rm -f "$pth" && echo "setup: removed $pth (pip install the package instead: docs/python.md)" >&2
     fi
-  fi
+  done
 fi
 if [ -z "${DTH_SETUP_QUIET:-}" ]; then
-  echo "setup: built in $builddir; Python package: $pth_note (docs/python.md)" >&2
+  echo "setup: built in $builddir; the Python package: python3 -m venv --system-site-packages v &&" \
+       "v/bin/pip install --no-build-isolation --no-index . (docs/python.md)" >&2
 fi

@@ -19,7 +19,7 @@ for f in share/dth/scripts/plot.sh share/dth/scripts/plot-map.sh share/dth/scrip
 done
 export PKG_CONFIG_PATH="$pcdir" PKG_CONFIG_SYSROOT_DIR="$tmp/root"
 cc -std=c11 -Wall -Wextra -Wpedantic -Werror "${san[@]}" "$src/docs/examples/embed.c" "$src/docs/examples/double_well.c" \
-   -I"$src/docs/examples" $(pkg-config --cflags dth) $(pkg-config --libs dth) -lm -o "$tmp/embed"
+   -I"$src/docs/examples" $(pkg-config --cflags dth) $(pkg-config --libs dth) -o "$tmp/embed"
 libdir=$(pkg-config --variable=libdir dth)
 # pkgconf already prefixes the sysroot to libdir (the run used to sit in this comment: it never ran)
 LD_LIBRARY_PATH="$libdir" "$tmp/embed" "$src/docs/examples/double-well.ini" >/dev/null

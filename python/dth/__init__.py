@@ -11,6 +11,19 @@ found). The one call most users need:
 See docs/python.md for scenes from dicts, user models in Python or C, roots, checkpoints and
 MEGNO.
 """
+import sys as _sys
+
+try:
+    import cffi as _cffi  # noqa: F401  (the binding, _ffi.py)
+    import numpy as _numpy  # noqa: F401  (the arrays, _core.py)
+except ImportError as _e:
+    raise ImportError(
+        "dth needs the Python modules cffi and numpy, and this Python (%s) has no module %r. On Debian: "
+        "apt-get install python3-cffi python3-numpy (bash scripts/setup.sh installs them), then run "
+        "/usr/bin/python3, or a venv that sees them: /usr/bin/python3 -m venv --system-site-packages VENV "
+        "(a pyenv or conda Python does not see Debian's modules: pip install cffi numpy there). See "
+        "docs/python.md." % (_sys.executable, _e.name or str(_e)), name=_e.name) from _e
+
 from ._core import (DthError, OutsideDomain, Scene, Simulation, Result, Events, Roots, Map, Model, CModel,
                     load_model, run, roots, map, models, strerror, status_name)
 

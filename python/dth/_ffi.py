@@ -11,10 +11,13 @@ corrupting memory.
 
 Where libdth.so is looked up, in order (the first that exists is used):
   1. the environment variable DTH_LIBRARY (a path to libdth.so; if set, nothing else is tried);
-  2. the library `meson install` installed next to this package (_config.LIBRARY, written at
+  2. libdth.so in this package's own directory (pip install . puts it there: pyproject.toml);
+  3. the library `meson install` installed next to this package (_config.LIBRARY, written at
      install time);
-  3. a build of this checkout: <checkout>/build/libdth.so (the package lives in <checkout>/python);
-  4. libdth.so.0 through the dynamic linker (LD_LIBRARY_PATH, ld.so.conf).
+  4. a build of this checkout: <checkout>/build/libdth.so (the package lives in <checkout>/python);
+  5. libdth.so.0 through the dynamic linker (LD_LIBRARY_PATH, ld.so.conf).
+Each place is found from this file's own path, never from the current directory or sys.path, so
+an installed copy loads its own library, whoever else is installed on the machine.
 """
 import os
 
@@ -382,13 +385,13 @@ def candidates():
     env = os.environ.get("DTH_LIBRARY")
     if env:
         return [("DTH_LIBRARY", env)]  # only this one: a wrong setting is an error, not a fallback
-    out = []
+    here = os.path.dirname(os.path.abspath(__file__))
+    out = [("package", os.path.join(here, "libdth.so"))]   # pip install .
     try:
         from . import _config  # written by `meson install`
         out.append(("installed", _config.LIBRARY))
     except ImportError:
         pass
-    here = os.path.dirname(os.path.abspath(__file__))
     out.append(("checkout build", os.path.join(here, "..", "..", "build", "libdth.so")))
     out.append(("dynamic linker", "libdth.so.0"))
     return out
@@ -410,5 +413,6 @@ def lib():
                 tried.append("%s: %s (%s)" % (origin, path, e))
         if _lib is None:
             raise ImportError("dth: cannot load libdth.so; tried\n  " + "\n  ".join(tried) +
-                              "\nset DTH_LIBRARY=/path/to/libdth.so (build it with bash scripts/setup.sh)")
+                              "\ninstall the package with its library (pip install --no-build-isolation ., "
+                              "docs/python.md) or set DTH_LIBRARY=/path/to/libdth.so")
     return _lib

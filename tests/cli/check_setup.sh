@@ -4,7 +4,7 @@
 # (with -Dtests=false -Dbench=false, to keep the build short), a second run with --prefix=DIR
 # reconfigures it (meson introspect shows the new prefix, the first run's options stay), and a third
 # run without options keeps all of it and succeeds. The build directory is a temporary one, never
-# `build` (setup.sh would point the system python3 at the checkout). The package check of setup.sh
+# the checkout's `build` (the one the other tests run from). The package check of setup.sh
 # must find everything installed: if it would install packages (apt-get, sudo), the test is skipped.
 # usage: check_setup.sh SOURCE_ROOT
 set -u
