@@ -26,6 +26,7 @@
 #define DTH_CHECKPOINT_H
 
 #include <stddef.h>
+#include "dth/fields.h"
 #include "dth/integrator.h"
 
 #ifdef __cplusplus
@@ -99,6 +100,27 @@ DTH_API int dth_checkpoint_write_file(const dth_integrator *it, const dth_blob *
  */
 DTH_API int dth_checkpoint_read_file(const char *path, const dth_allocator *alloc, void **buf,
                                      size_t *len, char *err, size_t errlen);
+
+/* ---- records of caller data by a field list (dth/fields.h), in the checkpoint's encoding ---- */
+
+/**
+ * Encode the members of the struct at `base` that `fields` lists (a F64_PTR field needs its count
+ * here) as a record: u32 field count, then each field as a checkpoint section's (name, u32 type,
+ * u64 count, values; a string's count is its length in bytes), little-endian. *len receives the
+ * size needed (also when buf is NULL: call once to size the buffer, or when cap is too small).
+ * @return DTH_OK, DTH_EINVAL (a bad list, a string longer than DTH_FIELD_STR_MAX, cap too small).
+ */
+DTH_API int dth_fields_encode(const dth_field *fields, size_t nfields, const void *base, void *buf, size_t cap,
+                              size_t *len);
+
+/**
+ * Decode a record of dth_fields_encode into the struct at `base`: the fields in the list's order,
+ * each by name, type and count, each value by its check; strings are allocated with `alloc` (NULL:
+ * malloc; free each with dth_free). Nothing else may follow. On failure base is untouched.
+ * @return DTH_OK, DTH_EPARSE (the message names the field), DTH_EINVAL (a bad list), DTH_ENOMEM.
+ */
+DTH_API int dth_fields_decode(const dth_field *fields, size_t nfields, void *base, const void *buf, size_t len,
+                              const dth_allocator *alloc, char *err, size_t errlen);
 
 #ifdef __cplusplus
 }
