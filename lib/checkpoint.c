@@ -1,8 +1,9 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Checkpoint and restart of the DTH integrator (the state of the step of the paper's Theorem
- * "DTH Equations" plus its predictor): a versioned, checksummed, endian-fixed byte format, and
- * crash-safe files (temporary file, fsync, rename).
+ * Checkpoints of an integrator (the state of the step of the paper's Theorem "DTH Equations" plus
+ * its predictor), the regularizer's state and the run driver's: a versioned, checksummed format,
+ * little-endian by construction (wire.h) with a byte-order mark, written and verified here, restored
+ * by restore.c; crash-safe files (temporary file, fsync, rename).
  */
 #include <errno.h>
 #include <fcntl.h>
@@ -17,26 +18,42 @@
 #include <sys/stat.h>
 #include <unistd.h>
 #include "dth/checkpoint.h"
-#include "dth_internal.h"
-#include "stepper.h"
+#include "ckpt_format.h"
+#include "run_fields.h"
 #include "tempfile.h"
-#include "wire.h"
 
 static const unsigned char MAGIC[8] = {'D', 'T', 'H', 'C', 'K', 'P', 'T', 0};
-enum { HEADER = 8 + 4 + 4 + 8, TRAILER = 8, MAX_NAME = 255, MAX_FIELDS = DTH__MAX_FIELDS };
 
-static void put_section(dth__wr *w, const dth__section *sec)
+/* ---- the run state's field table, from its list (run_fields.h) ---- */
+
+#define RUN_ENTRY(name, kind, check, doc) DTH__FIELD(dth_run_state, name, kind, check),
+#define STEP_ENTRY(name, kind, check, doc)                                                                             \
+    {"in." #name, offsetof(dth_run_state, in) + offsetof(dth_step_info, name), DTH__K_##kind, DTH__C_##check, 0},
+#define RUN_FLAT(name, kind, check, doc) RUN_FLAT_##kind(name, kind, check)
+#define RUN_FLAT_INT(name, kind, check) RUN_ENTRY(name, kind, check, "")
+#define RUN_FLAT_LONG(name, kind, check) RUN_ENTRY(name, kind, check, "")
+#define RUN_FLAT_F64(name, kind, check) RUN_ENTRY(name, kind, check, "")
+#define RUN_FLAT_STEP(name, kind, check) DTH__STEP_INFO_FIELDS(STEP_ENTRY)
+static const dth_field run_fields[] = {DTH__RUN_FIELDS(RUN_FLAT)};
+#undef RUN_ENTRY
+#undef STEP_ENTRY
+_Static_assert(sizeof run_fields / sizeof run_fields[0] <= DTH__MAX_FIELDS, "the run state's fields");
+
+const dth_field *dth__run_fields(size_t *n)
 {
-    dth__put_str(w, sec->name);
-    dth__put_u64(w, sec->veclen);
-    dth__put_u32(w, (uint32_t)sec->nfields);
-    for (size_t i = 0; i < sec->nfields; i++) dth__put_field(w, &sec->fields[i], sec->base, sec->veclen);
+    *n = sizeof run_fields / sizeof run_fields[0];
+    return run_fields;
 }
 
-/* ---- the state part: the method, the model, the options and the stepper's sections ---- */
+void dth__run_section(const dth_run_state *run, dth__section *out)
+{
+    *out = (dth__section){"run", run_fields, sizeof run_fields / sizeof run_fields[0], (void *)(uintptr_t)run, 0};
+}
 
-/* The options section and the state sections of `it` (sections[0] is the options), their count. */
-static size_t sections_of(const dth_integrator *it, dth__section *sec, void *scratch)
+/* ---- the state part: the method, the model, the options, the stepper's sections, the
+ * regularizer's, the run's ---- */
+
+size_t dth__ckpt_sections(const dth_integrator *it, dth__section *sec, void *scratch)
 {
     size_t k = 0;
     if (it->type->options_section) it->type->options_section(it->state, &sec[k++], scratch);
@@ -44,43 +61,62 @@ static size_t sections_of(const dth_integrator *it, dth__section *sec, void *scr
     return k + it->type->sections(it->state, sec + k);
 }
 
-static const char *reg_name(const dth_integrator *it)
-{
-    struct dth_regularizer *r = it->type->regularizer ? it->type->regularizer(it->state) : NULL;
-    return r ? dth_regularizer_get_type(r)->name : "";
-}
-
-static struct dth_regularizer *reg_of(const dth_integrator *it)
+struct dth_regularizer *dth__ckpt_reg(const dth_integrator *it)
 {
     return it->type->regularizer ? it->type->regularizer(it->state) : NULL;
 }
 
-static void put_state(dth__wr *w, const dth_integrator *it)
+const char *dth__ckpt_reg_name(const dth_integrator *it)
 {
-    dth__section sec[DTH__MAX_SECTIONS + 1];
+    struct dth_regularizer *r = dth__ckpt_reg(it);
+    return r ? dth_regularizer_get_type(r)->name : "";
+}
+
+void dth__ckpt_reg_section(const dth_integrator *it, dth__section *out)
+{
+    struct dth_regularizer *r = dth__ckpt_reg(it);
+    size_t n;
+    const dth_field *f = dth__reg_fields(r, &n);
+    *out = (dth__section){"regularizer", f, n, dth__reg_self(r), r ? dth__reg_veclen(r) : it->N};
+}
+
+void dth__put_section(dth__wr *w, const dth__section *sec)
+{
+    dth__put_str(w, sec->name);
+    dth__put_u64(w, sec->veclen);
+    dth__put_u32(w, (uint32_t)sec->nfields);
+    for (size_t i = 0; i < sec->nfields; i++) dth__put_field(w, &sec->fields[i], sec->base, sec->veclen);
+}
+
+static void put_state(dth__wr *w, const dth_integrator *it, const dth_run_state *run)
+{
+    dth__section sec[DTH__MAX_SECTIONS + 1], rs;
     double scratch[8];
-    size_t ns = sections_of(it, sec, scratch);
+    size_t ns = dth__ckpt_sections(it, sec, scratch);
     dth__put_str(w, it->type->name);
     dth__put_str(w, dth_model_get_type(it->model)->name);
     dth__put_u64(w, it->n);
     dth__put_u32(w, (uint32_t)ns);
-    for (size_t i = 0; i < ns; i++) put_section(w, &sec[i]);
-    /* the regularizer's own state (a constant fixed at its first step, seeds), as its bytes */
-    struct dth_regularizer *reg = reg_of(it);
-    dth__put_str(w, reg_name(it));
-    size_t rl = dth__reg_state_size(reg);
-    dth__put_u64(w, rl);
-    if (rl && w->buf && w->len + rl <= w->cap) dth__reg_save_state(reg, w->buf + w->len);
-    w->len += rl;
+    for (size_t i = 0; i < ns; i++) dth__put_section(w, &sec[i]);
+    /* the regularizer's own state: its type's field list */
+    dth__put_str(w, dth__ckpt_reg_name(it));
+    dth__ckpt_reg_section(it, &rs);
+    dth__put_section(w, &rs);
+    /* the run driver's state, if given */
+    dth__put_u32(w, run != NULL);
+    if (run) {
+        dth__run_section(run, &rs);
+        dth__put_section(w, &rs);
+    }
 }
 
-int dth_checkpoint_save(const dth_integrator *it, const dth_blob *blobs, size_t nblobs, void *buf,
-                        size_t cap, size_t *len)
+int dth_checkpoint_save_run(const dth_integrator *it, const dth_run_state *run, const dth_blob *blobs, size_t nblobs,
+                            void *buf, size_t cap, size_t *len)
 {
     if (len) *len = 0;
     if (!it || !len || (nblobs && !blobs) || !it->type->sections) return DTH_EINVAL;
     for (size_t i = 0; i < nblobs; i++) {
-        if (!blobs[i].name || !blobs[i].name[0] || strlen(blobs[i].name) > MAX_NAME ||
+        if (!blobs[i].name || !blobs[i].name[0] || strlen(blobs[i].name) > DTH__CKPT_MAX_NAME ||
             (blobs[i].size && !blobs[i].data))
             return DTH_EINVAL;
         for (size_t j = 0; j < i; j++)
@@ -92,9 +128,9 @@ int dth_checkpoint_save(const dth_integrator *it, const dth_blob *blobs, size_t 
         w.len = 0;
         dth__put_bytes(&w, MAGIC, sizeof MAGIC);
         dth__put_u32(&w, DTH_CHECKPOINT_VERSION);
-        dth__put_u32(&w, 0);
+        dth__put_u32(&w, DTH__CKPT_BOM);
         dth__put_u64(&w, (uint64_t)*len);
-        put_state(&w, it);
+        put_state(&w, it, run);
         dth__put_u32(&w, (uint32_t)nblobs);
         for (size_t i = 0; i < nblobs; i++) {
             dth__put_str(&w, blobs[i].name);
@@ -102,7 +138,7 @@ int dth_checkpoint_save(const dth_integrator *it, const dth_blob *blobs, size_t 
             dth__put_bytes(&w, blobs[i].data, blobs[i].size);
         }
         if (pass == 0) {
-            *len = w.len + TRAILER;
+            *len = w.len + DTH__CKPT_TRAILER;
             if (!buf || cap < *len) return buf ? DTH_EINVAL : DTH_OK;
             w.buf = buf;
             w.cap = cap;
@@ -112,11 +148,22 @@ int dth_checkpoint_save(const dth_integrator *it, const dth_blob *blobs, size_t 
     return DTH_OK;
 }
 
+int dth_checkpoint_save(const dth_integrator *it, const dth_blob *blobs, size_t nblobs, void *buf, size_t cap,
+                        size_t *len)
+{
+    return dth_checkpoint_save_run(it, NULL, blobs, nblobs, buf, cap, len);
+}
+
+/* ---- reading: the header, the structure ---- */
+
+/* The byte-order mark as a big-endian writer (host order copied as it is) would have left it. */
+static int bom_swapped(uint32_t bom) { return bom == 0x04030201u; }
+
 /* Parsed header; the state and blobs are read by the callers with `r` positioned after it. */
 static int open_checked(dth__rd *r, const void *buf, size_t len, char *err, size_t errlen)
 {
     *r = (dth__rd){buf, len, 0, 0};
-    if (!buf || len < HEADER + TRAILER) {
+    if (!buf || len < DTH__CKPT_HEADER + DTH__CKPT_TRAILER) {
         dth__set_err(err, errlen, "checkpoint truncated (%zu bytes)", len);
         return DTH_EPARSE;
     }
@@ -126,67 +173,63 @@ static int open_checked(dth__rd *r, const void *buf, size_t len, char *err, size
         return DTH_EPARSE;
     }
     dth__get_bytes(r, sizeof MAGIC);
-    uint32_t ver = dth__get_u32(r);
-    dth__get_u32(r);
+    uint32_t ver = dth__get_u32(r), bom = dth__get_u32(r);
     uint64_t total = dth__get_u64(r);
+    /* the byte order first: a big-endian writer's version and length read as nonsense here */
+    if (bom != DTH__CKPT_BOM && (bom_swapped(bom) || ver >= (1u << 16))) {
+        dth__set_err(err, errlen, "checkpoint written in big-endian byte order (byte-order mark %08x): dth checkpoints "
+                     "are little-endian, and this one was written by a program that copied its host's bytes",
+                     (unsigned)bom);
+        return DTH_EPARSE;
+    }
     if (ver != DTH_CHECKPOINT_VERSION) {
         dth__set_err(err, errlen, "checkpoint format version %u, this library reads version %d only%s", (unsigned)ver,
                      DTH_CHECKPOINT_VERSION,
                      ver < DTH_CHECKPOINT_VERSION ? " (written by an older dth: resume it with that version)" : "");
         return DTH_EPARSE;
     }
-    if (total != len) {
-        dth__set_err(err, errlen, "checkpoint is %zu bytes, its header says %llu (truncated or extended)", len,
-                (unsigned long long)total);
+    if (bom != DTH__CKPT_BOM) {
+        dth__set_err(err, errlen, "checkpoint byte-order mark is %08x, not the little-endian %08x", (unsigned)bom,
+                     (unsigned)DTH__CKPT_BOM);
         return DTH_EPARSE;
     }
-    dth__rd t = {p + len - TRAILER, TRAILER, 0, 0};
-    if (dth__get_u64(&t) != dth__fnv1a(DTH__FNV_OFFSET, p, len - TRAILER)) {
+    if (total != len) {
+        dth__set_err(err, errlen, "checkpoint is %zu bytes, its header says %llu (truncated or extended)", len,
+                     (unsigned long long)total);
+        return DTH_EPARSE;
+    }
+    dth__rd t = {p + len - DTH__CKPT_TRAILER, DTH__CKPT_TRAILER, 0, 0};
+    if (dth__get_u64(&t) != dth__fnv1a(DTH__FNV_OFFSET, p, len - DTH__CKPT_TRAILER)) {
         dth__set_err(err, errlen, "checkpoint checksum mismatch (corrupted)");
         return DTH_EPARSE;
     }
-    r->len = len - TRAILER; /* the body ends at the checksum */
+    r->len = len - DTH__CKPT_TRAILER; /* the body ends at the checksum */
     return DTH_OK;
 }
-
-/* The state, as read (values stay in the buffer: reader positions). */
-typedef struct st {
-    const char *method, *name;
-    size_t method_len, name_len;
-    uint64_t n;
-    uint32_t nsec;
-    size_t pos_sec;       /* reader position of the first section */
-    const char *reg;      /* regularizer type name */
-    size_t reg_name_len;
-    uint64_t reg_len;     /* bytes of regularizer state */
-    size_t pos_reg;
-} st;
 
 /* Skip one section's fields, checking their structure (names, types, counts; values unchecked). */
 static int skip_section(dth__rd *r)
 {
     size_t nl;
-    dth__get_str(r, MAX_NAME, &nl);
+    dth__get_str(r, DTH__CKPT_MAX_NAME, &nl);
     uint64_t veclen = dth__get_u64(r);
     uint32_t nf = dth__get_u32(r);
-    if (r->bad || nf > MAX_FIELDS || veclen > ((uint64_t)1 << 44)) return DTH_EPARSE;
+    if (r->bad || nf > DTH__MAX_FIELDS || veclen > ((uint64_t)1 << 44)) return DTH_EPARSE;
     for (uint32_t i = 0; i < nf && !r->bad; i++) {
         size_t fl;
-        dth__get_str(r, MAX_NAME, &fl);
+        dth__get_str(r, DTH__CKPT_MAX_NAME, &fl);
         uint32_t type = dth__get_u32(r);
         uint64_t count = dth__get_u64(r);
-        if (r->bad || (type != DTH__T_F64 && type != DTH__T_I64) || (count != 1 && count != veclen) ||
-            count > (r->len - r->pos) / 8)
-            return DTH_EPARSE;
+        if (r->bad || (type != DTH__T_F64 && type != DTH__T_I64) || count > (r->len - r->pos) / 8) return DTH_EPARSE;
         dth__get_bytes(r, (size_t)count * 8);
     }
     return r->bad ? DTH_EPARSE : DTH_OK;
 }
 
-static int read_state(dth__rd *r, st *s, char *err, size_t errlen)
+static int read_state(dth__rd *r, dth__ckpt *s, char *err, size_t errlen)
 {
-    s->method = dth__get_str(r, MAX_NAME, &s->method_len);
-    s->name = dth__get_str(r, MAX_NAME, &s->name_len);
+    s->method = dth__get_str(r, DTH__CKPT_MAX_NAME, &s->method_len);
+    s->name = dth__get_str(r, DTH__CKPT_MAX_NAME, &s->name_len);
     s->n = dth__get_u64(r);
     s->nsec = dth__get_u32(r);
     s->pos_sec = r->pos;
@@ -199,15 +242,19 @@ static int read_state(dth__rd *r, st *s, char *err, size_t errlen)
             dth__set_err(err, errlen, "checkpoint state section %u is malformed", (unsigned)i);
             return DTH_EPARSE;
         }
-    s->reg = dth__get_str(r, MAX_NAME, &s->reg_name_len);
-    s->reg_len = dth__get_u64(r);
+    s->reg = dth__get_str(r, DTH__CKPT_MAX_NAME, &s->reg_name_len);
     s->pos_reg = r->pos;
-    if (!r->bad && s->reg_len > r->len - r->pos) r->bad = 1;
-    if (!r->bad) dth__get_bytes(r, s->reg_len);
-    if (r->bad) {
-        dth__set_err(err, errlen, "checkpoint regularizer state is invalid");
+    if (r->bad || skip_section(r)) {
+        dth__set_err(err, errlen, "checkpoint regularizer state is malformed");
         return DTH_EPARSE;
     }
+    uint32_t has_run = dth__get_u32(r);
+    s->pos_run = r->pos;
+    if (r->bad || has_run > 1 || (has_run && skip_section(r))) {
+        dth__set_err(err, errlen, "checkpoint run state is malformed");
+        return DTH_EPARSE;
+    }
+    s->has_run = (int)has_run;
     return DTH_OK;
 }
 
@@ -217,7 +264,7 @@ static int scan_blobs(dth__rd *r, const char *name, const void **data, size_t *s
     uint32_t nb = dth__get_u32(r);
     for (uint32_t i = 0; i < nb && !r->bad; i++) {
         size_t nl;
-        const char *nm = dth__get_str(r, MAX_NAME, &nl);
+        const char *nm = dth__get_str(r, DTH__CKPT_MAX_NAME, &nl);
         uint64_t sz = dth__get_u64(r);
         if (r->bad || nl == 0 || sz > r->len - r->pos) {
             r->bad = 1;
@@ -234,7 +281,7 @@ static int scan_blobs(dth__rd *r, const char *name, const void **data, size_t *s
     return name ? DTH_ENOTFOUND : DTH_OK;
 }
 
-static int verify(const void *buf, size_t len, dth__rd *r, st *s, char *err, size_t errlen)
+int dth__ckpt_verify(const void *buf, size_t len, dth__rd *r, dth__ckpt *s, char *err, size_t errlen)
 {
     int rc = open_checked(r, buf, len, err, errlen);
     if (!rc) rc = read_state(r, s, err, errlen);
@@ -250,126 +297,16 @@ static int verify(const void *buf, size_t len, dth__rd *r, st *s, char *err, siz
 int dth_checkpoint_verify(const void *buf, size_t len, char *err, size_t errlen)
 {
     dth__rd r;
-    st s;
-    return verify(buf, len, &r, &s, err, errlen);
-}
-
-static int same_str(const char *a, const char *b, size_t blen) { return strlen(a) == blen && memcmp(a, b, blen) == 0; }
-
-/* Read the saved section that must match `want` (its name, veclen and fields), validating every
- * value; pos gets each field's reader position. */
-static int read_section(dth__rd *r, const dth__section *want, size_t *pos, char *err, size_t errlen)
-{
-    size_t nl;
-    const char *nm = dth__get_str(r, MAX_NAME, &nl);
-    uint64_t veclen = dth__get_u64(r);
-    uint32_t nf = dth__get_u32(r);
-    if (r->bad || !same_str(want->name, nm, nl) || veclen != want->veclen || nf != want->nfields) {
-        dth__set_err(err, errlen, "checkpoint section '%.*s' (%u fields of %llu) where this library expects '%s' (%zu of %zu)",
-                     (int)nl, nm ? nm : "", (unsigned)nf, (unsigned long long)veclen, want->name, want->nfields,
-                     want->veclen);
-        return DTH_EPARSE;
-    }
-    for (size_t i = 0; i < want->nfields; i++) {
-        char msg[200];
-        int rc = dth__get_field(r, &want->fields[i], want->veclen, &pos[i], msg, sizeof msg);
-        if (rc) {
-            dth__set_err(err, errlen, "checkpoint section '%s': %s", want->name, msg);
-            return rc;
-        }
-    }
-    return DTH_OK;
-}
-
-/* The saved options equal the integrator's (they change the steps). */
-static int same_options(const dth__rd *r, const dth__section *o, const size_t *pos, char *err, size_t errlen)
-{
-    double saved[8];
-    for (size_t i = 0; i < o->nfields; i++) {
-        const dth__field *f = &o->fields[i];
-        dth__load_field(r, pos[i], f, saved, 0);
-        const char *a = (const char *)o->base + f->offset, *b = (const char *)(void *)saved + f->offset;
-        if (memcmp(a, b, f->kind == DTH__K_F64 ? sizeof(double) : sizeof(long)) == 0) continue;
-        if (f->kind == DTH__K_F64)
-            dth__set_err(err, errlen, "checkpoint was written with option %s = %.17g, this integrator has %.17g", f->name,
-                         *(const double *)(const void *)b, *(const double *)(const void *)a);
-        else
-            dth__set_err(err, errlen, "checkpoint was written with option %s = %ld, this integrator has %ld", f->name,
-                         *(const long *)(const void *)b, *(const long *)(const void *)a);
-        return DTH_EINVAL;
-    }
-    return DTH_OK;
-}
-
-int dth_checkpoint_restore(dth_integrator *it, const void *buf, size_t len, char *err, size_t errlen)
-{
-    if (!it) return DTH_EINVAL;
-    if (!it->type->sections) {
-        dth__set_err(err, errlen, "method '%s' has no checkpoints", it->type->name);
-        return DTH_EUNSUPPORTED;
-    }
-    dth__rd r;
-    st s;
-    int rc = verify(buf, len, &r, &s, err, errlen);
-    if (rc) return rc;
-    const char *mname = dth_model_get_type(it->model)->name;
-    if (!same_str(it->type->name, s.method, s.method_len)) {
-        dth__set_err(err, errlen, "checkpoint of method '%.*s', this integrator steps with '%s'", (int)s.method_len, s.method,
-                     it->type->name);
-        return DTH_EINVAL;
-    }
-    if (!same_str(mname, s.name, s.name_len) || s.n != it->n) {
-        dth__set_err(err, errlen, "checkpoint of model '%.*s' with %llu degrees of freedom does not fit model '%s' with %zu",
-                (int)s.name_len, s.name, (unsigned long long)s.n, mname, it->n);
-        return DTH_EINVAL;
-    }
-    dth__section sec[DTH__MAX_SECTIONS + 1];
-    double scratch[8];
-    size_t ns = sections_of(it, sec, scratch);
-    if (s.nsec != ns) {
-        dth__set_err(err, errlen, "checkpoint has %u state sections, this integrator %zu", (unsigned)s.nsec, ns);
-        return DTH_EPARSE;
-    }
-    size_t pos[DTH__MAX_SECTIONS + 1][MAX_FIELDS];
-    dth__rd q = {r.p, r.len, s.pos_sec, 0};
-    for (size_t i = 0; i < ns; i++) {
-        if (sec[i].nfields > MAX_FIELDS) return DTH_EINVAL;
-        rc = read_section(&q, &sec[i], pos[i], err, errlen);
-        if (rc) return rc;
-    }
-    rc = same_options(&q, &sec[0], pos[0], err, errlen);
-    if (rc) return rc;
-    struct dth_regularizer *reg = reg_of(it);
-    const char *rname = reg_name(it);
-    if (!same_str(rname, s.reg, s.reg_name_len)) {
-        dth__set_err(err, errlen, "checkpoint was written with %s%.*s%s, this integrator has %s%s%s",
-                     s.reg_name_len ? "regularizer '" : "no regularizer", (int)s.reg_name_len, s.reg,
-                     s.reg_name_len ? "'" : "", rname[0] ? "regularizer '" : "none", rname, rname[0] ? "'" : "");
-        return DTH_EINVAL;
-    }
-    if (s.reg_len != dth__reg_state_size(reg)) {
-        dth__set_err(err, errlen, "checkpoint holds %llu bytes of state of regularizer '%s', this one %zu",
-                     (unsigned long long)s.reg_len, rname, dth__reg_state_size(reg));
-        return DTH_EINVAL;
-    }
-    /* the regularizer checks its bytes first: nothing is changed if it rejects them */
-    if (s.reg_len && dth__reg_load_state(reg, (const unsigned char *)r.p + s.pos_reg, (size_t)s.reg_len)) {
-        dth__set_err(err, errlen, "checkpoint regularizer state is rejected by the regularizer");
-        return DTH_EPARSE;
-    }
-    /* everything is valid: commit */
-    for (size_t i = 1; i < ns; i++)
-        for (size_t f = 0; f < sec[i].nfields; f++) dth__load_field(&q, pos[i][f], &sec[i].fields[f], sec[i].base, sec[i].veclen);
-    if (it->type->restored) it->type->restored(it->state);
-    return DTH_OK;
+    dth__ckpt s;
+    return dth__ckpt_verify(buf, len, &r, &s, err, errlen);
 }
 
 int dth_checkpoint_blob(const void *buf, size_t len, const char *name, const void **data, size_t *size)
 {
     if (!name || !data || !size) return DTH_EINVAL;
     dth__rd r;
-    st s;
-    int rc = verify(buf, len, &r, &s, NULL, 0);
+    dth__ckpt s;
+    int rc = dth__ckpt_verify(buf, len, &r, &s, NULL, 0);
     if (rc) return rc;
     return scan_blobs(&r, name, data, size);
 }
@@ -378,8 +315,8 @@ int dth_checkpoint_model_name(const void *buf, size_t len, char *name, size_t na
 {
     if (!name || !namelen) return DTH_EINVAL;
     dth__rd r;
-    st s;
-    int rc = verify(buf, len, &r, &s, NULL, 0);
+    dth__ckpt s;
+    int rc = dth__ckpt_verify(buf, len, &r, &s, NULL, 0);
     if (rc) return rc;
     if (s.name_len >= namelen) return DTH_EINVAL;
     memcpy(name, s.name, s.name_len);
@@ -387,12 +324,14 @@ int dth_checkpoint_model_name(const void *buf, size_t len, char *name, size_t na
     return DTH_OK;
 }
 
-int dth_checkpoint_write_file(const dth_integrator *it, const dth_blob *blobs, size_t nblobs,
-                              const char *path, char *err, size_t errlen)
+/* ---- files ---- */
+
+int dth_checkpoint_write_file_run(const dth_integrator *it, const dth_run_state *run, const dth_blob *blobs,
+                                  size_t nblobs, const char *path, char *err, size_t errlen)
 {
     if (!it || !path || !path[0]) return DTH_EINVAL;
     size_t len;
-    int rc = dth_checkpoint_save(it, blobs, nblobs, NULL, 0, &len);
+    int rc = dth_checkpoint_save_run(it, run, blobs, nblobs, NULL, 0, &len);
     if (rc) return rc;
     /* a temporary of its own (path.tmp.PID.XXXXXX: two writers of one path cannot collide; a
      * killed writer's is recognised by its PID), fsync, rename over path, fsync the folder */
@@ -405,7 +344,7 @@ int dth_checkpoint_write_file(const dth_integrator *it, const dth_blob *blobs, s
         dth__set_err(err, errlen, "out of memory writing checkpoint '%s'", path);
         return DTH_ENOMEM;
     }
-    rc = dth_checkpoint_save(it, blobs, nblobs, buf, len, &len);
+    rc = dth_checkpoint_save_run(it, run, blobs, nblobs, buf, len, &len);
     int fd = rc ? -1 : dth__open_unique_temp(path, tmp, tcap);
     if (!rc && fd < 0) {
         dth__set_err(err, errlen, "cannot write checkpoint '%s': %s", path, strerror(errno));
@@ -447,6 +386,12 @@ int dth_checkpoint_write_file(const dth_integrator *it, const dth_blob *blobs, s
     dth_free(it->alloc, tmp);
     dth_free(it->alloc, buf);
     return rc;
+}
+
+int dth_checkpoint_write_file(const dth_integrator *it, const dth_blob *blobs, size_t nblobs, const char *path, char *err,
+                              size_t errlen)
+{
+    return dth_checkpoint_write_file_run(it, NULL, blobs, nblobs, path, err, errlen);
 }
 
 int dth_checkpoint_read_file(const char *path, const dth_allocator *alloc, void **buf, size_t *len,

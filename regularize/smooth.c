@@ -29,6 +29,7 @@
  * exists either (an unresolved passage), the step is refused.
  */
 #include <float.h>
+#include <stddef.h>
 #include <math.h>
 #include <string.h>
 #include "dth/regularize.h"
@@ -309,7 +310,7 @@ static int solve(smooth *r, const dth_reg_event *ev, const blend *b, double lam0
 
 /* The changeover weight and the law's step at a vertex z, cached for the last vertex asked (the
  * next step starts there, and apply asks for the vertex admit turned down). A function of the
- * point only (K is fixed before the first call; load_state drops the cache), so a hit gives
+ * point only (K is fixed before the first call; state_loaded drops the cache), so a hit gives
  * exactly what weight() would. */
 static int vertex_weight(smooth *r, const double *z, double *w, double *l)
 {
@@ -404,30 +405,17 @@ static int admit(void *self, const double *za, const double *zb, double lambda)
 }
 
 /* The state a checkpoint keeps: the law's constant K once fixed (the weight cache is only a cache). */
-static size_t state_size(const void *self)
-{
-    (void)self;
-    return 2 * sizeof(double);
-}
+static const dth_field state_fields[] = {
+    {"K", offsetof(smooth, K), DTH_FIELD_F64, DTH_CHECK_NONNEG, 1},
+    {"K_fixed", offsetof(smooth, K_fixed), DTH_FIELD_INT, DTH_CHECK_BOOL, 1},
+};
 
-static void save_state(const void *self, void *buf)
-{
-    const smooth *r = self;
-    double s[2] = {r->K, (double)r->K_fixed};
-    memcpy(buf, s, sizeof s);
-}
-
-static int load_state(void *self, const void *buf, size_t len)
+/* After a restore or a rollback: a fixed K is a law's constant; the cache is of the state before. */
+static int state_loaded(void *self)
 {
     smooth *r = self;
-    double s[2];
-    if (len != sizeof s) return -1;
-    memcpy(s, buf, sizeof s);
-    if (!(s[1] == 0 || s[1] == 1) || (s[1] == 1 && !(s[0] > 0 && isfinite(s[0])))) return -1;
-    r->K = s[0];
-    r->K_fixed = (int)s[1];
     r->cache_ok = 0;
-    return 0;
+    return r->K_fixed && !(r->K > 0) ? -1 : 0;
 }
 
 const dth_regularizer_type dth_reg_smooth = {
@@ -440,7 +428,7 @@ DTH_REG_TYPE_HEAD,
     .destroy = destroy,
     .apply = apply,
     .admit = admit,
-    .state_size = state_size,
-    .save_state = save_state,
-    .load_state = load_state,
+    .fields = state_fields,
+    .n_fields = sizeof state_fields / sizeof state_fields[0],
+    .state_loaded = state_loaded,
 };

@@ -1,7 +1,9 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Field lists and their codec (dth/fields.h): the public records of dth_fields_encode / decode, by
- * name, type and count, little-endian, each restored value checked by its field's check.
+ * Checkpoints by their field lists: the byte order (a big-endian writer's checkpoint is refused by
+ * name); the run driver's state saved and restored by the library; the run state's field list
+ * covers dth_run_state; regularizer tables of the old layout and bad field lists are refused; the
+ * public field codec.
  */
 #include <math.h>
 #include <stdint.h>
@@ -9,8 +11,362 @@
 #include <stdlib.h>
 #include <string.h>
 #include "cu_main.h"
+#include "ckpt_walk.h"
 #include "dth/dth.h"
 #include "failing_alloc.h"
+#include "run_fields.h"
+
+/* ---- a run to checkpoint: the pendulum through dth_run, its samples kept ---- */
+
+typedef struct runner {
+    dth_model *m;
+    dth_regularizer *reg;
+    dth_integrator *it;
+    dth_run_state st;
+    double t[400], q[400];
+    long n;
+} runner;
+
+static int keep_sample(void *user, const dth_sample *s)
+{
+    runner *r = user;
+    if (r->n < 400) {
+        r->t[r->n] = s->z[1];
+        r->q[r->n] = s->z[0];
+        r->n++;
+    }
+    return 0;
+}
+
+/* A fresh integrator of method `method` (NULL: dth) with regularizer `rt` (NULL: none), started. */
+static void runner_new(runner *r, const char *method, const dth_regularizer_type *rt, double p0)
+{
+    memset(r, 0, sizeof *r);
+    CU_ASSERT_FATAL(dth_model_new(&dth_model_pendulum, NULL, 0, 1, NULL, &r->m, NULL, 0) == DTH_OK);
+    if (rt) CU_ASSERT_FATAL(dth_regularizer_new(rt, NULL, 0, r->m, NULL, &r->reg, NULL, 0) == DTH_OK);
+    dth_options o;
+    dth_options_default(&o);
+    o.h = 0.05;
+    o.method = method;
+    o.regularizer = r->reg;
+    CU_ASSERT_FATAL(dth_integrator_new(r->m, &o, &r->it) == DTH_OK);
+    double q = 1.0;
+    CU_ASSERT_FATAL(dth_integrator_start(r->it, &q, &p0, 0) == DTH_OK);
+    dth_run_state_init(&r->st);
+}
+
+static void runner_run(runner *r, long steps)
+{
+    dth_run_config c;
+    dth_run_config_default(&c);
+    c.steps = steps;
+    c.sample = keep_sample;
+    c.user = r;
+    CU_ASSERT_FATAL(dth_run(r->it, &c, &r->st) == DTH_OK);
+}
+
+static void runner_free(runner *r)
+{
+    dth_integrator_free(r->it);
+    dth_regularizer_free(r->reg);
+    dth_model_free(r->m);
+}
+
+static unsigned char *save_run(const dth_integrator *it, const dth_run_state *st, size_t *len)
+{
+    CU_ASSERT_FATAL(dth_checkpoint_save_run(it, st, NULL, 0, NULL, 0, len) == DTH_OK);
+    unsigned char *b = malloc(*len);
+    CU_ASSERT_FATAL(b != NULL);
+    CU_ASSERT_FATAL(dth_checkpoint_save_run(it, st, NULL, 0, b, *len, len) == DTH_OK);
+    return b;
+}
+
+/* ---- byte order ---- */
+
+/* Rewrite the checkpoint b as a writer that copies its host's bytes on a big-endian host would
+ * have: every number byte-swapped (strings and blob bytes as they are), the checksum too. */
+static void swap_at(unsigned char *o, const unsigned char *b, size_t pos, int n)
+{
+    for (int i = 0; i < n; i++) o[pos + (size_t)i] = b[pos + (size_t)(n - 1 - i)];
+}
+
+static size_t swap_str(unsigned char *o, const unsigned char *b, size_t pos)
+{
+    swap_at(o, b, pos, 4);
+    return pos + 4 + (size_t)walk_le(b + pos, 4);
+}
+
+static size_t swap_section(unsigned char *o, const unsigned char *b, size_t pos)
+{
+    pos = swap_str(o, b, pos);
+    swap_at(o, b, pos, 8);
+    swap_at(o, b, pos + 8, 4);
+    uint64_t nf = walk_le(b + pos + 8, 4);
+    pos += 12;
+    for (uint64_t i = 0; i < nf; i++) {
+        pos = swap_str(o, b, pos);
+        uint64_t type = walk_le(b + pos, 4), count = walk_le(b + pos + 4, 8);
+        swap_at(o, b, pos, 4);
+        swap_at(o, b, pos + 4, 8);
+        pos += 12;
+        for (uint64_t k = 0; type != 3 && k < count; k++) swap_at(o, b, pos + 8 * k, 8);
+        pos += type == 3 ? count : 8 * count;
+    }
+    return pos;
+}
+
+static void big_endian(unsigned char *o, const unsigned char *b, size_t len)
+{
+    memcpy(o, b, len);
+    swap_at(o, b, 8, 4);
+    swap_at(o, b, 12, 4);
+    swap_at(o, b, 16, 8);
+    size_t pos = swap_str(o, b, 24);
+    pos = swap_str(o, b, pos);
+    swap_at(o, b, pos, 8);
+    swap_at(o, b, pos + 8, 4);
+    uint64_t nsec = walk_le(b + pos + 8, 4);
+    pos += 12;
+    for (uint64_t i = 0; i < nsec; i++) pos = swap_section(o, b, pos);
+    pos = swap_str(o, b, pos);
+    pos = swap_section(o, b, pos);
+    uint64_t has_run = walk_le(b + pos, 4);
+    swap_at(o, b, pos, 4);
+    pos += 4;
+    if (has_run) pos = swap_section(o, b, pos);
+    uint64_t nb = walk_le(b + pos, 4);
+    swap_at(o, b, pos, 4);
+    pos += 4;
+    for (uint64_t i = 0; i < nb; i++) {
+        pos = swap_str(o, b, pos);
+        uint64_t sz = walk_le(b + pos, 8);
+        swap_at(o, b, pos, 8);
+        pos += 8 + sz;
+    }
+    CU_ASSERT(pos + 8 == len);
+    uint64_t h = walk_fnv(o, len - 8);
+    for (int i = 0; i < 8; i++) o[len - 8 + (size_t)i] = (unsigned char)(h >> (8 * (7 - i)));
+}
+
+static void test_byte_order(void)
+{
+    runner a, b;
+    runner_new(&a, NULL, &dth_reg_prescribed, 0.2);
+    runner_new(&b, NULL, &dth_reg_prescribed, 0.2);
+    runner_run(&a, 10);
+    size_t len;
+    unsigned char *good = save_run(a.it, &a.st, &len), *bad = malloc(len);
+    CU_ASSERT_FATAL(bad != NULL);
+    /* every number is little-endian by construction: the header's as documented */
+    CU_ASSERT(walk_le(good + 8, 4) == DTH_CHECKPOINT_VERSION && good[12] == 4 && good[13] == 3 && good[14] == 2 &&
+              good[15] == 1 && walk_le(good + 16, 8) == len);
+    char err[400] = "";
+    dth_run_state got;
+    /* the whole checkpoint as a big-endian writer would have written it */
+    big_endian(bad, good, len);
+    CU_ASSERT(dth_checkpoint_verify(bad, len, err, sizeof err) == DTH_EPARSE && strstr(err, "big-endian") != NULL);
+    err[0] = '\0';
+    CU_ASSERT(dth_checkpoint_restore_run(b.it, &got, bad, len, err, sizeof err) == DTH_EPARSE);
+    CU_ASSERT(strstr(err, "big-endian") != NULL);
+    printf("  [%s]\n", err);
+    /* its byte-order mark alone, the checksum recomputed */
+    memcpy(bad, good, len);
+    for (int i = 0; i < 4; i++) bad[12 + i] = (unsigned char)(i + 1);
+    walk_reseal(bad, len);
+    err[0] = '\0';
+    CU_ASSERT(dth_checkpoint_restore_run(b.it, &got, bad, len, err, sizeof err) == DTH_EPARSE);
+    CU_ASSERT(strstr(err, "big-endian") != NULL);
+    /* and any other mark */
+    bad[12] = 0;
+    walk_reseal(bad, len);
+    CU_ASSERT(dth_checkpoint_restore(b.it, bad, len, err, sizeof err) == DTH_EPARSE && strstr(err, "byte-order") != NULL);
+    CU_ASSERT(dth_integrator_steps(b.it) == 0);
+    /* the regularizer's doubles are little-endian too: the arc's bytes in the file are its value's */
+    walk_field f = {0};
+    CU_ASSERT_FATAL(walk_find_field(good, len, "regularizer", "arc", &f) && f.type == 1 && f.count == 1);
+    uint64_t bits = walk_le(good + f.values, 8);
+    double arc;
+    memcpy(&arc, &bits, sizeof arc);
+    CU_ASSERT(arc > 0 && isfinite(arc));
+    free(good);
+    free(bad);
+    runner_free(&a);
+    runner_free(&b);
+}
+
+/* ---- the run state: saved and restored by the library, the run continued bit for bit ---- */
+
+static void test_run_state(void)
+{
+    runner a, b, c;
+    runner_new(&a, NULL, &dth_reg_smooth, 2.2);
+    runner_new(&b, NULL, &dth_reg_smooth, 2.2);
+    runner_new(&c, NULL, &dth_reg_smooth, 2.2);
+    runner_run(&a, 120);
+    runner_run(&b, 50);
+    size_t len;
+    unsigned char *buf = save_run(b.it, &b.st, &len);
+    dth_run_state alone;
+    char err[400] = "";
+    CU_ASSERT(dth_checkpoint_run_state(buf, len, &alone, err, sizeof err) == DTH_OK);
+    CU_ASSERT(memcmp(&alone, &b.st, sizeof alone) == 0);
+    CU_ASSERT(dth_checkpoint_restore_run(c.it, &c.st, buf, len, err, sizeof err) == DTH_OK);
+    CU_ASSERT(memcmp(&c.st, &b.st, sizeof c.st) == 0);
+    long n0 = b.n;
+    c.n = n0;
+    memcpy(c.t, b.t, sizeof c.t);
+    memcpy(c.q, b.q, sizeof c.q);
+    runner_run(&c, 120);
+    CU_ASSERT(c.n == a.n && memcmp(c.t, a.t, sizeof c.t) == 0 && memcmp(c.q, a.q, sizeof c.q) == 0);
+    CU_ASSERT(memcmp(&c.st, &a.st, sizeof c.st) == 0);
+    CU_ASSERT(a.st.crossings > 0); /* the run went through psi = 0 */
+    /* a checkpoint without a run state: restore_run says so, restore reads it */
+    size_t l2;
+    unsigned char *plain = save_run(b.it, NULL, &l2);
+    CU_ASSERT(dth_checkpoint_restore_run(c.it, &alone, plain, l2, err, sizeof err) == DTH_ENOTFOUND);
+    CU_ASSERT(strstr(err, "no run state") != NULL);
+    CU_ASSERT(dth_checkpoint_run_state(plain, l2, &alone, err, sizeof err) == DTH_ENOTFOUND);
+    CU_ASSERT(dth_checkpoint_restore(c.it, buf, len, err, sizeof err) == DTH_OK);
+    CU_ASSERT(dth_checkpoint_run_state(buf, len, NULL, err, sizeof err) == DTH_EINVAL);
+    free(plain);
+    free(buf);
+    runner_free(&a);
+    runner_free(&b);
+    runner_free(&c);
+}
+
+/* The run state's field list names every member of dth_run_state and of its dth_step_info, as the
+ * public headers declare them (a member that fits the padding moves no offset: this catches it). */
+static size_t members(const char *path, const char *open, const char *close, char names[][32], size_t max)
+{
+    FILE *f = fopen(path, "rb");
+    CU_ASSERT_FATAL(f != NULL);
+    static char text[1 << 17];
+    size_t got = fread(text, 1, sizeof text - 1, f);
+    fclose(f);
+    text[got] = '\0';
+    char *a = strstr(text, open), *e = a ? strstr(a, close) : NULL;
+    CU_ASSERT_FATAL(a && e);
+    size_t k = 0;
+    for (char *p = a + strlen(open); p < e && k < max;) {
+        char *semi = strchr(p, ';');
+        if (!semi || semi > e) break;
+        /* skip a comment line or block between members */
+        char *c = strstr(p, "/*");
+        if (c && c < semi) {
+            char *ce = strstr(c, "*/");
+            if (ce && ce < semi) { /* a comment before the declaration: drop it */
+                p = ce + 2;
+                continue;
+            }
+        }
+        char *q = semi;
+        while (q > p && q[-1] == ' ') q--;
+        char *s = q;
+        while (s > p && (s[-1] == '_' || (s[-1] >= 'a' && s[-1] <= 'z') || (s[-1] >= '0' && s[-1] <= '9'))) s--;
+        size_t n = (size_t)(q - s);
+        if (n && n < 32) {
+            memcpy(names[k], s, n);
+            names[k++][n] = '\0';
+        }
+        p = semi + 1;
+    }
+    return k;
+}
+
+static void test_run_fields_cover(void)
+{
+    const char *root = getenv("DTH_SOURCE_ROOT");
+    if (!root) {
+        printf("  [DTH_SOURCE_ROOT not set: the headers are not read]\n");
+        return;
+    }
+    char path[4096], run[64][32], step[16][32];
+    snprintf(path, sizeof path, "%s/lib/include/dth/run.h", root);
+    size_t nr = members(path, "typedef struct dth_run_state {", "} dth_run_state;", run, 64);
+    snprintf(path, sizeof path, "%s/lib/include/dth/integrator.h", root);
+    size_t ns = members(path, "typedef struct dth_step_info {", "} dth_step_info;", step, 16);
+    size_t nf;
+    const dth_field *f = dth__run_fields(&nf);
+    CU_ASSERT(nr == 16 && ns == 6); /* as the headers stand: the parse itself works */
+    CU_ASSERT(nf == nr - 1 + ns);   /* `in` flattened into its members */
+    long missing = 0;
+    for (size_t i = 0; i < nr + ns; i++) {
+        char want[48];
+        if (i < nr && !strcmp(run[i], "in")) continue;
+        snprintf(want, sizeof want, i < nr ? "%s" : "in.%s", i < nr ? run[i] : step[i - nr]);
+        size_t k = 0;
+        while (k < nf && strcmp(f[k].name, want)) k++;
+        if (k == nf) {
+            printf("  [member %s has no field in lib/run_fields.h]\n", want);
+            missing++;
+        }
+    }
+    CU_ASSERT(missing == 0);
+}
+
+/* ---- regularizer tables: the old layout, bad field lists, state_loaded's veto ---- */
+
+static int none_apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
+{
+    (void)self, (void)ev;
+    act->what = DTH_REG_KEEP;
+    return DTH_OK;
+}
+
+typedef struct two {
+    double a;
+    int b;
+} two;
+
+static void test_reg_tables(void)
+{
+    char err[300] = "";
+    dth_regularizer_type t = {DTH_REG_TYPE_HEAD, .name = "t", .apply = none_apply};
+    CU_ASSERT(dth_regularizer_type_check(&t, err, sizeof err) == DTH_OK);
+    /* layout 2 (raw state bytes) is refused by name of the fix */
+    t.abi = DTH_ABI_MAGIC | 2u;
+    CU_ASSERT(dth_regularizer_type_check(&t, err, sizeof err) == DTH_EINVAL);
+    CU_ASSERT(strstr(err, "layout version 2") && strstr(err, "version 3 only") && strstr(err, "rebuild"));
+    t.abi = DTH_REG_TYPE_VERSION;
+    /* bad field lists, each named */
+    dth_field bad[][2] = {
+        {{"a", offsetof(two, a), DTH_FIELD_F64, DTH_CHECK_FINITE, 1}, {"a", offsetof(two, b), DTH_FIELD_INT, DTH_CHECK_BOOL, 1}},
+        {{"a", offsetof(two, a), DTH_FIELD_STR, DTH_CHECK_ANY, 1}, {"b", offsetof(two, b), DTH_FIELD_INT, DTH_CHECK_BOOL, 1}},
+        {{"a", offsetof(two, a), DTH_FIELD_F64, 99, 1}, {"b", offsetof(two, b), DTH_FIELD_INT, DTH_CHECK_BOOL, 1}},
+        {{"a b", offsetof(two, a), DTH_FIELD_F64, DTH_CHECK_ANY, 1}, {"b", offsetof(two, b), DTH_FIELD_INT, DTH_CHECK_BOOL, 1}},
+        {{"a", offsetof(two, a), DTH_FIELD_F64, DTH_CHECK_ANY, 1}, {"b", offsetof(two, b), DTH_FIELD_INT, DTH_CHECK_BOOL, 3}},
+    };
+    const char *says[] = {"appears twice", "kind", "check", "name", "count"};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        t.fields = bad[i];
+        t.n_fields = 2;
+        err[0] = '\0';
+        CU_ASSERT(dth_regularizer_type_check(&t, err, sizeof err) == DTH_EINVAL && strstr(err, says[i]) != NULL);
+    }
+    t.fields = NULL;
+    CU_ASSERT(dth_regularizer_type_check(&t, err, sizeof err) == DTH_EINVAL && strstr(err, "NULL") != NULL);
+    /* state_loaded's veto: smooth's K marked fixed must be > 0 (a check on its own accepts K = 0) */
+    runner a, b;
+    runner_new(&a, NULL, &dth_reg_smooth, 2.2);
+    runner_new(&b, NULL, &dth_reg_smooth, 2.2);
+    runner_run(&a, 20);
+    size_t len, lb, la;
+    unsigned char *buf = save_run(a.it, &a.st, &len), *before = save_run(b.it, NULL, &lb);
+    walk_field f = {0};
+    CU_ASSERT_FATAL(walk_find_field(buf, len, "regularizer", "K", &f));
+    walk_put_le(buf + f.values, 0, 8);
+    walk_reseal(buf, len);
+    CU_ASSERT(dth_checkpoint_restore(b.it, buf, len, err, sizeof err) == DTH_EPARSE);
+    CU_ASSERT(strstr(err, "regularizer 'smooth' refuses its state") != NULL);
+    unsigned char *after = save_run(b.it, NULL, &la);
+    CU_ASSERT(la == lb && memcmp(before, after, lb) == 0);
+    free(buf);
+    free(before);
+    free(after);
+    runner_free(&a);
+    runner_free(&b);
+}
 
 /* ---- the public field codec ---- */
 
@@ -85,6 +441,10 @@ static void test_fields_codec(void)
 }
 
 static CU_TestInfo fields_tests[] = {
+    {"byte order: little-endian by construction; a big-endian writer's checkpoint refused by name", test_byte_order},
+    {"the run driver's state saved and restored by the library; the run continues bit for bit", test_run_state},
+    {"the run state's field list names every member of dth_run_state and dth_step_info", test_run_fields_cover},
+    {"regularizer tables: layout 2 refused, bad field lists named, state_loaded's veto", test_reg_tables},
     {"the public field codec: round trip, truncation, checks, strings, memory", test_fields_codec},
     CU_TEST_INFO_NULL,
 };
