@@ -405,4 +405,5 @@ const dth__stepper_type dth__stepper_dth = {
     .options_section = options_section,
     .regularizer = regularizer,
     .restored = restored,
+    .consistent = dth__dth_consistent,
 };

@@ -1,10 +1,12 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Restoring a checkpoint (checkpoint.c writes and verifies it): every field read by its list and
- * each value checked (fields.c); then the regularizer's state_loaded on the restored state, and
- * the integrator goes back to what it was if it refuses: a restore changes all or nothing.
+ * each value checked (fields.c); then the rules between fields on the restored state (the
+ * stepper's `consistent`, the regularizer's state_loaded, the run state's rules below), and the
+ * integrator goes back to what it was if any of them refuses: a restore changes all or nothing.
  */
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
 #include "dth/checkpoint.h"
@@ -55,6 +57,69 @@ static int same_options(const dth__rd *r, const dth__section *o, const size_t *p
                          *(const long *)(const void *)b, *(const long *)(const void *)a);
         return DTH_EINVAL;
     }
+    return DTH_OK;
+}
+
+/* ---- the run state's rules: among its own fields, and against the integrator it runs ---- */
+
+static int all_zero(const void *p, size_t n)
+{
+    const unsigned char *b = p;
+    for (size_t i = 0; i < n; i++)
+        if (b[i]) return 0;
+    return 1;
+}
+
+static int run_refuse(char *err, size_t errlen, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+static int run_refuse(char *err, size_t errlen, const char *fmt, ...)
+{
+    char msg[240];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    dth__set_err(err, errlen, "checkpoint section 'run': %s", msg);
+    return DTH_EPARSE;
+}
+
+static int run_rules(const dth_run_state *S, char *err, size_t errlen)
+{
+    size_t nf;
+    const dth_field *f = dth__run_fields(&nf);
+    for (size_t i = 0; !S->started && i < nf; i++)
+        if (!all_zero((const char *)S + f[i].offset, dth__field_size(&f[i])))
+            return run_refuse(err, errlen, "field '%s' is set in a run that has not started (started = 0)", f[i].name);
+    if (S->k0 > S->k) return run_refuse(err, errlen, "field 'k0' = %ld exceeds field 'k' = %ld", S->k0, S->k);
+    if (S->crossings > S->k || S->regularized > S->k)
+        return run_refuse(err, errlen, "field '%s' = %ld exceeds the steps taken, field 'k' = %ld",
+                          S->crossings > S->k ? "crossings" : "regularized",
+                          S->crossings > S->k ? S->crossings : S->regularized, S->k);
+    if (S->k == 0)
+        for (size_t i = 0; i < nf; i++)
+            if (!strncmp(f[i].name, "in.", 3) && !all_zero((const char *)S + f[i].offset, dth__field_size(&f[i])))
+                return run_refuse(err, errlen, "field '%s' describes a step, but no step was taken (k = 0)", f[i].name);
+    if (S->k > 0 && S->in.lambda == 0)
+        return run_refuse(err, errlen, "field 'in.lambda' is 0, but k = %ld steps were taken", S->k);
+    if (S->prev_crossing != ((S->in.flags & DTH_STEP_CROSSING) != 0))
+        return run_refuse(err, errlen, "field 'prev_crossing' = %d disagrees with field 'in.flags' = %u", S->prev_crossing,
+                          S->in.flags);
+    if (S->max_ratio > 0 && S->crossings == 0)
+        return run_refuse(err, errlen, "field 'max_ratio' = %.17g without a crossing (crossings = 0)", S->max_ratio);
+    return DTH_OK;
+}
+
+static int run_fits(const dth_integrator *it, const dth_run_state *S, char *err, size_t errlen)
+{
+    if (!S->started) return DTH_OK;
+    double t = it->type->vertex(it->state)[it->n], dir = it->type->direction(it->state);
+    if (S->t != t)
+        return run_refuse(err, errlen, "field 't' = %.17g is not the time of the integrator's vertex, %.17g", S->t, t);
+    /* samples went out up to t_stop: from the run's start to the vertex (or the start itself, while
+     * the vertex lies before it: a midpoint start's first vertex) */
+    double hi = dir * (t - S->t_first) > 0 ? t : S->t_first;
+    if (dir * (S->t_stop - S->t_first) < 0 || dir * (S->t_stop - hi) > 0)
+        return run_refuse(err, errlen, "field 't_stop' = %.17g lies outside the run's span from t_first = %.17g to t = %.17g",
+                          S->t_stop, S->t_first, t);
     return DTH_OK;
 }
 
@@ -119,7 +184,7 @@ static int read_all(dth_integrator *it, const dth__ckpt *s, dth__rd *q, dth_run_
     if ((rc = read_section(q, &p->run, p->runpos, err, errlen)) != 0) return rc;
     memset(run, 0, sizeof *run);
     for (size_t f = 0; f < p->run.nfields; f++) dth__load_field(q, p->runpos[f], &p->run.fields[f], run, 0);
-    return DTH_OK;
+    return run_rules(run, err, errlen);
 }
 
 /* ---- the integrator's state before: kept in the checkpoint's encoding, loaded back unchecked ---- */
@@ -152,9 +217,9 @@ static void load_snapshot(const plan *p, const unsigned char *buf, size_t len)
     load_raw(&r, &p->reg);
 }
 
-/* Load everything read into the integrator, then the regularizer's rules between its fields:
- * DTH_OK, or the integrator back as it was and DTH_EPARSE. */
-static int commit(dth_integrator *it, const dth__rd *q, const plan *p, char *err, size_t errlen)
+/* Load everything read into the integrator, then the rules between the fields: DTH_OK, or the
+ * integrator back as it was and DTH_EPARSE naming the rule. */
+static int commit(dth_integrator *it, const dth__rd *q, const plan *p, const dth_run_state *run, char *err, size_t errlen)
 {
     dth__wr w = {NULL, 0, 0};
     put_snapshot(&w, p);
@@ -176,6 +241,12 @@ static int commit(dth_integrator *it, const dth__rd *q, const plan *p, char *err
                      "between its fields)", dth__ckpt_reg_name(it));
         rc = DTH_EPARSE;
     }
+    char msg[240];
+    if (!rc && it->type->consistent && it->type->consistent(it->state, msg, sizeof msg)) {
+        dth__set_err(err, errlen, "checkpoint state of method '%s': %s", it->type->name, msg);
+        rc = DTH_EPARSE;
+    }
+    if (!rc && run) rc = run_fits(it, run, err, errlen);
     if (rc) {
         load_snapshot(p, old, w.len);
         dth__reg_loaded(reg);
@@ -200,7 +271,7 @@ int dth_checkpoint_restore_run(dth_integrator *it, dth_run_state *run, const voi
     dth_run_state saved;
     dth__rd q = {r.p, r.len, 0, 0};
     rc = read_all(it, &s, &q, run ? &saved : NULL, &p, err, errlen);
-    if (!rc) rc = commit(it, &q, &p, err, errlen);
+    if (!rc) rc = commit(it, &q, &p, run ? &saved : NULL, err, errlen);
     if (rc) return rc;
     if (it->type->restored) it->type->restored(it->state);
     if (run) *run = saved;
@@ -231,6 +302,7 @@ int dth_checkpoint_run_state(const void *buf, size_t len, dth_run_state *run, ch
     if ((rc = read_section(&q, &sec, pos, err, errlen)) != 0) return rc;
     memset(&saved, 0, sizeof saved);
     for (size_t f = 0; f < sec.nfields; f++) dth__load_field(&q, pos[f], &sec.fields[f], &saved, 0);
+    if ((rc = run_rules(&saved, err, errlen)) != 0) return rc;
     *run = saved;
     return DTH_OK;
 }

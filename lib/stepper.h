@@ -60,6 +60,9 @@ typedef struct dth__stepper_type {
     struct dth_regularizer *(*regularizer)(const void *state);
     /** After a restore: the derived state (caches) made consistent; may be NULL. */
     void (*restored)(void *state);
+    /** A restored state's rules between fields (a field's own range is its check): DTH_OK, or
+     *  DTH_EPARSE with a message naming the fields (the restore is then undone). NULL: none. */
+    int (*consistent)(const void *state, char *err, size_t errlen);
 } dth__stepper_type;
 
 /** The handle. */
@@ -72,6 +75,8 @@ struct dth_integrator {
 };
 
 extern const dth__stepper_type dth__stepper_dth;
+/** The DTH stepper's `consistent` (restore_rules.c). */
+int dth__dth_consistent(const void *state, char *err, size_t errlen);
 /** The baselines (baselines.c): count and entry i. */
 size_t dth__baseline_count(void);
 const dth__stepper_type *dth__baseline_at(size_t i);

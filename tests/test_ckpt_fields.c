@@ -1,9 +1,11 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Checkpoints by their field lists: the byte order (a big-endian writer's checkpoint is refused by
- * name); the run driver's state saved and restored by the library; the run state's field list
- * covers dth_run_state; regularizer tables of the old layout and bad field lists are refused; the
- * public field codec.
+ * Checkpoints that pass the checksum but not reason (issue 24): every crafted value in the table
+ * below, patched by section and field name with the FNV-1a recomputed, is refused naming its field
+ * and leaves the integrator and the run state untouched; the byte order (a big-endian writer's
+ * checkpoint is refused by name); the run driver's state saved and restored by the library; the
+ * run state's field list covers dth_run_state; regularizer tables of the old layout and bad field
+ * lists are refused; the public field codec.
  */
 #include <math.h>
 #include <stdint.h>
@@ -79,6 +81,174 @@ static unsigned char *save_run(const dth_integrator *it, const dth_run_state *st
     CU_ASSERT_FATAL(b != NULL);
     CU_ASSERT_FATAL(dth_checkpoint_save_run(it, st, NULL, 0, b, *len, len) == DTH_OK);
     return b;
+}
+
+/* ---- the crafted values ---- */
+
+enum op { SET_I, SET_F, ADD_I, ADD_F, NEG_F, COPY_F };
+typedef struct craft {
+    const char *method, *reg; /* NULL: dth; NULL: none */
+    const char *sec, *field;
+    size_t comp;              /* component of a vector field */
+    enum op op;
+    int64_t i;                /* SET_I, ADD_I */
+    double x;                 /* SET_F, ADD_F */
+    const char *from;         /* COPY_F: the field of the same section whose value is copied */
+    const char *says;         /* in the refusal */
+} craft;
+
+#define I64MAX INT64_C(9223372036854775807)
+static const craft crafts[] = {
+    /* the DTH step state (issue 24: steps = INT64_MAX overflowed in integrator.c and branch.c) */
+    {NULL, NULL, "state", "steps", 0, SET_I, I64MAX, 0, NULL, "'steps'"},
+    {NULL, NULL, "state", "steps", 0, SET_I, (INT64_C(1) << 53) + 1, 0, NULL, "'steps'"},
+    {NULL, NULL, "state", "steps", 0, SET_I, 2, 0, NULL, "'nhist' = 3 exceeds field 'steps'"},
+    {NULL, NULL, "state", "dir", 0, SET_F, 0, -1.0, NULL, "'dir'"},
+    {NULL, NULL, "state", "lam_hint", 0, SET_F, 0, 1e308, NULL, "'lam_hint'"},
+    {NULL, NULL, "state", "lam_hint", 0, NEG_F, 0, 0, NULL, "'lam_hint'"},
+    {NULL, NULL, "state", "h", 0, SET_F, 0, 1e300, NULL, "'h'"},
+    {NULL, NULL, "state", "lam", 0, SET_F, 0, 0, NULL, "'lam'"},
+    {NULL, NULL, "state", "lam", 0, NEG_F, 0, 0, NULL, "'lam'"},
+    {NULL, NULL, "state", "lam", 0, SET_F, 0, 1e101, NULL, "'lam'"},
+    {NULL, NULL, "state", "lam2", 0, SET_F, 0, 0, NULL, "'lam2'"},
+    {NULL, NULL, "state", "lam3", 0, NEG_F, 0, 0, NULL, "'lam3'"},
+    {NULL, NULL, "state", "pending_exact", 0, SET_I, 1, 0, NULL, "'pending_exact'"},
+    {NULL, NULL, "state", "have_mid", 0, SET_I, 0, 0, NULL, "'have_mid'"},
+    {NULL, NULL, "state", "zlo", 1, SET_F, 0, 1e-3, NULL, "'zlo'"},
+    {NULL, NULL, "state", "rholo", 0, COPY_F, 0, 0, "rho", "'rholo'"},
+    {NULL, NULL, "policy", "psi_step", 0, SET_I, 1000, 0, NULL, "'psi_step'"},
+    {NULL, NULL, "policy", "psi_step", 0, SET_I, I64MAX, 0, NULL, "'psi_step'"},
+    /* the run driver's state (issue 24: samples = INT64_MAX overflowed in run.c; t_stop = +-1e308) */
+    {NULL, NULL, "run", "samples", 0, SET_I, I64MAX, 0, NULL, "'samples'"},
+    {NULL, NULL, "run", "k", 0, SET_I, I64MAX, 0, NULL, "'k'"},
+    {NULL, NULL, "run", "j", 0, SET_I, I64MAX, 0, NULL, "'j'"},
+    {NULL, NULL, "run", "events", 0, SET_I, I64MAX, 0, NULL, "'events'"},
+    {NULL, NULL, "run", "t_stop", 0, SET_F, 0, 1e308, NULL, "'t_stop'"},
+    {NULL, NULL, "run", "t_stop", 0, SET_F, 0, -1e308, NULL, "'t_stop'"},
+    {NULL, NULL, "run", "t_stop", 0, ADD_F, 0, 1.0, NULL, "'t_stop'"},
+    {NULL, NULL, "run", "t", 0, ADD_F, 0, 1.0, NULL, "'t'"},
+    {NULL, NULL, "run", "t_first", 0, ADD_F, 0, 100.0, NULL, "'t_stop'"},
+    {NULL, NULL, "run", "crossings", 0, ADD_I, 1000, 0, NULL, "'crossings'"},
+    {NULL, NULL, "run", "regularized", 0, ADD_I, 1000, 0, NULL, "'regularized'"},
+    {NULL, NULL, "run", "in.lambda", 0, SET_F, 0, 0, NULL, "'in.lambda'"},
+    {NULL, NULL, "run", "in.lambda", 0, SET_F, 0, 1e300, NULL, "'in.lambda'"},
+    {NULL, NULL, "run", "in.residual", 0, SET_F, 0, -1.0, NULL, "'in.residual'"},
+    {NULL, NULL, "run", "prev_crossing", 0, SET_I, 1, 0, NULL, "'prev_crossing'"},
+    {NULL, NULL, "run", "max_ratio", 0, SET_F, 0, 0.5, NULL, "'max_ratio'"},
+    {NULL, NULL, "run", "max_ratio", 0, SET_F, 0, 2.0, NULL, "'max_ratio'"},
+    /* a regularizer's fields (they were raw host bytes, NaN included) */
+    {NULL, "prescribed", "regularizer", "dlast", 0, SET_F, 0, NAN, NULL, "'dlast'"},
+    {NULL, "prescribed", "regularizer", "dlast", 3, SET_F, 0, -INFINITY, NULL, "'dlast'"},
+    /* a baseline's state */
+    {"midpoint", NULL, "state", "E0", 0, ADD_F, 0, 1.0, NULL, "'E0'"},
+    {"midpoint", NULL, "state", "steps", 0, SET_I, I64MAX, 0, NULL, "'steps'"},
+    {"gauss4", NULL, "state", "h", 0, SET_F, 0, 1e200, NULL, "'h'"},
+};
+/* Every entry above was restored (or resumed by dth run) without complaint by 7aa2192; these were
+ * refused before too (by dth run's blob, by the regularizer's load_state) and still are. */
+static const craft kept[] = {
+    {NULL, NULL, "run", "k0", 0, ADD_I, 1000, 0, NULL, "'k0'"},
+    {NULL, NULL, "run", "started", 0, SET_I, 0, 0, NULL, "has not started"},
+    {NULL, "prescribed", "regularizer", "mu_last", 0, SET_F, 0, INFINITY, NULL, "'mu_last'"},
+    {NULL, "prescribed", "regularizer", "arc", 0, SET_F, 0, -1.0, NULL, "'arc'"},
+    {NULL, "smooth", "regularizer", "K", 0, SET_F, 0, -1.0, NULL, "'K'"},
+    {NULL, "smooth", "regularizer", "K_fixed", 0, SET_I, 2, 0, NULL, "'K_fixed'"},
+};
+
+static const dth_regularizer_type *reg_type(const char *name)
+{
+    if (!name) return NULL;
+    return !strcmp(name, "smooth") ? &dth_reg_smooth : &dth_reg_prescribed;
+}
+
+/* Apply one craft to a copy of the checkpoint b (len bytes) and reseal it: 0, or -1 if the field is
+ * not there. */
+static int apply_craft(const craft *c, unsigned char *b, size_t len)
+{
+    walk_field f = {0};
+    if (!walk_find_field(b, len, c->sec, c->field, &f) || c->comp >= f.count) return -1;
+    unsigned char *v = b + f.values + 8 * c->comp;
+    uint64_t bits = walk_le(v, 8);
+    double x;
+    memcpy(&x, &bits, sizeof x);
+    switch (c->op) {
+    case SET_I: bits = (uint64_t)c->i; break;
+    case ADD_I: bits += (uint64_t)c->i; break;
+    case SET_F: x = c->x; break;
+    case ADD_F: x += c->x; break;
+    case NEG_F: x = -x; break;
+    case COPY_F: {
+        walk_field g;
+        if (!walk_find_field(b, len, c->sec, c->from, &g)) return -1;
+        uint64_t gb = walk_le(b + g.values, 8);
+        memcpy(&x, &gb, sizeof x);
+        break;
+    }
+    }
+    if (c->op != SET_I && c->op != ADD_I) memcpy(&bits, &x, sizeof bits);
+    walk_put_le(v, bits, 8);
+    walk_reseal(b, len);
+    return 0;
+}
+
+/* Each crafted value with the checksum recomputed: refused naming its field, nothing changed. The
+ * checkpoint is of a run of 30 steps (nhist = 3), its run state at the end. */
+static long crafted(const craft *table, size_t n)
+{
+    long failures = 0;
+    for (size_t i = 0; i < n; i++) {
+        const craft *c = &table[i];
+        runner a, b, ctl;
+        double p0 = c->reg && !strcmp(c->reg, "smooth") ? 2.2 : 0.2;
+        runner_new(&a, c->method, reg_type(c->reg), p0);
+        runner_new(&b, c->method, reg_type(c->reg), 0.7);
+        runner_new(&ctl, c->method, reg_type(c->reg), 0.7);
+        runner_run(&a, 30);
+        runner_run(&b, 3);
+        size_t len, lb, la;
+        unsigned char *good = save_run(a.it, &a.st, &len), *bad = malloc(len);
+        unsigned char *before = save_run(b.it, &b.st, &lb);
+        CU_ASSERT_FATAL(bad != NULL);
+        /* the untouched checkpoint restores, as a control */
+        memcpy(bad, good, len);
+        walk_reseal(bad, len);
+        dth_run_state got;
+        char err[400] = "";
+        int ok = memcmp(bad, good, len) == 0 &&
+                 dth_checkpoint_restore_run(ctl.it, &got, bad, len, err, sizeof err) == DTH_OK &&
+                 memcmp(&got, &a.st, sizeof got) == 0;
+        if (!ok) printf("  [%s.%s: the unpatched checkpoint is refused: %s]\n", c->sec, c->field, err);
+        CU_ASSERT(ok);
+        runner_free(&ctl);
+        CU_ASSERT_FATAL(apply_craft(c, bad, len) == 0);
+        got = b.st;
+        err[0] = '\0';
+        int rc = dth_checkpoint_restore_run(b.it, &got, bad, len, err, sizeof err);
+        unsigned char *after = save_run(b.it, &b.st, &la);
+        int refused = rc == DTH_EPARSE && strstr(err, c->says) != NULL;
+        int untouched = la == lb && memcmp(before, after, lb) == 0 && memcmp(&got, &b.st, sizeof got) == 0;
+        if (!refused || !untouched) {
+            printf("  [%s%s%s.%s: rc %d, '%s'%s]\n", c->method ? c->method : "", c->reg ? c->reg : "", c->sec, c->field,
+                   rc, err, untouched ? "" : ", the integrator changed");
+            failures++;
+        }
+        free(good);
+        free(bad);
+        free(before);
+        free(after);
+        runner_free(&a);
+        runner_free(&b);
+    }
+    return failures;
+}
+
+static void test_crafted_refused(void)
+{
+    long failures = crafted(crafts, sizeof crafts / sizeof crafts[0]);
+    printf("  [%zu crafted checkpoints, %ld accepted or wrongly refused]\n", sizeof crafts / sizeof crafts[0], failures);
+    CU_ASSERT(failures == 0);
+    failures = crafted(kept, sizeof kept / sizeof kept[0]);
+    CU_ASSERT(failures == 0);
 }
 
 /* ---- byte order ---- */
@@ -441,6 +611,7 @@ static void test_fields_codec(void)
 }
 
 static CU_TestInfo fields_tests[] = {
+    {"crafted values with the checksum recomputed: refused naming the field, nothing changed", test_crafted_refused},
     {"byte order: little-endian by construction; a big-endian writer's checkpoint refused by name", test_byte_order},
     {"the run driver's state saved and restored by the library; the run continues bit for bit", test_run_state},
     {"the run state's field list names every member of dth_run_state and dth_step_info", test_run_fields_cover},

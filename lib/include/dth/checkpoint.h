@@ -21,8 +21,8 @@
  * A section is a name, u64 vector length, u32 count and fields; a field a name, u32 type (1
  * doubles, 2 64-bit integers, 3 bytes of a string), u64 count and the values. Other versions, and
  * checkpoints whose byte-order mark says big-endian, are refused. A restore checks every value by
- * its field's check (docs/checkpoint.md, "Checks"), naming the field; on any refusal the
- * integrator, its regularizer and the run state are untouched.
+ * its field's check and the rules between fields (docs/checkpoint.md, "Checks"), naming the field;
+ * on any refusal the integrator, its regularizer and the run state are untouched.
  */
 #ifndef DTH_CHECKPOINT_H
 #define DTH_CHECKPOINT_H
@@ -95,15 +95,19 @@ DTH_API int dth_checkpoint_save_run(const dth_integrator *it, const dth_run_stat
                                     size_t nblobs, void *buf, size_t cap, size_t *len);
 
 /**
- * dth_checkpoint_restore, and the run state into *run, each field checked. On any failure neither
- * `it` nor *run changes.
+ * dth_checkpoint_restore, and the run state into *run: each field checked, the rules between them
+ * (a state that has not started is all 0; k0 <= k; the counts of crossings and regularized steps
+ * within k; the arriving step `in` set exactly when k > 0), and against the restored integrator
+ * (t is its vertex's time; t_stop lies from t_first to t in its direction of travel). On any
+ * failure neither `it` nor *run changes.
  * @return as dth_checkpoint_restore; DTH_ENOTFOUND: the checkpoint holds no run state.
  */
 DTH_API int dth_checkpoint_restore_run(dth_integrator *it, dth_run_state *run, const void *buf, size_t len,
                                        char *err, size_t errlen);
 
 /**
- * The run state of a checkpoint alone (no integrator), each field checked.
+ * The run state of a checkpoint alone (no integrator), each field and the rules among the run
+ * state's own fields checked (those against the integrator are dth_checkpoint_restore_run's).
  * @return DTH_OK, DTH_EPARSE (message names the field), DTH_ENOTFOUND (no run state), DTH_EINVAL.
  */
 DTH_API int dth_checkpoint_run_state(const void *buf, size_t len, dth_run_state *run, char *err, size_t errlen);
