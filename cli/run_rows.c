@@ -212,6 +212,13 @@ static int ev_header(run_out *r)
 
 int run_headers(run_out *r) { return header(r) || (r->has_ev && ev_header(r)); }
 
+void run_header_line(run_out *r, int ev, const char **line, size_t *len)
+{
+    column_names(r, ev);
+    *line = r->line;
+    *len = r->len;
+}
+
 /* ---------------------------------------------------------------- setup and output files */
 
 int run_rows_init(run_out *r, const dth_run_setup *rs, int leg)
