@@ -123,6 +123,9 @@ static void record_refusal(const char *err)
         if (!strncmp(p, "nan", 3) || !strncmp(p, "inf", 3)) {
             p += 3;
             t[k++] = '#';
+        } else if (p[0] == '0' && p[1] == 'x') { /* a hexadecimal number */
+            for (p += 2; (*p >= '0' && *p <= '9') || (*p >= 'a' && *p <= 'f');) p++;
+            t[k++] = '#';
         } else if (num) {
             while ((*p >= '0' && *p <= '9') || *p == '.' || *p == '-' || *p == '+' ||
                    ((*p == 'e') && (p[1] == '+' || p[1] == '-' || (p[1] >= '0' && p[1] <= '9'))))

@@ -156,9 +156,6 @@ int dth_checkpoint_save(const dth_integrator *it, const dth_blob *blobs, size_t 
 
 /* ---- reading: the header, the structure ---- */
 
-/* The byte-order mark as a big-endian writer (host order copied as it is) would have left it. */
-static int bom_swapped(uint32_t bom) { return bom == 0x04030201u; }
-
 /* Parsed header; the state and blobs are read by the callers with `r` positioned after it. */
 static int open_checked(dth__rd *r, const void *buf, size_t len, char *err, size_t errlen)
 {
@@ -175,11 +172,12 @@ static int open_checked(dth__rd *r, const void *buf, size_t len, char *err, size
     dth__get_bytes(r, sizeof MAGIC);
     uint32_t ver = dth__get_u32(r), bom = dth__get_u32(r);
     uint64_t total = dth__get_u64(r);
-    /* the byte order first: a big-endian writer's version and length read as nonsense here */
-    if (bom != DTH__CKPT_BOM && (bom_swapped(bom) || ver >= (1u << 16))) {
-        dth__set_err(err, errlen, "checkpoint written in big-endian byte order (byte-order mark %08x): dth checkpoints "
-                     "are little-endian, and this one was written by a program that copied its host's bytes",
-                     (unsigned)bom);
+    /* the byte order first: a big-endian writer's version and length read as nonsense here (its
+     * mark reads 0x04030201: the mark's bytes are 01 02 03 04) */
+    if (bom == 0x04030201u) {
+        dth__set_err(err, errlen, "checkpoint written in big-endian byte order (byte-order mark 0x%08x): dth "
+                     "checkpoints are little-endian, and this one was written by a program that copied its host's "
+                     "bytes", (unsigned)bom);
         return DTH_EPARSE;
     }
     if (ver != DTH_CHECKPOINT_VERSION) {
@@ -189,7 +187,7 @@ static int open_checked(dth__rd *r, const void *buf, size_t len, char *err, size
         return DTH_EPARSE;
     }
     if (bom != DTH__CKPT_BOM) {
-        dth__set_err(err, errlen, "checkpoint byte-order mark is %08x, not the little-endian %08x", (unsigned)bom,
+        dth__set_err(err, errlen, "checkpoint byte-order mark is 0x%08x, not the little-endian 0x%08x", (unsigned)bom,
                      (unsigned)DTH__CKPT_BOM);
         return DTH_EPARSE;
     }
