@@ -17,8 +17,9 @@
  * and the run state as they were; an accepted checkpoint saves back to the same bytes, its run
  * state agrees with dth_checkpoint_run_state, and the run goes on through dth_run (a step that
  * returns DTH_OK leaves a finite vertex); an accepted blob has its paths absolute.
- * Each distinct refusal (its message with the numbers taken out: a restore path) is appended to
- * the file $DTH_FUZZ_REFUSALS if set, which scripts/ci-fuzz.sh counts. With DTH_FUZZ_SEEDS=DIR the
+ * Each distinct refusal (its message with the numbers, and a name read from the input where the
+ * library expects another, taken out: a restore path) is appended to the file $DTH_FUZZ_REFUSALS
+ * if set, which scripts/ci-fuzz.sh counts. With DTH_FUZZ_SEEDS=DIR the
  * target writes seed inputs of each kind to DIR first (fuzz/corpus/fuzz_checkpoint holds them).
  */
 #include <math.h>
@@ -118,7 +119,25 @@ static void record_refusal(const char *err)
     if (!file) return;
     char t[512];
     size_t k = 0;
+    /* a name read from the input (a field, section, method, model or regularizer where another
+     * is expected) is one path whatever it is */
+    const char *where = strstr(err, " where this library expects "), *from = NULL, *to = NULL;
+    for (const char *q = err; where && q < where; q++) /* the last quoted name before it */
+        if (*q == '\'') {
+            const char *e = strchr(q + 1, '\'');
+            if (!e || e >= where) break;
+            from = q, to = e, q = e;
+        }
+    if (!where && (strstr(err, "checkpoint of ") || strstr(err, "was written with regularizer"))) {
+        from = strchr(err, '\'');
+        to = from ? strchr(from + 1, '\'') : NULL;
+    }
     for (const char *p = err; *p && k + 2 < sizeof t;) {
+        if (to && p == from + 1) {
+            t[k++] = '?';
+            p = to;
+            continue;
+        }
         int num = (*p >= '0' && *p <= '9') || ((*p == '-' || *p == '+' || *p == '.') && p[1] >= '0' && p[1] <= '9');
         if (!strncmp(p, "nan", 3) || !strncmp(p, "inf", 3)) {
             p += 3;
