@@ -121,8 +121,11 @@ static int create(const dth_model *model, const dth_options *opt, void **out)
 
 void dth__view_vertex(const dth__dth *it, dth__view *v)
 {
+    /* H_k: the compensated finish's carried offset (not the reversible finish's: its rho is H at the
+     * coarsened vertex, 2^-28 of the scale away) */
+    double hk = it->opt.finish == DTH_FINISH_COMPENSATED ? it->st.rho + it->st.rholo : NAN;
     *v = (dth__view){it->model, it->n, it->N, it->auton, it->st.z, it->st.zlo, it->st.lam, it->st.lam_hint,
-                     it->st.dir, it->st.have_prev, it->st.dprev, it->st.steps, DTH_OK, NAN, NAN, 0, NULL};
+                     it->st.dir, it->st.have_prev, it->st.dprev, it->st.steps, hk, DTH_OK, NAN, NAN, 0, NULL};
 }
 
 /* The predictor of the next step: quadratic extrapolation of (d, lambda) over the last three

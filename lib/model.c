@@ -491,13 +491,15 @@ static void check_verdict(size_t n, dth_model_check_report *rep)
              rep->pass ? "pass" : "FAIL", what, entry, worst, tol);
 }
 
+/* the block of coordinate i of y = (q, t, p): 0, 1, 2 */
+static int blk(size_t n, size_t i) { return i < n ? 0 : i == n ? 1 : 2; }
 int dth_model_check(const dth_model *m, const double *y, dth_model_check_report *rep)
 {
     if (!m || !y || !rep) return DTH_EINVAL;
     memset(rep, 0, sizeof *rep);
     rep->tol = DTH_MODEL_CHECK_TOL;
     size_t n = m->info.n, d = 2 * n + 1;
-    double *buf = dth_calloc(m->alloc, 3 * d * d + 6 * d, sizeof(double));
+    double *buf = dth_calloc(m->alloc, 3 * d * d + 9 * d, sizeof(double));
     if (!buf) return DTH_ENOMEM;
     double *hess = buf, *hp = hess + d * d, *hm = hp + d * d;
     double *grad = hm + d * d, *gp = grad + d, *gm = gp + d, *yy = gm + d, *u = yy + d;
@@ -508,22 +510,58 @@ int dth_model_check(const dth_model *m, const double *y, dth_model_check_report 
     for (size_t i = 0; !rc && i < d * d; i++) hscale = fmax(hscale, fabs(hess[i]));
     gscale = fmax(gscale, 1e-300);
     hscale = fmax(hscale, 1e-300);
+    double bmax[3][3] = {{0}};
+    for (size_t i = 0; !rc && i < d; i++)
+        for (size_t j = 0; j < d; j++) {
+            double *b = &bmax[blk(n, i)][blk(n, j)];
+            *b = fmax(*b, fabs(hess[i * d + j]));
+        }
+    /* per coordinate, central differences at e and e/2, Richardson-extrapolated (error O(e^4));
+     * the step starts at cbrt(eps) max(|y_j|, 1) and is divided by 4 while the two differences
+     * disagree by more than the threshold (their difference measures the O(e^2) truncation error:
+     * the model's own length scale, e.g. |q| near a Kepler pericentre, is below the start step),
+     * at most 8 times (round-off then dominates). */
+    double *gp2 = u + d, *gm2 = u + 2 * d, *nz = u + 3 * d; /* past u (the allocation has 9 d) */
     for (size_t j = 0; !rc && j < d; j++) {
-        double e = cbrt(DBL_EPSILON) * fmax(fabs(y[j]), 1.0);
-        memcpy(yy, y, d * sizeof *yy);
-        yy[j] = y[j] + e;
-        rc = dth_model_eval(m, yy, DTH_EVAL_H | DTH_EVAL_GRAD, &Hp, gp, NULL);
+        double e = cbrt(DBL_EPSILON) * fmax(fabs(y[j]), 1.0), dg = 0, dg2 = 0;
+        for (int shrink = 0;; shrink++) {
+            double Hp2, Hm2;
+            memcpy(yy, y, d * sizeof *yy);
+            yy[j] = y[j] + e;
+            if ((rc = dth_model_eval(m, yy, DTH_EVAL_H | DTH_EVAL_GRAD, &Hp, gp, NULL))) break;
+            yy[j] = y[j] - e;
+            if ((rc = dth_model_eval(m, yy, DTH_EVAL_H | DTH_EVAL_GRAD, &Hm, gm, NULL))) break;
+            yy[j] = y[j] + 0.5 * e;
+            if ((rc = dth_model_eval(m, yy, DTH_EVAL_H | DTH_EVAL_GRAD, &Hp2, gp2, NULL))) break;
+            yy[j] = y[j] - 0.5 * e;
+            if ((rc = dth_model_eval(m, yy, DTH_EVAL_H | DTH_EVAL_GRAD, &Hm2, gm2, NULL))) break;
+            dg = (Hp - Hm) / (2 * e), dg2 = (Hp2 - Hm2) / e;
+            double tr = fabs(dg - dg2) / fmax(gscale, fabs(H) + 1e-300);
+            for (size_t i = 0; i < d; i++) {
+                double a = (gp[i] - gm[i]) / (2 * e), b = (gp2[i] - gm2[i]) / e;
+                tr = fmax(tr, fabs(a - b) / fmax(hscale, gscale));
+                /* round-off of the extrapolated quotient: 8 ulps of each gradient value, amplified */
+                nz[i] = 8 * DBL_EPSILON * fmax(fmax(fabs(gp[i]), fabs(gm[i])), fmax(fabs(gp2[i]), fabs(gm2[i]))) * (3 / e);
+                gp[i] = (4 * b - a) / 3; /* the extrapolated column */
+            }
+            if (tr <= rep->tol || shrink == 8) break;
+            e *= 0.25;
+        }
         if (rc) break;
-        yy[j] = y[j] - e;
-        rc = dth_model_eval(m, yy, DTH_EVAL_H | DTH_EVAL_GRAD, &Hm, gm, NULL);
-        if (rc) break;
-        double ge = fabs((Hp - Hm) / (2 * e) - grad[j]) / fmax(gscale, fabs(H) + 1e-300);
+        double ge = fabs((4 * dg2 - dg) / 3 - grad[j]) / fmax(gscale, fabs(H) + 1e-300);
         if (ge > rep->grad_err) {
             rep->grad_err = ge;
             rep->grad_idx = j;
         }
         for (size_t i = 0; i < d; i++) {
-            double he = fabs((gp[i] - gm[i]) / (2 * e) - hess[i * d + j]) / fmax(hscale, gscale);
+            /* each entry against its own magnitude, max(sqrt(|H_ii H_jj|), |H_ij|), at least 1e-3
+             * of the largest entry of its block (q, t, p rows and columns: a zero entry whose
+             * quotient is round-off passes), after the quotient's own round-off nz */
+            double hij = hess[i * d + j], fd = gp[i];
+            double sc = fmax(fmax(sqrt(fabs(hess[i * d + i]) * fabs(hess[j * d + j])), fabs(hij)),
+                             1e-3 * bmax[blk(n, i)][blk(n, j)]);
+            double dev = fmax(fabs(fd - hij) - nz[i], 0.0);
+            double he = sc > 0 ? dev / sc : 0;
             if (he > rep->hess_err) {
                 rep->hess_err = he;
                 rep->hess_i = i;
@@ -542,20 +580,29 @@ int dth_model_check(const dth_model *m, const double *y, dth_model_check_report 
             unorm = fmax(unorm, fabs(u[i]));
             ynorm = fmax(ynorm, fabs(y[i]));
         }
-        double e = cbrt(DBL_EPSILON) * fmax(ynorm, 1.0) / unorm;
-        for (int s = 0; s < 2 && !rc; s++) {
-            for (size_t i = 0; i < d; i++) yy[i] = y[i] + (s ? -e : e) * u[i];
-            rc = dth_model_eval(m, yy, DTH_EVAL_HESS, NULL, NULL, hp);
-            if (!rc) f[s] = quad_form(d, hp, u);
-        }
+        double e = cbrt(DBL_EPSILON) * fmax(ynorm, 1.0) / unorm, fd = 0;
         if (!rc) {
             int r3 = m->type->third(m->self, y, u, &d3);
             if (r3) rc = r3 > 0 ? DTH_EDOMAIN : DTH_EMODEL;
-            else {
-                double fd = (f[0] - f[1]) / (2 * e);
-                rep->third_err = fabs(fd - d3) / fmax(fmax(fabs(fd), fabs(d3)), hscale * unorm * unorm * unorm / fmax(ynorm, 1.0));
-            }
         }
+        double sc3 = hscale * unorm * unorm * unorm / fmax(ynorm, 1.0);
+        /* differences at e and e/2, Richardson-extrapolated; e divided by 4 while they disagree
+         * by more than the threshold (at most 8 times), as for the gradient and the Hessian */
+        for (int shrink = 0; !rc; shrink++) {
+            double f2[2];
+            for (int s = 0; s < 4 && !rc; s++) {
+                double es = (s & 1 ? -e : e) * (s & 2 ? 0.5 : 1.0);
+                for (size_t i = 0; i < d; i++) yy[i] = y[i] + es * u[i];
+                rc = dth_model_eval(m, yy, DTH_EVAL_HESS, NULL, NULL, hp);
+                if (!rc) (s & 2 ? f2 : f)[s & 1] = quad_form(d, hp, u);
+            }
+            if (rc) break;
+            double a = (f[0] - f[1]) / (2 * e), b = (f2[0] - f2[1]) / e;
+            fd = (4 * b - a) / 3;
+            if (fabs(a - b) <= rep->tol * fmax(fmax(fabs(fd), fabs(d3)), sc3) || shrink == 8) break;
+            e *= 0.25;
+        }
+        if (!rc) rep->third_err = fabs(fd - d3) / fmax(fmax(fabs(fd), fabs(d3)), sc3);
     }
     if (!rc && m->info.hess_kind == DTH_HESS_BANDED && m->type->hess_band) {
         size_t w = m->info.bandwidth, bw = 2 * w + 1, nn = 2 * n;

@@ -101,6 +101,9 @@ int dth__policy_branch(dth__policy *p, const dth__view *v, dth__decision *dec)
     double H, psi, dpsi, pabs;
     int vr = dth__rootfinder_vertex(rf, v->z, v->zlo, &H, &psi, &dpsi, &pabs);
     if (vr) return rc ? rc : vr;
+    /* the vertex offset H_k as the step reads it: the direct value wp + H_phys carries eps S, as
+     * large as the offset itself at tiny steps, where its sign, which the cheap test reads, is noise */
+    if (!isnan(v->hk)) H = v->hk;
     int pz = fabs(psi) <= 32 * DBL_EPSILON * pabs;
     long prev_ok = p->st.psi_step == v->steps - 1 && v->have_prev;
     /* cheap test: a root ahead, safely physical (Theorem EU_2: s well below 6/5, H/psi > 0), no

@@ -38,6 +38,8 @@ typedef struct dth__view {
     int have_prev;          /* dprev and lam hold the incoming step */
     const double *dprev;    /* its offset zbar - z_(k-1) */
     long steps;             /* steps since the start */
+    double hk;              /* H(z_k) as the step reads it (the compensated finish's carried offset), NaN:
+                               from the model (wp + H_phys at the vertex) */
     /* the candidate: the ordinary step Newton found from the predictor */
     int status;             /* Newton's status */
     double lambda, residual;

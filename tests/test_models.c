@@ -269,6 +269,75 @@ static void test_pendulum_psi(void)
     dth_model_free(m);
 }
 
+/* Kepler with one Hessian entry scaled by (1 + err_scale) at (err_i, err_j) and (err_j, err_i): a
+ * wrong model dth_model_check must catch, wrapping the exact one. */
+typedef struct wrong_kepler {
+    dth_model *k;
+    size_t i, j;
+    double f;
+} wrong_kepler;
+static size_t wk_i, wk_j;
+static double wk_f;
+static int wk_create(const dth_model_args *a, void **self, dth_model_info *info)
+{
+    wrong_kepler *w = calloc(1, sizeof *w);
+    if (!w || dth_model_new(&dth_model_kepler, NULL, 0, 2, NULL, &w->k, NULL, 0)) return DTH_ENOMEM;
+    (void)a;
+    w->i = wk_i, w->j = wk_j, w->f = wk_f;
+    *info = *dth_model_get_info(w->k);
+    *self = w;
+    return DTH_OK;
+}
+static void wk_destroy(void *self, const dth_allocator *al)
+{
+    wrong_kepler *w = self;
+    (void)al;
+    dth_model_free(w->k);
+    free(w);
+}
+static int wk_eval(const void *self, const double *y, unsigned what, double *H, double *g, double *hs)
+{
+    const wrong_kepler *w = self;
+    int rc = dth_model_eval(w->k, y, what, H, g, hs);
+    if (!rc && (what & DTH_EVAL_HESS)) {
+        hs[w->i * 5 + w->j] *= 1 + w->f;
+        if (w->i != w->j) hs[w->j * 5 + w->i] *= 1 + w->f;
+    }
+    return rc;
+}
+static const dth_model_type wrong_kepler_type = {DTH_MODEL_TYPE_HEAD, .name = "wrong_kepler", .create = wk_create,
+                                                 .destroy = wk_destroy, .eval = wk_eval};
+
+/* The derivative check scales with the model: Kepler's exact Hessian passes at the pericentre of
+ * e = 0.999 and 0.9999 (r = 1e-3, 1e-4; refused with 7.3e-5 and 7.4e-3 by an unscaled check), and
+ * a 1 % error in an entry of either block still fails, also the p block's next to a large q block. */
+static void test_check_scaled(void)
+{
+    dth_model *k = NULL;
+    CU_ASSERT_FATAL(dth_model_new(&dth_model_kepler, NULL, 0, 2, NULL, &k, NULL, 0) == DTH_OK);
+    const double es[] = {0.6, 0.9, 0.999, 0.9999};
+    for (size_t c = 0; c < sizeof es / sizeof es[0]; c++) {
+        double e = es[c], y[5] = {1 - e, 0, 0, 0, sqrt((1 + e) / (1 - e))}; /* a = 1, mu = 1: pericentre */
+        dth_model_check_report rep;
+        CU_ASSERT_FATAL(dth_model_check(k, y, &rep) == DTH_OK);
+        CU_ASSERT(rep.pass);
+        if (!rep.pass) printf("\n    exact Kepler at e = %g refused: %s", e, rep.message);
+        const size_t ent[][2] = {{0, 0}, {3, 3}, {0, 1}};
+        for (size_t w = 0; w < 3; w++) {
+            wk_i = ent[w][0], wk_j = ent[w][1], wk_f = 0.01;
+            dth_model *bad = NULL;
+            CU_ASSERT_FATAL(dth_model_new(&wrong_kepler_type, NULL, 0, 2, NULL, &bad, NULL, 0) == DTH_OK);
+            /* (0, 1) is zero on the axis: take a rotated state where it is not */
+            double yr[5] = {y[0] * 0.6, y[0] * 0.8, 0, -y[4] * 0.8, y[4] * 0.6};
+            CU_ASSERT_FATAL(dth_model_check(bad, w == 2 ? yr : y, &rep) == DTH_OK);
+            CU_ASSERT(!rep.pass);
+            if (rep.pass) printf("\n    Kepler with H[%zu][%zu] 1 %% off passed at e = %g", wk_i, wk_j, e);
+            dth_model_free(bad);
+        }
+    }
+    dth_model_free(k);
+}
+
 /* A table of the unversioned layout (before dth_model_type had abi and size): name first. */
 struct old_model_type {
     const char *name, *doc;
@@ -323,6 +392,7 @@ static CU_TestInfo conformance[] = {
     {"invariants are constant along the flow", test_invariants},
     {"a wrong Hessian sign fails the check, naming the entry", test_check_verdict},
     {"tables of an unknown layout are refused with a message", test_table_layout},
+    {"the derivative check scales with the model (Kepler pericentres)", test_check_scaled},
     CU_TEST_INFO_NULL,
 };
 static CU_TestInfo params[] = {
