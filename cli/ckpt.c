@@ -53,12 +53,19 @@ static size_t fields(cli_ckpt *c, fld *f)
     I("run.in.branch", M_INT, &S->in.branch, DTH_BRANCH_NONE, DTH_BRANCH_REG);
     I("run.in.flags", M_UINT, &S->in.flags, 0, DTH_STEP_REGULARIZED | DTH_STEP_CROSSING);
     I("run.in.proj_iters", M_INT, &S->in.proj_iters, 0, INT_MAX);
+    D("run.in.lerr", &S->in.lerr, C_FINITE_OR_NAN);
     I("run.crossings", M_LONG, &S->crossings, 0, LONG_MAX);
     I("run.regularized", M_LONG, &S->regularized, 0, LONG_MAX);
     D("run.max_ratio", &S->max_ratio, C_NONNEG);
     I("run.prev_crossing", M_INT, &S->prev_crossing, 0, 1);
     I("run.stop", M_INT, &S->stop, DTH_RUN_RUNNING, DTH_RUN_FAILED);
     D("run.t_stop", &S->t_stop, C_FINITE);
+    D("run.err_q", &S->err_q, C_FINITE_OR_NAN);
+    D("run.err_p", &S->err_p, C_FINITE_OR_NAN);
+    D("run.q_max", &S->q_max, C_NONNEG);
+    D("run.p_max", &S->p_max, C_NONNEG);
+    D("run.lam_max", &S->lam_max, C_NONNEG);
+    D("run.t_lam_max", &S->t_lam_max, C_FINITE);
     I("scene.hash", M_U64, &c->scene_hash, 0, 0);
     S_("out.path", &c->out.path);
     S_("out.tmp", &c->out.tmp);
@@ -73,8 +80,8 @@ static size_t fields(cli_ckpt *c, fld *f)
 #undef S_
     return k;
 }
-/* A field added to the driver's state must be added to the table: the last member is t_stop. */
-_Static_assert(offsetof(dth_run_state, t_stop) + sizeof(double) == sizeof(dth_run_state),
+/* A field added to the driver's state must be added to the table: the last member is t_lam_max. */
+_Static_assert(offsetof(dth_run_state, t_lam_max) + sizeof(double) == sizeof(dth_run_state),
                "dth_run_state changed: update the field table of cli/ckpt.c");
 
 static int wire_type(int mem) { return mem == M_DBL ? T_F64 : mem == M_STR ? T_STR : T_I64; }

@@ -548,16 +548,50 @@ static void stop_hint(const run_job *j, char *hint, size_t len)
 
 /* How the run ended, on stderr (always when it could not go on, else for regularized runs and on
  * a terminal), and the exit status. */
+/* The run's error estimate and largest step, for the end line ("" without an estimate). */
+static void estimate_note(const run_job *j, char *buf, size_t len)
+{
+    const dth_run_state *S = &j->S;
+    buf[0] = '\0';
+    if (isnan(S->err_q)) return;
+    snprintf(buf, len, "; estimated error |dq| %.2g, |dp| %.2g at t = %.10g; largest step %.3g = %.3g h", S->err_q,
+             S->err_p, S->t, S->lam_max, S->lam_max / fabs(j->rs.opt.h));
+}
+
+/* Why a run stopped on its error estimate (DTH_EACCURACY), and the fix. */
+static void accuracy_msg(const run_job *j, char *buf, size_t len)
+{
+    const dth_run_state *S = &j->S;
+    int p = S->err_p / S->p_max > S->err_q / S->q_max;
+    snprintf(buf, len, "the estimated error |d%c| = %.3g is %.0f %% of the largest |%c| = %.3g (the run's bound "
+             "integrator.stop_error = %.2g): the steps grew to lambda = %.3g = %.3g h (at t = %.6g, more than "
+             "integrator.warn_ratio h), too large for this orbit: a smaller integrator.h (all steps shrink in "
+             "proportion)", p ? 'p' : 'q', p ? S->err_p : S->err_q,
+             100 * (p ? S->err_p / S->p_max : S->err_q / S->q_max), p ? 'p' : 'q', p ? S->p_max : S->q_max,
+             j->rs.stop_error, S->lam_max, S->lam_max / fabs(j->rs.opt.h), S->t_lam_max);
+}
+
 static int report(const run_job *j)
 {
     const run_out *r = &j->r;
     const dth_run_state *S = &j->S;
     int rc = j->rc, sig = r->sig && rc == DTH_ESTOPPED && !r->too_many ? r->sig : 0;
-    char crossing[160] = "";
+    char crossing[160] = "", est[200];
     if (S->crossings || S->regularized)
         snprintf(crossing, sizeof crossing, "; %ld psi = 0 crossings, %ld regularized steps, largest step ratio "
                  "at a crossing %.3g", S->crossings, S->regularized, S->max_ratio);
+    estimate_note(j, est, sizeof est);
+    char amsg[400];
     const char *emsg = dth_integrator_errmsg(j->it);
+    if (rc == DTH_EACCURACY) {
+        accuracy_msg(j, amsg, sizeof amsg);
+        emsg = amsg;
+    }
+    if (rc >= 0 && j->rs.warn_ratio > 0 && S->lam_max > j->rs.warn_ratio * fabs(j->rs.opt.h))
+        cli_error("warning: the largest step was lambda = %.3g = %.3g h (at t = %.6g, more than integrator.warn_ratio = "
+                  "%g h): DTH steps follow lambda^6 psi^2 = const along the orbit, and h sets them only at the start "
+                  "(docs/theory.md); the estimated error says what they cost",
+                  S->lam_max, S->lam_max / fabs(j->rs.opt.h), S->t_lam_max, j->rs.warn_ratio);
     if (r->too_many) {
         cli_error("stopped at k=%ld, t=%.17g: output.dt = %.3g asks for more than %d rows within one step (a larger "
                   "output.dt, or output.points = vertices; the rows so far are kept)", S->k, S->t, j->rs.dt,
@@ -569,15 +603,16 @@ static int report(const run_job *j)
     } else if (rc > 0) {
         char hint[256];
         stop_hint(j, hint, sizeof hint);
-        cli_error("stopped at k=%ld, t=%.17g: %s (%s)%s%s", S->k, S->t, dth_strerror(rc), emsg, crossing, hint);
+        cli_error("stopped at k=%ld, t=%.17g: %s (%s)%s%s%s", S->k, S->t, dth_strerror(rc), emsg, crossing,
+                  rc == DTH_EACCURACY ? "" : est, hint);
         return CLI_STOPPED;
     } else if (rc < 0) {
         cli_error("error at k=%ld, t=%.17g: %s (%s)", S->k, S->t, dth_strerror(rc), emsg);
         return CLI_FAIL;
     }
     if (r->progress == 1 || S->regularized)
-        fprintf(stderr, "dth: %ld steps to t = %.17g, %ld rows to %s%s\n", S->k, S->t_stop, S->samples,
-                j->path ? j->path : "standard output", crossing);
+        fprintf(stderr, "dth: %ld steps to t = %.17g, %ld rows to %s%s%s\n", S->k, S->t_stop, S->samples,
+                j->path ? j->path : "standard output", crossing, est);
     if (r->has_ev && (r->progress == 1 || S->stop == DTH_RUN_EVENT))
         fprintf(stderr, "dth: %ld events to %s%s\n", S->events, j->ev_path,
                 S->stop == DTH_RUN_EVENT ? " (the run ended at a terminal event)" : "");

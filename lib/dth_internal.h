@@ -80,6 +80,8 @@ struct dth__dth;
 struct dth__dth *dth__integrator_core(dth_integrator *it);
 /** The integrator's method carries wp unchanged (a baseline): the dense output's wp flow is 0. */
 int dth__integrator_wp_fixed(const dth_integrator *it);
+/** dth_options.h as the integrator was made with (the step the user asked for). */
+double dth__integrator_h(const dth_integrator *it);
 /** The integrator's method has midpoints (DTH). */
 int dth__integrator_has_midpoints(const dth_integrator *it);
 /** Solve the DTH step from the core's current vertex seeded with (lam, d0): 1 if it converged,

@@ -22,6 +22,8 @@ void dth_run_config_default(dth_run_config *cfg)
     cfg->t0 = NAN;
     cfg->points = DTH_POINTS_VERTICES;
     cfg->every = 1;
+    cfg->stop_error = 0.25;
+    cfg->step_ratio = 16;
 }
 
 void dth_run_config_from_setup(dth_run_config *cfg, const dth_run_setup *rs)
@@ -35,6 +37,8 @@ void dth_run_config_from_setup(dth_run_config *cfg, const dth_run_setup *rs)
     cfg->t0 = rs->t0;
     cfg->events = rs->events;
     cfg->nevents = rs->nevents;
+    cfg->stop_error = rs->stop_error;
+    cfg->step_ratio = rs->warn_ratio;
 }
 
 /* ---------------------------------------------------------------- dense output */
@@ -156,9 +160,16 @@ static void dense(drv *d, double t, double *z)
     dth_dense_eval(d->n, d->za, d->zb, d->use_mid ? d->zm : NULL, d->ua, d->ub, t, z);
 }
 
+/* The estimated error at the sample's point (NaN without an estimate). */
+static void sample_err(drv *d, dth_sample *s)
+{
+    if (dth_integrator_error_at(d->it, s->z, &s->err_q, &s->err_p) != DTH_OK) s->err_q = s->err_p = NAN;
+}
+
 static int emit(drv *d, dth_sample *s)
 {
     if (!d->cfg->sample) return 0;
+    sample_err(d, s);
     s->index = d->st->samples++;
     int rc = d->cfg->sample(d->cfg->user, s);
     if (rc) d->cb_failed = 1;
@@ -278,8 +289,9 @@ static int segment(drv *d, double lo, double hi, int lo_closed, double *stop_t, 
                 if (!isnan(*stop_t) && before(d, *stop_t, te)) continue;
                 dense(d, te, d->zi);
                 dth_sample s = {DTH_SAMPLE_EVENT, st->events++, d->kseg, d->zi, &d->seg, 0, d->za, d->zb, (int)best,
-                                d->dev[best]};
+                                d->dev[best], NAN, NAN};
                 if (cfg->on_event) {
+                    sample_err(d, &s);
                     if ((rc = cfg->on_event(cfg->user, &s)) != 0) {
                         d->cb_failed = 1;
                         return rc;
@@ -296,7 +308,7 @@ static int segment(drv *d, double lo, double hi, int lo_closed, double *stop_t, 
     /* ---- the pending vertex za (its outgoing step is now known) */
     if (cfg->points == DTH_POINTS_VERTICES && st->pending) {
         if ((d->kseg - st->k0) % cfg->every == 0) {
-            dth_sample s = {DTH_SAMPLE_VERTEX, 0, d->kseg, d->za, &st->in, d->seg.lambda, NULL, NULL, -1, 0};
+            dth_sample s = {DTH_SAMPLE_VERTEX, 0, d->kseg, d->za, &st->in, d->seg.lambda, NULL, NULL, -1, 0, NAN, NAN};
             if ((rc = emit(d, &s)) != 0) return rc;
         }
         st->pending = 0;
@@ -305,7 +317,7 @@ static int segment(drv *d, double lo, double hi, int lo_closed, double *stop_t, 
     if (cfg->points == DTH_POINTS_MIDPOINTS && d->use_mid && (d->kseg - st->k0) % cfg->every == 0) {
         double tm = d->zm[n];
         if (!before(d, top, tm) && (lo_closed ? !before(d, tm, lo) : before(d, lo, tm))) {
-            dth_sample s = {DTH_SAMPLE_MIDPOINT, 0, d->kseg, d->zm, &d->seg, 0, d->za, d->zb, -1, 0};
+            dth_sample s = {DTH_SAMPLE_MIDPOINT, 0, d->kseg, d->zm, &d->seg, 0, d->za, d->zb, -1, 0, NAN, NAN};
             if ((rc = emit(d, &s)) != 0) return rc;
         }
     }
@@ -326,7 +338,7 @@ static int segment(drv *d, double lo, double hi, int lo_closed, double *stop_t, 
             }
             if ((rc = seg_flows(d)) != 0) return rc;
             dense(d, t, d->zi);
-            dth_sample s = {DTH_SAMPLE_TIME, 0, d->kseg, d->zi, &d->seg, 0, d->za, d->zb, -1, 0};
+            dth_sample s = {DTH_SAMPLE_TIME, 0, d->kseg, d->zi, &d->seg, 0, d->za, d->zb, -1, 0, NAN, NAN};
             st->j++;
             if ((rc = emit(d, &s)) != 0) return rc;
         }
@@ -344,6 +356,54 @@ static void account(dth_run_state *st, const dth_step_info *s)
         st->max_ratio = fmax(st->max_ratio, fmax(q, 1 / q));
     }
     st->prev_crossing = cross;
+}
+
+/* The new vertex's share of the run's statistics: the largest step and |q|, |p|, and the error
+ * estimate there. */
+static void account_vertex(drv *d, const dth_step_info *s)
+{
+    dth_run_state *st = d->st;
+    size_t n = d->n;
+    double a = 0, b = 0;
+    for (size_t i = 0; i < n; i++) {
+        a += d->zb[i] * d->zb[i];
+        b += d->zb[n + 1 + i] * d->zb[n + 1 + i];
+    }
+    st->q_max = fmax(st->q_max, sqrt(a));
+    st->p_max = fmax(st->p_max, sqrt(b));
+    if (s && fabs(s->lambda) > st->lam_max) {
+        st->lam_max = fabs(s->lambda);
+        st->t_lam_max = d->zb[n];
+    }
+    if (dth_integrator_error(d->it, &st->err_q, &st->err_p) != DTH_OK) st->err_q = st->err_p = NAN;
+}
+
+/* The stop rule of the error estimate (dth_run_config.stop_error): the steps ran away from h and
+ * the error is a sizeable part of the orbit. */
+static int runaway(const drv *d)
+{
+    const dth_run_state *st = d->st;
+    double f = d->cfg->stop_error, h = fabs(dth__integrator_h(d->it));
+    return f > 0 && st->lam_max > d->cfg->step_ratio * h && (st->err_q > f * st->q_max || st->err_p > f * st->p_max);
+}
+
+/* The local error estimate of the segment za -> zb: the defect of its cubic Hermite interpolant at
+ * the middle, (2/3) lambda |P'(1/2) - f(P(1/2))| over q (3 flows: both ends' and the middle's). */
+static int local_error(drv *d, double *lerr)
+{
+    size_t n = d->n, N = d->N;
+    int rc = seg_flows(d);
+    if (rc) return rc;
+    double h = d->zb[n] - d->za[n], *pm = d->zi, *um = d->zr;
+    for (size_t j = 0; j < N; j++) pm[j] = 0.5 * (d->za[j] + d->zb[j]) + h * (d->ua[j] - d->ub[j]) / 8;
+    if ((rc = flow(d, pm, um)) != 0) return rc;
+    double s = 0;
+    for (size_t i = 0; i < n; i++) {
+        double dp = 1.5 * (d->zb[i] - d->za[i]) / h - 0.25 * (d->ua[i] + d->ub[i]) - um[i];
+        s += dp * dp;
+    }
+    *lerr = (2.0 / 3.0) * fabs(h) * sqrt(s);
+    return DTH_OK;
 }
 
 static void swap(double **a, double **b)
@@ -381,6 +441,7 @@ static int drive(drv *d)
         if (cfg->times)
             while ((size_t)st->j < cfg->ntimes && before(d, cfg->times[st->j], st->t_first)) st->j++;
         st->t_stop = st->t_first; /* the window of reported times starts here (inclusive) */
+        account_vertex(d, NULL);
     }
     st->t = d->zb[n];
     st->stop = DTH_RUN_RUNNING;
@@ -440,6 +501,8 @@ static int drive(drv *d)
         vertex_now(d, d->zb);
         /* a regularizer's segment has its midpoint too (z_k + d) */
         double hi = open_segment(d, &info, st->k, dth_integrator_midpoint(d->it));
+        if (cfg->local_error && local_error(d, &info.lerr) == DTH_OK) d->seg.lerr = info.lerr;
+        account_vertex(d, &info);
         for (size_t e = 0; e < cfg->nevents; e++)
             if ((rc = ev_eval(d, e, d->zb, &d->gb[e])) != 0) goto cb;
         rc = segment(d, st->t_stop, hi, lo_closed, &t_stop, &stop_event);
@@ -457,6 +520,11 @@ static int drive(drv *d)
             ended_by = DTH_RUN_EVENT;
             break;
         }
+        if (runaway(d)) {
+            rc = DTH_EACCURACY;
+            ended_by = DTH_RUN_FAILED;
+            break;
+        }
     }
     int step_rc = rc;
     /* the final checkpoint: the integrator at its vertex, whose sample is still pending */
@@ -468,7 +536,7 @@ static int drive(drv *d)
         /* a failed step or a stop request: the last vertex closes the vertex samples */
         st->stop = ended_by;
         if (cfg->points == DTH_POINTS_VERTICES && st->pending) {
-            dth_sample s = {DTH_SAMPLE_END, 0, st->k, d->zb, &st->in, 0, NULL, NULL, -1, 0};
+            dth_sample s = {DTH_SAMPLE_END, 0, st->k, d->zb, &st->in, 0, NULL, NULL, -1, 0, NAN, NAN};
             st->pending = 0;
             st->t_stop = st->t;
             if ((rc = emit(d, &s)) != 0) goto cb;
@@ -487,7 +555,7 @@ static int drive(drv *d)
     }
     if (end_sample) {
         double te = st->t_stop;
-        dth_sample s = {DTH_SAMPLE_END, 0, st->k, d->zb, &st->in, 0, NULL, NULL, stop_event, 0};
+        dth_sample s = {DTH_SAMPLE_END, 0, st->k, d->zb, &st->in, 0, NULL, NULL, stop_event, 0, NAN, NAN};
         int already = cfg->points == DTH_POINTS_TIMES && st->samples > 0 && st->j > 0 &&
                       (cfg->times ? cfg->times[st->j - 1] : st->t_first + d->dir * (double)(st->j - 1) * cfg->dt) == te;
         if (te != st->t) {

@@ -1197,6 +1197,9 @@ int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *
     memset(&rs, 0, sizeof rs);
     rs.alloc = s->alloc;
     dth_options_default(&rs.opt);
+    rs.opt.estimate = 1; /* scene runs report an error estimate (integrator.h) */
+    rs.stop_error = 0.25;
+    rs.warn_ratio = 16;
     rs.opt.alloc = s->alloc;
     snprintf(rs.method, sizeof rs.method, "dth");
     snprintf(rs.regularize, sizeof rs.regularize, "none");

@@ -27,7 +27,7 @@ static cli_ckpt sample(void)
     S->j = 99;
     S->t = 61.25;
     S->t_first = -0.025;
-    S->in = (dth_step_info){0.05000000000000071, 2, 1e-17, DTH_BRANCH_PLUS, DTH_STEP_CROSSING, 0};
+    S->in = (dth_step_info){0.05000000000000071, 2, 1e-17, DTH_BRANCH_PLUS, DTH_STEP_CROSSING, 0, 0.5e-9};
     S->crossings = 5;
     S->regularized = 4;
     S->max_ratio = 1.24;

@@ -143,6 +143,7 @@ typedef struct dth_options {
     dth_regularizer *regularizer;
     dth_linsolve linsolve;
     dth_finish finish;
+    int estimate;
 } dth_options;
 typedef enum dth_branch {
     DTH_BRANCH_NONE = 0, DTH_BRANCH_MINUS = 1, DTH_BRANCH_PLUS = 2, DTH_BRANCH_GHOST = 3,
@@ -155,6 +156,7 @@ typedef struct dth_step_info {
     dth_branch branch;
     unsigned flags;
     int proj_iters;
+    double lerr;
 } dth_step_info;
 enum { DTH_STEP_REGULARIZED = 1, DTH_STEP_CROSSING = 2 };
 typedef struct dth_integrator dth_integrator;
@@ -174,6 +176,8 @@ long dth_integrator_steps(const dth_integrator *it);
 size_t dth_integrator_dim(const dth_integrator *it);
 const char *dth_integrator_errmsg(const dth_integrator *it);
 int dth_integrator_tangent(dth_integrator *it, double *M);
+int dth_integrator_error(dth_integrator *it, double *eq, double *ep);
+int dth_integrator_error_at(dth_integrator *it, const double *z, double *eq, double *ep);
 typedef enum dth_region { DTH_REGION_NONE = 0, DTH_REGION_I = 1, DTH_REGION_II = 2, DTH_REGION_III = 3 } dth_region;
 typedef struct dth_diag {
     double H;
@@ -206,6 +210,7 @@ typedef struct dth_sample {
     const double *za, *zb;
     int event;
     int direction;
+    double err_q, err_p;
 } dth_sample;
 typedef int (*dth_sample_fn)(void *user, const dth_sample *s);
 typedef int (*dth_event_fn)(void *user, size_t n, const double *z, double *g);
@@ -241,6 +246,10 @@ typedef struct dth_run_state {
     int prev_crossing;
     int stop;
     double t_stop;
+    double err_q, err_p;
+    double q_max, p_max;
+    double lam_max;
+    double t_lam_max;
 } dth_run_state;
 void dth_run_state_init(dth_run_state *st);
 typedef struct dth_run_config {
@@ -263,6 +272,9 @@ typedef struct dth_run_config {
     int (*progress)(void *user, const dth_run_state *st);
     long progress_every;
     const dth_allocator *alloc;
+    double stop_error;
+    double step_ratio;
+    int local_error;
 } dth_run_config;
 void dth_run_config_default(dth_run_config *cfg);
 int dth_run(dth_integrator *it, const dth_run_config *cfg, dth_run_state *st);
@@ -302,6 +314,8 @@ typedef struct dth_run_setup {
     char *events_file;
     const dth_allocator *alloc;
     dth_regularizer *regularizer;
+    double stop_error;
+    double warn_ratio;
 } dth_run_setup;
 int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *out, char *err, size_t errlen);
 void dth_run_setup_clear(dth_run_setup *rs);

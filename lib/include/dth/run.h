@@ -78,6 +78,8 @@ typedef struct dth_sample {
     const double *za, *zb; /**< the step's vertices (NULL for VERTEX samples) */
     int event;         /**< EVENT (and an END at a terminal event): index into dth_run_config.events; else -1 */
     int direction;     /**< EVENT: +1 g increased through 0, -1 it decreased */
+    double err_q, err_p; /**< the estimated global error at z (dth_integrator_error_at): |dq|, |dp|; NaN
+                              without an estimate (dth_options.estimate) */
 } dth_sample;
 
 /** A sample callback: 0 to go on; anything else stops the run and dth_run returns it. */
@@ -141,6 +143,10 @@ typedef struct dth_run_state {
     int stop;            /**< dth_run_stop: why the last call returned */
     double t_stop;       /**< samples and events are handed out for times after this one: where the
                               last call ended (t_end, a terminal event) or the start */
+    double err_q, err_p; /**< the estimated global error at the current vertex (NaN without one) */
+    double q_max, p_max; /**< the largest |q|, |p| at the vertices so far (the stop rule's scale) */
+    double lam_max;      /**< the largest |lambda| of the steps so far */
+    double t_lam_max;    /**< the time of the vertex that step arrived at */
 } dth_run_state;
 
 /** Zero a state (a fresh run). */
@@ -174,9 +180,22 @@ typedef struct dth_run_config {
     int (*progress)(void *user, const dth_run_state *st);
     long progress_every;    /**< steps between progress calls (<= 0: never) */
     const dth_allocator *alloc; /**< the driver's workspace (one block per call); NULL: malloc */
+    /** With an error estimate (dth_options.estimate): stop with DTH_EACCURACY where the steps ran away
+     *  from h (a step larger than step_ratio h) and the estimated error in q or in p exceeds this
+     *  fraction of the largest |q| resp. |p| seen so far (default 0.25; 0: never). A run whose steps
+     *  are far too large for its orbit (a Kepler orbit of e = 0.9 started at its pericentre with
+     *  h = 0.01: steps up to 96 h, the end a third of the orbit off) ends with a status instead of an
+     *  orbit-sized error; a long run whose phase error grows at steps near h is left to run (its
+     *  estimate says how far off it is). */
+    double stop_error;
+    /** The multiple of the integrator's h beyond which steps count as run away (default 16). */
+    double step_ratio;
+    /** 1: each step record gets the local error estimate lerr (dth_step_info); 3 flows per step. */
+    int local_error;
 } dth_run_config;
 
-/** Defaults: steps = 0, t0 = NAN, points = VERTICES, every = 1, nothing else. */
+/** Defaults: steps = 0, t0 = NAN, points = VERTICES, every = 1, stop_error = 0.25, step_ratio = 16,
+ *  nothing else. */
 DTH_API void dth_run_config_default(dth_run_config *cfg);
 
 struct dth_run_setup; /* scene.h */

@@ -111,6 +111,8 @@ typedef struct dth_run_setup {
     const dth_allocator *alloc; /**< what the owned members were allocated with */
     dth_regularizer *regularizer; /**< [regularize] method= other than none (owned; also in
                                        opt.regularizer), NULL for raw DTH */
+    double stop_error;  /**< dth_run_config.stop_error (default 0.25) */
+    double warn_ratio;  /**< warn where a step exceeds this multiple of h (default 16; 0: never) */
 } dth_run_setup;
 
 /**
