@@ -26,6 +26,7 @@ AI void assemble_n(const dth__dth *it, const size_t nc, const double *x, const d
     const double *g = it->grad, *Hy = it->hess;
     double lam = x[m - 1], hl = 0.5 * lam;
     F[m - 1] = zb[N - 1] + Hphys;
+    if (it->level != 0) F[m - 1] += it->level; /* a constraint moved to the level H = -s (dth_core.h) */
     if (nc || it->auton) {
         /* rows q_i: d_q - (lambda/2) dH/dp_i;  rows p_i: d_p + (lambda/2) dH/dq_i */
         size_t mm = (size_t)m;
@@ -216,6 +217,7 @@ AI int compensated_n(dth__dth *it, const size_t nc, const double *x, double *F)
             return rc;
         }
         double ec = (it->st.rho - dh) + (it->st.rholo - dhlo), rd = F[m - 1];
+        if (it->level != 0) ec += it->level;
         double tau = 4 * DBL_EPSILON * h_scale_n(it, nc, it->zb, it->Hphys);
         F[m - 1] = fabs(ec - rd) <= tau ? ec : rd;
         return DTH_OK;
@@ -245,6 +247,7 @@ AI int compensated_n(dth__dth *it, const size_t nc, const double *x, double *F)
     /* no fallback to the direct value here: the carried offset is what makes the step its own
      * reverse (its random walk, eps |grad H| |d| per step, is the energy's) */
     F[m - 1] = (it->st.rho - dh) + (it->st.rholo - dhlo);
+    if (it->level != 0) F[m - 1] += it->level;
     return DTH_OK;
 }
 
@@ -563,7 +566,7 @@ AI int newton_n(dth__dth *it, const size_t nc, const dth__newton_ops *ops, doubl
         dth__seterr(it, "model evaluation failed at the converged midpoint: %s", dth_strerror(rc));
         return rc;
     }
-    sol->residual = fabs(zb[N - 1] + it->Hphys);
+    sol->residual = fabs(zb[N - 1] + it->Hphys + it->level);
     sol->lambda = x[m - 1];
     return DTH_OK;
 }
