@@ -613,6 +613,11 @@ AI int commit_n(dth__dth *it, const size_t nc, double lam, int replaced)
         }
         finite &= isfinite(zn[j]) != 0;
     }
+    if (replaced && it->jump) /* a regularizer's reset of the end vertex (DTH_STEP_RESET): no time passes */
+        for (size_t j = 0; j < N; j++) {
+            zn[j] = two_sum(zn[j], zl[j] + it->jump[j], &zl[j]);
+            finite &= isfinite(zn[j]) != 0;
+        }
     if (!finite) {
         size_t j = 0;
         while (isfinite(zn[j])) j++;

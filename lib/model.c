@@ -175,8 +175,8 @@ int dth_model_new(const dth_model_type *utype, const dth_kv *kv, size_t nkv, siz
     }
     if (rc != DTH_OK) {
         if (m->self && type->destroy) type->destroy(m->self, alloc);
-        dth_free(alloc, m);
-        if (err && errlen && !err[0]) dth__set_err(err, errlen, "model '%s': %s", type->name, dth_strerror(rc));
+        dth_free(alloc, m); /* type pointed into m: the caller's table names the model */
+        if (err && errlen && !err[0]) dth__set_err(err, errlen, "model '%s': %s", utype->name, dth_strerror(rc));
         return rc < 0 ? rc : DTH_EINVAL;
     }
     if (rc == DTH_OK && probe_quadratic(m, &m->quad_mask) != DTH_OK) {
@@ -440,7 +440,7 @@ int dth_model_psi(const dth_model *m, const double *y, double *psi, double *dpsi
     /* Central difference of u^T H_yy(y + e u) u in e with u fixed: error O(e^2) + eps/e. */
     double ynorm = 0, unorm = 0;
     for (size_t i = 0; i < d; i++) {
-        ynorm = fmax(ynorm, fabs(y[i]));
+        if (i != n) ynorm = fmax(ynorm, fabs(y[i])); /* (q, p): the time's size sets no step */
         unorm = fmax(unorm, fabs(u[i]));
     }
     double e = cbrt(DBL_EPSILON) * fmax(ynorm, 1.0) / unorm;
@@ -578,7 +578,7 @@ int dth_model_check(const dth_model *m, const double *y, dth_model_check_report 
         double unorm = 0, ynorm = 0, d3 = 0, f[2];
         for (size_t i = 0; i < d; i++) {
             unorm = fmax(unorm, fabs(u[i]));
-            ynorm = fmax(ynorm, fabs(y[i]));
+            if (i != n) ynorm = fmax(ynorm, fabs(y[i])); /* (q, p): the time's size sets no step */
         }
         double e = cbrt(DBL_EPSILON) * fmax(ynorm, 1.0) / unorm, fd = 0;
         if (!rc) {
@@ -704,4 +704,91 @@ int dth__parse_list(const char *v, double *out, size_t max, size_t *count)
     }
     *count = k;
     return 0;
+}
+
+size_t dth__model_gpsi_work(const dth_model *m)
+{
+    size_t d = 2 * m->info.n + 1;
+    return dth_model_work_size(m) + d * d + 6 * d;
+}
+
+int dth__model_grad_psi(const dth_model *m, const double *y, double *gpsi, double *psi, double *dpsi, double *work)
+{
+    size_t n = m->info.n, d = 2 * n + 1;
+    double *A = work + dth_model_work_size(m), *g = A + d * d, *u = g + d, *ys = u + d, *gp = ys + d, *gm = gp + d,
+           *v = gm + d;
+    int rc = dth_model_psi(m, y, psi, dpsi, work);
+    if (!rc) rc = dth_model_eval(m, y, DTH_EVAL_GRAD | DTH_EVAL_HESS, NULL, g, A);
+    if (rc) return rc;
+    dth__flow_y(n, g, u);
+    /* D^3 H[u, u, .] by the second difference of the gradient along u (error O(e^2) + eps / e^2) */
+    double ynorm = 1, unorm = 0;
+    for (size_t i = 0; i < d; i++) {
+        if (i != n) ynorm = fmax(ynorm, fabs(y[i])); /* (q, p): the time's size sets no step */
+        unorm = fmax(unorm, fabs(u[i]));
+    }
+    double e = sqrt(sqrt(DBL_EPSILON)) * ynorm / unorm;
+    for (size_t i = 0; i < d; i++) ys[i] = y[i] + e * u[i];
+    rc = dth_model_eval(m, ys, DTH_EVAL_GRAD, NULL, gp, NULL);
+    for (size_t i = 0; !rc && i < d; i++) ys[i] = y[i] - e * u[i];
+    if (!rc) rc = dth_model_eval(m, ys, DTH_EVAL_GRAD, NULL, gm, NULL);
+    if (rc) return rc;
+    /* + 2 A J^T A u: v = A u, (J^T v)_q = -v_p, (J^T v)_p = v_q over y */
+    for (size_t i = 0; i < d; i++) {
+        double s = 0;
+        for (size_t j = 0; j < d; j++) s += A[i * d + j] * u[j];
+        v[i] = s;
+    }
+    for (size_t i = 0; i < n; i++) {
+        ys[i] = -v[n + 1 + i];
+        ys[n + 1 + i] = v[i];
+    }
+    ys[n] = 0;
+    for (size_t i = 0; i < d; i++) {
+        double s = 0;
+        for (size_t j = 0; j < d; j++) s += A[i * d + j] * ys[j];
+        gpsi[i] = (gp[i] - 2 * g[i] + gm[i]) / (e * e) + 2 * s;
+    }
+    return DTH_OK;
+}
+
+int dth__model_d3aab(const dth_model *m, const double *y, const double *a, const double *b, double *out, double *work)
+{
+    size_t n = m->info.n, d = 2 * n + 1;
+    double *v = work, *ys = work + d, *hess = ys + d;
+    if (m->type->third) { /* polarization: D^3H[a, a, b] = (T(a + b) - T(a - b) - 2 T(b)) / 6, T(x) = D^3H[x, x, x] */
+        double t[3];
+        for (int k = 0; k < 3; k++) {
+            for (size_t i = 0; i < d; i++) v[i] = k == 0 ? a[i] + b[i] : k == 1 ? a[i] - b[i] : b[i];
+            int r3 = m->type->third(m->self, y, v, &t[k]);
+            if (r3) return r3 > 0 ? DTH_EDOMAIN : DTH_EMODEL;
+        }
+        *out = (t[0] - t[1] - 2 * t[2]) / 6;
+        return isfinite(*out) ? DTH_OK : DTH_EDOMAIN;
+    }
+    /* central difference of a^T H(y + e b) a in e */
+    double ynorm = 1, bnorm = 0, f[2];
+    for (size_t i = 0; i < d; i++) {
+        if (i != n) ynorm = fmax(ynorm, fabs(y[i])); /* (q, p): the time's size sets no step */
+        bnorm = fmax(bnorm, fabs(b[i]));
+    }
+    if (!(bnorm > 0)) {
+        *out = 0;
+        return DTH_OK;
+    }
+    double e = cbrt(DBL_EPSILON) * ynorm / bnorm;
+    for (int s = 0; s < 2; s++) {
+        for (size_t i = 0; i < d; i++) ys[i] = y[i] + (s ? -e : e) * b[i];
+        int rc = dth_model_eval(m, ys, DTH_EVAL_HESS, NULL, NULL, hess);
+        if (rc) return rc;
+        f[s] = quad_form(d, hess, a);
+    }
+    *out = (f[0] - f[1]) / (2 * e);
+    return DTH_OK;
+}
+
+size_t dth__model_d3_work(const dth_model *m)
+{
+    size_t d = 2 * m->info.n + 1;
+    return 2 * d + d * d;
 }

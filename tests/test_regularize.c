@@ -149,12 +149,13 @@ static void test_registry(void)
     CU_ASSERT_FATAL(dth_registry_add_builtin(reg) == DTH_OK);
     CU_ASSERT(dth_registry_regularizer_count(reg) >= 3);
     CU_ASSERT_PTR_EQUAL(dth_registry_find_regularizer(reg, "none"), &dth_reg_none);
+    CU_ASSERT_PTR_EQUAL(dth_registry_find_regularizer(reg, "land"), &dth_reg_land);
     CU_ASSERT_PTR_EQUAL(dth_registry_find_regularizer(reg, "smooth"), &dth_reg_smooth);
     CU_ASSERT_PTR_EQUAL(dth_registry_find_regularizer(reg, "prescribed"), &dth_reg_prescribed);
     CU_ASSERT_PTR_NULL(dth_registry_find_regularizer(reg, "reseed")); /* retired */
     CU_ASSERT_PTR_NULL(dth_registry_find_regularizer(reg, "symkick"));
     CU_ASSERT_PTR_NULL(dth_registry_find_regularizer(reg, "nope"));
-    CU_ASSERT_PTR_EQUAL(dth_registry_regularizer_at(reg, 0), &dth_reg_smooth); /* the default first */
+    CU_ASSERT_PTR_EQUAL(dth_registry_regularizer_at(reg, 0), &dth_reg_land); /* the default first */
     CU_ASSERT_PTR_NULL(dth_registry_regularizer_at(reg, 99));
     CU_ASSERT_EQUAL(dth_registry_add_regularizer(reg, &dth_reg_none), DTH_EINVAL); /* duplicate */
     dth_registry_free(reg);
