@@ -97,7 +97,7 @@ static const dth__scene_key keys[] = {
     {KEY("integrator", "method", CHOICE, 0, "dth",
          "How to step: the DTH step, or a fixed-step baseline for comparison. For a baseline, `h` is the fixed "
          "step, the CSV's `wp` column holds -H_phys at the start (so `H` shows the energy error), and "
-         "`[regularize]` must stay `none`."),
+         "`[regularize]` must stay `none`; `verlet` needs a separable model, `midpoint-proj` an autonomous one."),
      .to = RS(opt.method), .choice = methods, .as_name = 1},
     {KEY("integrator", "start", CHOICE, 0, "midpoint",
          "Where the initial state lies. The energy a vertex start conserves (every midpoint's, -wp) differs from "
@@ -130,14 +130,17 @@ static const dth__scene_key keys[] = {
     {KEY("integrator", "reversible", BOOL, 0, "no",
          "`yes`: the reversible finish: each step and the step back from its end find the same root to about "
          "2^-100 (double-double unknowns and vertex offset, the model read at a coarsened midpoint), so a run "
-         "reversed with `--roundtrip` comes back to its start (docs/theory.md, \"A step that is its own "
-         "reverse\"). It costs about 2.4 times the step on the smallest models (docs/performance.md) and needs a "
-         "dense Hessian: with a banded solver the scene is refused (set `linsolve = dense`). `no`: the "
-         "compensated constraint (the carried vertex offset)."),
+         "reversed with `--roundtrip` comes back to its start (exactly: `bench_roundtrip`'s orbits at 10^4 and "
+         "10^6 steps, and `--roundtrip` on the pendulum, Kepler and coupled scenes; a step whose root lies at the "
+         "edge of the finish's coarse cells, about one per 10^6 steps, leaves a small error that grows with the "
+         "steps after it: docs/theory.md, \"A step that is its own reverse\"). It costs about 2.4 times the step "
+         "on the smallest models (bench_floor, docs/performance.md) and needs a dense Hessian: with a banded "
+         "solver the scene is refused (set `linsolve = dense`). `no`: the compensated constraint (the carried "
+         "vertex offset), whose round trips are as good as the plain constraint's."),
      .to = RS(opt.finish), .choice = finish_yes_no},
     {KEY("integrator", "linsolve", CHOICE, 0, "auto",
          "The linear solver of the step's Newton system: all give the same steps to round-off and differ in cost "
-         "(docs/performance.md). The banded ones need a model with a banded Hessian."),
+         "(docs/performance.md; more below the table). The banded ones need a model with a banded Hessian."),
      .to = RS(opt.linsolve), .choice = linsolves},
 
     /* [output] */
@@ -554,8 +557,10 @@ void dth__scene_unknown_section(const char *section, char *msg, size_t len)
         add(known, sizeof known, &n, "%s%s", i ? ", " : "", sections[i].name);
         dth__suggest_offer(&sg, sections[i].name);
     }
-    if (sg.best) dth__set_err(msg, len, "unknown section [%s] (known: %s); did you mean [%s]?", section, known, sg.best);
-    else dth__set_err(msg, len, "unknown section [%s] (known: %s)", section, known);
+    if (sg.best)
+        dth__set_err(msg, len, "unknown section [%s] (known: %s); did you mean [%s]?", section, known, sg.best);
+    else
+        dth__set_err(msg, len, "unknown section [%s] (known: %s)", section, known);
 }
 
 /* ---------------------------------------------------------------- the public listing */
