@@ -9,7 +9,6 @@
  *   [regularize] method=, then the regularizer's parameters
  *   [output]     file=, points=, every=, dt=, diagnostics=
  *   [events]     section=, time=, distance= and their options
- * The keys of [initial], [integrator], [output] and [events] are listed by dth_scene_key_at.
  * Unknown sections and keys are errors naming the file and line (or the -s override), and the
  * closest known name ("did you mean t_end?").
  * steps= and t_end= exclude each other, except that an override of one replaces the other
