@@ -25,6 +25,7 @@ enum {
       "integrate a scene and write its trajectory as CSV (or HDF5: -o FILE.h5)")                  \
     X(models, "", "list the registered models, their parameters and defaults")                  \
     X(regularizers, "", "list the regularizers across psi = 0 ([regularize] method=), with parameters") \
+    X(keys, "[--markdown] [SECTION]", "the scene keys: what each accepts, its default and meaning")  \
     X(roots, "SCENE.ini [-s section.key=value]... [--range L]",                                  \
       "every root of the step constraint at the initial vertex, classified (CSV)")               \
     X(map, "SCENE.ini --q a:b:n --p c:d:m [--dof i] [--range L] [--out PREFIX] [-s ...]",      \

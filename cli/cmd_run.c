@@ -205,11 +205,7 @@ static int check_setup(run_job *j)
         cli_error("--roundtrip writes vertices: it cannot be combined with [output] dt > 0");
         return CLI_USAGE;
     }
-    j->is_dth = strcmp(rs->method, "dth") == 0;
-    if (!j->is_dth && strcmp(rs->regularize, "none")) {
-        cli_error("[regularize] applies to method = dth only (this scene uses '%s')", rs->method);
-        return CLI_USAGE;
-    }
+    j->is_dth = strcmp(rs->method, "dth") == 0; /* (a regularizer with a baseline: refused by dth_scene_setup) */
     return GO_ON;
 }
 

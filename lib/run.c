@@ -384,7 +384,7 @@ static int runaway(const drv *d)
 {
     const dth_run_state *st = d->st;
     double f = d->cfg->stop_error, h = fabs(dth__integrator_h(d->it));
-    return f > 0 && st->lam_max > d->cfg->step_ratio * h && (st->err_q > f * st->q_max || st->err_p > f * st->p_max);
+    return f > 0 && d->cfg->step_ratio > 0 && st->lam_max > d->cfg->step_ratio * h && (st->err_q > f * st->q_max || st->err_p > f * st->p_max);
 }
 
 /* The local error estimate of the segment za -> zb: the defect of its cubic Hermite interpolant at

@@ -188,7 +188,7 @@ typedef struct dth_run_config {
      *  orbit-sized error; a long run whose phase error grows at steps near h is left to run (its
      *  estimate says how far off it is). */
     double stop_error;
-    /** The multiple of the integrator's h beyond which steps count as run away (default 16). */
+    /** The multiple of the integrator's h beyond which steps count as run away (default 16; 0: never stop). */
     double step_ratio;
     /** 1: each step record gets the local error estimate lerr (dth_step_info); 3 flows per step. */
     int local_error;
