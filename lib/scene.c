@@ -1066,7 +1066,7 @@ static int check_cross(setup_ctx *c, dth_run_setup *rs)
     int is_dth = strcmp(rs->method, "dth") == 0;
     /* output times far denser than the steps: millions of rows per step fill a disk, they do not
      * resolve the trajectory (the method's steps do) */
-    if (rs->dt > 0 && !(fabs(rs->opt.h) / rs->dt <= 1e6))
+    if (rs->dt > 0 && !(fabs(rs->opt.h) / rs->dt <= DTH_RUN_MAX_SAMPLES_PER_STEP))
         return bad(c->err, c->errlen, c->dt, "%.3g asks for %.3g rows per step of h = %.3g: at most 1e6 (a larger dt)",
                    rs->dt, fabs(rs->opt.h) / rs->dt, rs->opt.h);
     if (rs->dt > 0) {
