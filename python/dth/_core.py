@@ -2,15 +2,17 @@
 """Scenes, runs through the library's driver dth_run, roots, checkpoints and user models (the
 Python face of lib/include/dth/*.h; see docs/python.md)."""
 import contextlib
+import functools
 import json
 import math
 import numbers
+import threading
 
 import numpy as np
 
 from ._ffi import ffi, lib
 
-__all__ = ["DthError", "OutsideDomain", "Scene", "Simulation", "Result", "Events", "Roots", "Map", "Model",
+__all__ = ["DthError", "OutsideDomain", "Scene", "Simulation", "Event", "Result", "Events", "Roots", "Map", "Model",
            "CModel", "load_model", "run", "roots", "map", "models", "strerror", "status_name"]
 
 _ERRLEN = 1024
@@ -42,11 +44,13 @@ def status_name(status):
 
 
 class DthError(Exception):
-    """A hard error of the library (negative status) or bad input (scene, overrides, arguments)."""
+    """A hard error of the library (negative status) or bad input (scene, overrides, arguments).
+    `result`: the samples a run returned before it stopped, where it has some (else None)."""
 
-    def __init__(self, status, message=None):
+    def __init__(self, status, message=None, result=None):
         self.status = status
         self.name = status_name(status)
+        self.result = result
         super().__init__(message or strerror(status))
 
 
@@ -83,7 +87,9 @@ def _fmt(v):
     if isinstance(v, str):
         return v
     if isinstance(v, (list, tuple, np.ndarray)):
-        return ", ".join(_fmt(x) for x in np.asarray(v, dtype=object).ravel())
+        # no blank after the commas: a long list may then be split over continuation lines at any
+        # comma (what dth_scene_check_entry and dth_scene_set accept, scene.h)
+        return ",".join(_fmt(x) for x in np.asarray(v, dtype=object).ravel())
     raise TypeError("dth: cannot write %r as a scene value" % (v,))
 
 
@@ -103,13 +109,20 @@ def _ini_lines(key, text):
 
 
 def _ini_from_dict(d):
+    """INI text of a dict scene; every entry checked by the library's rule of what a scene file can
+    hold (dth_scene_check_entry, the rule dth_scene_set applies), so that no value can add a line."""
     out = []
+    err = ffi.new("char[]", _ERRLEN)
     for sec, keys in d.items():
         if not isinstance(keys, dict):
             raise TypeError("dth: scene section %r must be a dict of keys" % (sec,))
         out.append("[%s]" % sec)
         for k, v in keys.items():
-            out.extend(_ini_lines(k, _fmt(v)))
+            text = _fmt(v)
+            rc = lib().dth_scene_check_entry(str(sec).encode(), str(k).encode(), text.encode(), err, _ERRLEN)
+            if rc:
+                raise DthError(rc, "dict scene: %s" % _err(err))
+            out.extend(_ini_lines(k, text))
     return "\n".join(out) + "\n"
 
 
@@ -147,10 +160,14 @@ class Scene:
                 self.set(k, v)
 
     def set(self, key, value):
-        """Override section.key (applied after the file, in order, like dth run -s)."""
-        if "." not in key:
-            raise ValueError("dth: an override names section.key, not %r" % key)
-        self.overrides.append("%s=%s" % (key, _fmt(value)))
+        """Override section.key (applied after the file, in order, like dth run -s; messages name it
+        as set={'section.key': value})."""
+        if not isinstance(key, str) or "." not in key:
+            raise ValueError("dth: an override names section.key, not %r" % (key,))
+        origin = "set={%r: %r}" % (key, value)
+        if len(origin) > 80:
+            origin = origin[:76] + "...}"
+        self.overrides.append((origin, "%s=%s" % (key, _fmt(value))))
         return self
 
     def __setitem__(self, key, value):
@@ -173,8 +190,8 @@ class Scene:
                 rc = L.dth_scene_load_mem(s, self.name.encode(), t, len(t), err, _ERRLEN)
             if rc:
                 raise DthError(rc, _err(err))
-            for o in self.overrides:
-                rc = L.dth_scene_set(s, o.encode(), err, _ERRLEN)
+            for origin, o in self.overrides:
+                rc = L.dth_scene_set_from(s, origin.encode(), o.encode(), err, _ERRLEN)
                 if rc:
                     raise DthError(rc, _err(err))
         except BaseException:
@@ -452,6 +469,8 @@ def _table(m):
 
 
 class _Registry:
+    ptr = None  # a partly built one (an exception in __init__) is closed without errors
+
     def __init__(self, models=()):
         L = lib()
         rp = ffi.new("dth_registry **")
@@ -473,7 +492,8 @@ class _Registry:
             lib().dth_registry_free(self.ptr)
             self.ptr = None
 
-    __del__ = close
+    def __del__(self):
+        self.close()
 
 
 def models(models=()):
@@ -629,14 +649,23 @@ class _Collect:
 class _Megno:
     """dth_megno (chaos.h) over the legs of a run."""
 
-    def __init__(self, it, delta0):
+    g = None  # a partly built one (an exception in __init__) is closed without errors
+
+    def __init__(self, it, delta0, N):
         L = lib()
         self.it = it
         gp = ffi.new("dth_megno **")
-        d = ffi.NULL if delta0 is None else ffi.new("double[]", [float(x) for x in delta0])
-        rc = L.dth_megno_new(it, d, ffi.NULL, gp)
+        if delta0 is None:
+            d, nd = ffi.NULL, 0
+        else:
+            v = np.asarray(delta0, dtype=np.float64).ravel()
+            if len(v) != N:
+                raise ValueError("dth: megno: the deviation vector has %d values, not 2n+2 = %d (over q, t, p, wp)"
+                                 % (len(v), N))
+            d, nd = ffi.new("double[]", v.tolist()), len(v)
+        rc = L.dth_megno_new_len(it, d, nd, ffi.NULL, gp)
         if rc:
-            raise DthError(rc, "cannot follow a deviation vector (delta0 of 2n+2 values, not all zero)")
+            raise DthError(rc, "megno: cannot follow the deviation vector (2n+2 = %d finite values, not all zero)" % N)
         self.g = gp[0]
 
     def update(self):
@@ -654,10 +683,39 @@ class _Megno:
             lib().dth_megno_free(self.g)
             self.g = None
 
-    __del__ = close
+    def __del__(self):
+        self.close()
 
 
 _POINTS = {"vertices": 0, "midpoints": 1, "times": 2}
+
+
+class Event:
+    """An event function of the trajectory, located by the run driver like the scene's [events]:
+    g(t, q, p) -> float is evaluated at every vertex, and where it changes sign over a step (in
+    `direction`: +1 increasing, -1 decreasing, 0 both) the crossing is located on the dense output to
+    round-off in t (run.h). `terminal`: the run ends at the first one. `name`: how r.events names it
+    (default: the function's __name__).
+
+        dth.run(scene, events=[dth.Event(lambda t, q, p: q[1], direction=+1, name="q2-up")])
+
+    A plain callable is an Event with direction 0, not terminal. Exceptions raised by g end the run
+    and are re-raised by run(); g must not call the Simulation it belongs to.
+    """
+
+    def __init__(self, g, direction=0, terminal=False, name=None):
+        if not callable(g):
+            raise TypeError("dth: an event is a callable g(t, q, p), not %r" % (g,))
+        if direction not in (-1, 0, 1):
+            raise ValueError("dth: an event's direction is +1, -1 or 0, not %r" % (direction,))
+        self.g, self.direction, self.terminal = g, int(direction), bool(terminal)
+        self.name = name or getattr(g, "__name__", "event")
+        if self.name == "<lambda>":
+            self.name = "event"
+
+
+def _as_event(e):
+    return e if isinstance(e, Event) else Event(e)
 
 
 class Simulation:
@@ -670,15 +728,27 @@ class Simulation:
         blob = sim.checkpoint()            # bytes (or a file: sim.checkpoint("p.ckpt"))
         b = sim.run(t_end=20)
         c = dth.Simulation.resume(blob).run(t_end=20)    # c's samples are b's, bit for bit
+
+    Threads: a Simulation holds a lock. A call from another thread while one runs (run, close,
+    checkpoint, a property) waits until it returns; a call from inside the run (a model, event or
+    progress callback of the same thread) raises DthError. After close() every method and property
+    raises DthError ("the Simulation is closed").
     """
 
-    def __init__(self, scene, set=None, models=(), check_model=True, _restore=None):
+    _lock = None  # a partly built one (an exception in __init__) closes without errors
+    _it = ffi.NULL
+    _rs = None
+    _reg = None
+    _megno = None
+    _owner = None
+
+    def __init__(self, scene, set=None, models=(), check_model=True, events=(), _restore=None):
         L = lib()
+        self._lock = threading.Lock()
+        self._keep = []
         self.scene = Scene(scene, set)
         self._reg = _Registry(models)
         self._rs = ffi.new("dth_run_setup *")
-        self._it = ffi.NULL
-        self._megno = None
         self._st = ffi.new("dth_run_state *")
         err = ffi.new("char[]", _ERRLEN)
         s = self.scene._load()
@@ -686,15 +756,23 @@ class Simulation:
             rc = L.dth_scene_setup(s, self._reg.ptr, self._rs, err, _ERRLEN)
             _raise_pending()
             if rc:
+                self._rs = None
                 raise DthError(rc, _err(err))
             self._text = _scene_text(s, bool(self._rs.has_t_end))
+        except BaseException:
+            self.close()
+            raise
         finally:
             L.dth_scene_free(s)
         rs = self._rs
         self.n = rs.n
         self.method = ffi.string(rs.method).decode()
-        self.event_names = [ffi.string(rs.event_names[i]).decode() for i in range(rs.nevents)]
         self.model_name = ffi.string(L.dth_model_get_type(rs.model).name).decode()
+        try:
+            self._events_setup(events)
+        except BaseException:
+            self.close()
+            raise
         if check_model and _restore is None and rs.n <= 200:
             y = ffi.new("double[]", 2 * rs.n + 1)
             ffi.memmove(y, rs.q0, 8 * rs.n)
@@ -702,7 +780,11 @@ class Simulation:
             ffi.memmove(y + rs.n + 1, rs.p0, 8 * rs.n)
             rep = ffi.new("dth_model_check_report *")
             rc = L.dth_model_check(rs.model, y, rep)
-            _raise_pending()
+            try:
+                _raise_pending()
+            except BaseException:
+                self.close()
+                raise
             if rc == 0 and not getattr(rep, "pass"):
                 self.close()
                 raise DthError(-1, "%s: model '%s' fails its derivative check at the initial state: %s "
@@ -724,36 +806,108 @@ class Simulation:
         if _restore is not None:
             buf, st = _restore
             rc = L.dth_checkpoint_restore(self._it, buf, len(buf), err, _ERRLEN)
-            _raise_pending()
+            try:
+                _raise_pending()
+            except BaseException:
+                self.close()
+                raise
             if rc:
                 self.close()
                 raise DthError(rc, _err(err))
             ffi.memmove(self._st, st, ffi.sizeof("dth_run_state"))
         else:
             rc = L.dth_integrator_start(self._it, rs.q0, rs.p0, rs.t0)
-            _raise_pending()
+            try:
+                _raise_pending()
+            except BaseException:
+                self.close()
+                raise
             if rc:
                 msg = ffi.string(L.dth_integrator_errmsg(self._it)).decode()
                 self.close()
                 raise DthError(rc, "%s: cannot start at the initial state: %s (%s)" % (
                     self.scene.name, strerror(rc), msg))
 
-    def close(self):
-        """Free the C objects (also done when the object is collected)."""
-        L = lib()
-        if getattr(self, "_megno", None) is not None:
-            self._megno.close()
-            self._megno = None
-        if getattr(self, "_it", ffi.NULL) != ffi.NULL:
-            L.dth_integrator_free(self._it)
-            self._it = ffi.NULL
-        if getattr(self, "_rs", None) is not None:
-            L.dth_run_setup_clear(self._rs)
-            self._rs = None
-        if getattr(self, "_reg", None) is not None:
-            self._reg.close()
+    def _events_setup(self, events):
+        """The run's events: the scene's [events], then the Python ones (cffi callbacks)."""
+        rs = self._rs
+        self.event_names = [ffi.string(rs.event_names[i]).decode() for i in range(rs.nevents)]
+        self.py_events = [_as_event(e) for e in (events or ())]
+        self._nevents = rs.nevents + len(self.py_events)
+        self._events = rs.events
+        if not self.py_events:
+            return
+        n = rs.n
+        arr = ffi.new("dth_event[]", self._nevents)
+        for i in range(rs.nevents):
+            arr[i] = rs.events[i]
+        pe = self.py_events
 
-    __del__ = close
+        @ffi.callback("int(void *, size_t, const double *, double *)", error=DTH_EMODEL, onerror=_onerror)
+        def g_cb(user, nn, z, g):
+            e = pe[int(ffi.cast("uintptr_t", user))]
+            zv = np.frombuffer(ffi.buffer(z, 8 * (2 * n + 2)), dtype=np.float64)
+            g[0] = float(e.g(zv[n], zv[:n], zv[n + 1:2 * n + 1]))
+            return 0
+
+        for j, e in enumerate(pe):
+            a = arr[rs.nevents + j]
+            a.g, a.user = g_cb, ffi.cast("void *", j)
+            a.direction, a.terminal = e.direction, 1 if e.terminal else 0
+            self.event_names.append(e.name)
+        self._events = arr
+        self._keep += [arr, g_cb]
+
+    @contextlib.contextmanager
+    def _use(self, closing=False):
+        """Hold the Simulation's lock for a call (see the class: waits for another thread's call,
+        refuses a call from inside its own run, and a closed Simulation)."""
+        lock = self._lock
+        if lock is None:  # partly built
+            if closing:
+                yield
+                return
+            raise DthError(_STATUS["DTH_EINVAL"], "the Simulation was not built")
+        me = threading.get_ident()
+        if self._owner == me:
+            raise DthError(_STATUS["DTH_EINVAL"], "Simulation: called from inside its own run (a callback of "
+                           "this thread): close() and the other methods wait for the run to return")
+        with lock:
+            self._owner = me
+            try:
+                if not closing and self._it == ffi.NULL:
+                    raise DthError(_STATUS["DTH_EINVAL"], "the Simulation is closed")
+                yield
+            finally:
+                self._owner = None
+
+    def close(self):
+        """Free the C objects (also done when the object is collected). From another thread during a
+        run it waits for the run to return; after it, every method raises DthError."""
+        with self._use(closing=True):
+            L = lib()
+            if self._megno is not None:
+                self._megno.close()
+                self._megno = None
+            if self._it != ffi.NULL:
+                L.dth_integrator_free(self._it)
+                self._it = ffi.NULL
+            if self._rs is not None:
+                L.dth_run_setup_clear(self._rs)
+                self._rs = None
+            if self._reg is not None:
+                self._reg.close()
+
+    @property
+    def closed(self):
+        """True once close() ran (or the Simulation could not be built)."""
+        return self._it == ffi.NULL
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:  # noqa: BLE001  (never from a finalizer)
+            pass
 
     def __enter__(self):
         return self
@@ -764,13 +918,21 @@ class Simulation:
     @property
     def vertex(self):
         """The current vertex z_k (q, t, p, wp) as a numpy array (DTH), or the state (q, t, p, wp)."""
-        N = 2 * self.n + 2
-        return np.array(ffi.unpack(lib().dth_integrator_vertex(self._it), N))
+        with self._use():
+            N = 2 * self.n + 2
+            return np.array(ffi.unpack(lib().dth_integrator_vertex(self._it), N))
 
     @property
     def steps(self):
         """Vertex index k (steps from the start)."""
-        return self._st.k
+        with self._use():
+            return self._st.k
+
+    @property
+    def t(self):
+        """Time of the current vertex."""
+        with self._use():
+            return float(lib().dth_integrator_vertex(self._it)[self.n])
 
     def run(self, t_end=None, steps=None, points=None, every=None, dt=None, times=None, diagnostics=None,
             megno=False, progress=None):
@@ -781,11 +943,15 @@ class Simulation:
         r.megno_span; they end at the first regularized step, r.megno_t_stop; DTH only); the
         indicator continues over consecutive legs that all ask for it. progress: a callable(state)
         called every step, returning True to stop. Returns a Result holding this leg's samples
-        and events."""
+        and events. What the driver refuses (dth_run_check: times not finite or out of order,
+        negative steps, t_end or steps behind where the run stands, a dt asking for more than 1e6
+        rows per step) raises DthError with its message before anything runs."""
+        with self._use():
+            return self._run(t_end, steps, points, every, dt, times, diagnostics, megno, progress)
+
+    def _run(self, t_end, steps, points, every, dt, times, diagnostics, megno, progress):
         L = lib()
         rs = self._rs
-        if rs is None:
-            raise DthError(-1, "the simulation is closed")
         cfg = ffi.new("dth_run_config *")
         L.dth_run_config_default(cfg)
         cfg.has_t_end, cfg.t_end, cfg.steps = rs.has_t_end, rs.t_end, rs.steps
@@ -794,6 +960,8 @@ class Simulation:
         if t_end is not None:
             cfg.has_t_end, cfg.t_end = 1, float(t_end)
         if steps is not None:
+            if isinstance(steps, bool) or not isinstance(steps, numbers.Integral):
+                raise TypeError("dth: steps is an integer (a vertex index), not %r" % (steps,))
             cfg.has_t_end, cfg.steps = 0, int(steps)
         cfg.t0 = rs.t0
         cfg.points, cfg.every, cfg.dt = rs.points, rs.every, rs.dt
@@ -801,15 +969,21 @@ class Simulation:
             cfg.points, cfg.dt = 2, float(dt)
         tbuf = None
         if times is not None:
-            tbuf = ffi.new("double[]", [float(x) for x in times])
-            cfg.points, cfg.times, cfg.ntimes = 2, tbuf, len(tbuf)
+            tv = np.asarray(times, dtype=np.float64).ravel()
+            tbuf = ffi.new("double[]", max(len(tv), 1))
+            ffi.memmove(tbuf, np.ascontiguousarray(tv), 8 * len(tv))
+            cfg.points, cfg.times, cfg.ntimes = 2, tbuf, len(tv)
         if points is not None:
             if points not in _POINTS:
                 raise ValueError("dth: points is one of %s" % ", ".join(_POINTS))
             cfg.points = _POINTS[points]
         if every is not None:
             cfg.every = int(every)
-        cfg.events, cfg.nevents = rs.events, rs.nevents
+        cfg.events, cfg.nevents = self._events, self._nevents
+        err = ffi.new("char[]", _ERRLEN)
+        rc = L.dth_run_check(self._it, cfg, self._st, err, _ERRLEN)
+        if rc:
+            raise DthError(rc, "run: %s" % _err(err))
         col = _Collect(rs, bool(rs.diagnostics) if diagnostics is None else bool(diagnostics))
 
         @ffi.callback("int(void *, const dth_sample *)", error=-1, onerror=_onerror)
@@ -823,12 +997,13 @@ class Simulation:
         cfg.sample, cfg.on_event = on_sample, on_event
         meg = None
         if megno is not False and megno is not None:
-            if self._it == ffi.NULL:
+            if self.method != "dth":
                 raise DthError(-8, "MEGNO needs the DTH tangent map (method = dth)")
             if self._megno is None or megno is not True:  # start (or restart with a given vector)
                 if self._megno is not None:
                     self._megno.close()
-                self._megno = _Megno(self._it, None if megno is True else megno)
+                    self._megno = None
+                self._megno = _Megno(self._it, None if megno is True else megno, 2 * self.n + 2)
             meg = self._megno
         elif self._megno is not None:  # a leg without it: the indicator cannot continue
             self._megno.close()
@@ -847,8 +1022,6 @@ class Simulation:
         _raise_pending()
         if meg is not None:
             meg.update()  # the last step (no progress call follows it)
-        if rc < 0:
-            raise DthError(rc, "%s at k=%d, t=%.17g" % (strerror(rc), st.k, st.t))
         r = col.result(self.event_names)
         r.status = rc
         r.status_name = status_name(rc)
@@ -861,7 +1034,12 @@ class Simulation:
         r.crossings, r.regularized, r.max_ratio = st.crossings, st.regularized, st.max_ratio
         if meg is not None:
             r.megno, r.lyapunov, r.megno_span, r.megno_t_stop = meg.result()
-            meg.close()
+        if st.stop == L.DTH_RUN_SAMPLES:
+            raise DthError(rc, "stopped at k=%d, t=%.17g: the output times asked for more than %d rows within one "
+                           "step (a larger dt, or points='vertices'; the rows so far are in this exception's "
+                           "result)" % (st.k, st.t, L.DTH_RUN_MAX_SAMPLES_PER_STEP), result=r)
+        if rc < 0:
+            raise DthError(rc, "%s at k=%d, t=%.17g" % (strerror(rc), st.k, st.t), result=r)
         return r
 
     # ---- checkpoints (checkpoint.h: the public save/restore API only)
@@ -870,9 +1048,20 @@ class Simulation:
         """The integrator's checkpoint (dth_checkpoint_save) with two blobs: "scene" (the scene as
         INI text, as dth run stores it) and "python" (the run driver's state and the package's
         format version). Returns the bytes; with `path`, also writes them crash-safely."""
+        with self._use():
+            data = self._checkpoint()
+        if path is not None:
+            import os
+            tmp = "%s.tmp" % path
+            with open(tmp, "wb") as f:
+                f.write(data)
+                f.flush()
+                os.fsync(f.fileno())
+            os.replace(tmp, path)
+        return data
+
+    def _checkpoint(self):
         L = lib()
-        if self._it == ffi.NULL:
-            raise DthError(-1, "the simulation is closed")
         scene = self._text.encode()
         meta = json.dumps({"version": 1, "scene_name": self.scene.name}).encode()
         st = bytes(ffi.buffer(self._st))
@@ -887,22 +1076,16 @@ class Simulation:
         rc = L.dth_checkpoint_save(self._it, b, 3, buf, ln[0], ln)
         if rc:
             raise DthError(rc, "cannot save the checkpoint")
-        data = bytes(ffi.buffer(buf, ln[0]))
-        if path is not None:
-            import os
-            tmp = "%s.tmp" % path
-            with open(tmp, "wb") as f:
-                f.write(data)
-                f.flush()
-                os.fsync(f.fileno())
-            os.replace(tmp, path)
-        return data
+        return bytes(ffi.buffer(buf, ln[0]))
 
     @classmethod
-    def resume(cls, source, models=(), set=None):
+    def resume(cls, source, models=(), set=None, events=()):
         """A Simulation continued from a checkpoint (bytes, or a file written by checkpoint()).
-        User models must be given again (the checkpoint names its model type). `set` overrides
-        scene keys that do not change the trajectory's state (e.g. output.every)."""
+        User models and Python events must be given again (the checkpoint names its model type).
+        `set` may change what the library lets a resume change (dth_scene_resume_check, scene.h,
+        the rule dth run --resume follows): integrator.t_end, integrator.steps, the file names, and
+        output.every and output.diagnostics (each leg's rows are their own Result); anything else
+        would change the checkpointed run and raises DthError naming the key."""
         L = lib()
         data = source if isinstance(source, (bytes, bytearray)) else open(source, "rb").read()
         err = ffi.new("char[]", _ERRLEN)
@@ -922,17 +1105,29 @@ class Simulation:
         st = blob("python-run-state")
         if meta.get("version") != 1 or len(st) != ffi.sizeof("dth_run_state"):
             raise DthError(-6, "the checkpoint's run state is of another version of the package")
-        sc = Scene(text, set)
-        sc.name = meta.get("scene_name", "<checkpoint>")
-        return cls(sc, models=models, _restore=(data, st))
+        name = meta.get("scene_name", "<checkpoint>")
+        saved = Scene(text)
+        saved.name = name
+        sc = Scene(saved, set)
+        if sc.overrides:
+            a, b = saved._load(), sc._load()
+            try:
+                rc = L.dth_scene_resume_check(a, b, L.DTH_RESUME_ROWS, b"Simulation.resume", err, _ERRLEN)
+            finally:
+                L.dth_scene_free(a)
+                L.dth_scene_free(b)
+            if rc:
+                raise DthError(rc, _err(err))
+        return cls(sc, models=models, events=events, _restore=(data, st))
 
 
-def run(scene, set=None, models=(), check_model=True, **kw):
+def run(scene, set=None, models=(), check_model=True, events=(), **kw):
     """Run a scene (a path, INI text, a dict or a Scene) from its start through the library's
     driver dth_run and return a Result. `set`: overrides {"section.key": value}; `models`: user
-    model types (dth.Model subclasses, dth.load_model results). Keywords of Simulation.run:
-    t_end, steps, points, every, dt, times, diagnostics, megno, progress."""
-    with Simulation(scene, set=set, models=models, check_model=check_model) as sim:
+    model types (dth.Model subclasses, dth.load_model results, dth.Model.from_hamiltonian results);
+    `events`: Python event functions (dth.Event, or callables g(t, q, p)). Keywords of
+    Simulation.run: t_end, steps, points, every, dt, times, diagnostics, megno, progress."""
+    with Simulation(scene, set=set, models=models, check_model=check_model, events=events) as sim:
         return sim.run(**kw)
 
 
@@ -941,7 +1136,9 @@ def run(scene, set=None, models=(), check_model=True, **kw):
 class Roots:
     """Every real root of the step constraint at a vertex, classified (dth_find_roots): arrays
     lam, s, residual, slope, flags; cls (names: minus, plus, ghost, double, zero); the vertex's
-    H, psi, dpsi, K, region; the range scanned lo, hi; truncated."""
+    H, psi, dpsi, K, region; the range asked for [-L, L] and the range scanned lo, hi; truncated:
+    the list may be incomplete (more roots than the library holds, or the scan stopped short of
+    [-L, L]: lo > -L or hi < L)."""
 
     def __repr__(self):
         return "<dth.Roots %d roots at region %s: %s>" % (
@@ -981,8 +1178,11 @@ def roots(scene, set=None, models=(), L=None, z=None):
             if len(zz) != 2 * rs.n + 2:
                 raise ValueError("dth: z has %d values, not 2n+2 = %d" % (len(zz), 2 * rs.n + 2))
         out = ffi.new("dth_root_set *")
+        LL = float(L) if L else 16 * abs(rs.opt.h)
+        if not (LL > 0 and math.isfinite(LL)):
+            raise ValueError("dth: roots: L = %r is not a positive, finite range" % (L,))
         with _rootfinder(rs) as rf:
-            rc = lb.dth_find_roots(rf, zz, float(L) if L else 16 * abs(rs.opt.h), out)
+            rc = lb.dth_find_roots(rf, zz, LL, out)
             _raise_pending()
         if rc:
             raise DthError(rc, "root search failed at the vertex: %s" % strerror(rc))
@@ -998,7 +1198,9 @@ def roots(scene, set=None, models=(), L=None, z=None):
         v = out.vertex
         r.H, r.psi, r.dpsi, r.K = v.H, v.psi, v.dpsi, v.K
         r.region = ffi.string(lb.dth_region_name(v.region)).decode()
-        r.lo, r.hi, r.truncated = out.lo, out.hi, bool(out.truncated)
+        r.L, r.lo, r.hi = LL, out.lo, out.hi
+        # honest about a scan that stopped short of [-L, L], whatever the library's flag says
+        r.truncated = bool(out.truncated) or out.lo > -LL or out.hi < LL
         r.z = np.array(ffi.unpack(zz, 2 * rs.n + 2))
         return r
 
