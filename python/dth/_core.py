@@ -252,7 +252,12 @@ class Model:
             def grad(self, q, t, p): ...   # 2n+1 values: dH/dq, dH/dt, dH/dp
             def hess(self, q, t, p): ...   # (2n+1, 2n+1) over y
 
-    Optional: invariant_names = ("L",) with invariants(self, q, t, p) (a sequence of floats).
+    Optional: invariant_names = ("L",) with invariants(self, q, t, p) (a sequence of floats), and
+    the optional entries of the C table (model.h), used where a subclass defines them:
+        def third(self, q, t, p, u): ...   # sum H_ijk u_i u_j u_k over y, u of 2n+1 values (psi')
+        def hdiff(self, q1, t1, p1, q0, t0, p0): ...   # H(y1) - H(y0) without cancellation, exactly
+                                           # antisymmetric (the step's compensated constraint uses it)
+        def domain(self, q, t, p): ...     # None inside the domain, else a few words saying why not
     Parameters reach the instance as self.params (floats where the text is a number). Raise
     dth.OutsideDomain where the point is outside the model's domain. Pass the class to a run:
     dth.run(scene, models=[HenonHeiles]).
@@ -281,6 +286,21 @@ class Model:
 
     def invariants(self, q, t, p):
         return ()
+
+    # optional (model.h): defined by a subclass, they enter the C table; these stand for "absent"
+    def third(self, q, t, p, u):
+        raise NotImplementedError
+
+    def hdiff(self, q1, t1, p1, q0, t0, p0):
+        raise NotImplementedError
+
+    def domain(self, q, t, p):
+        raise NotImplementedError
+
+
+def _overrides(mc, name):
+    """Whether the Model subclass mc defines `name` itself (not the base class's stand-in)."""
+    return getattr(mc, name, None) is not getattr(Model, name)
 
 
 def _number(text):
@@ -331,6 +351,9 @@ class _PyModelType:
         t.create, t.destroy, t.eval = cb["create"], cb["destroy"], cb["eval"]
         if mc.invariant_names:
             t.n_invariants, t.invariant_name, t.invariants = cb["n_inv"], cb["inv_name"], cb["inv"]
+        for name in ("third", "hdiff", "domain"):
+            if _overrides(mc, name):
+                setattr(t, name, cb[name])
         self._keep.append(cb)
 
     def _callbacks(self):
@@ -424,8 +447,41 @@ class _PyModelType:
             ffi.memmove(out, v, 8 * ninv)
             return 0
 
+        @ffi.callback("int(const void *, const double *, const double *, double *)", error=DTH_EMODEL,
+                      onerror=_onerror)
+        def third(selfp, y, u, d3):
+            inst, n, q, t, p = split(selfp, y)
+            uv = np.frombuffer(ffi.buffer(u, 8 * (2 * n + 1)), dtype=np.float64)
+            try:
+                d3[0] = float(inst.third(q, t, p, uv))
+            except OutsideDomain:
+                return 1
+            return 0
+
+        @ffi.callback("int(const void *, const double *, const double *, double *)", error=DTH_EMODEL,
+                      onerror=_onerror)
+        def hdiff(selfp, y1, y0, dH):
+            inst, n, q1, t1, p1 = split(selfp, y1)
+            _, _, q0, t0, p0 = split(selfp, y0)
+            try:
+                dH[0] = float(inst.hdiff(q1, t1, p1, q0, t0, p0))
+            except OutsideDomain:
+                return 1
+            return 0
+
+        @ffi.callback("int(const void *, const double *, char *, size_t)", error=DTH_EMODEL, onerror=_onerror)
+        def domain(selfp, y, why, length):
+            inst, n, q, t, p = split(selfp, y)
+            r = inst.domain(q, t, p)
+            if not r:
+                return 0
+            if why != ffi.NULL and length > 0:
+                b = str(r).encode()[: length - 1] + b"\0"
+                ffi.memmove(why, b, len(b))
+            return 1
+
         return {"create": create, "destroy": destroy, "eval": eval_, "n_inv": n_inv, "inv_name": inv_name,
-                "inv": inv}
+                "inv": inv, "third": third, "hdiff": hdiff, "domain": domain}
 
 
 def _args_error(args, msg):
@@ -933,6 +989,32 @@ class Simulation:
         """Time of the current vertex."""
         with self._use():
             return float(lib().dth_integrator_vertex(self._it)[self.n])
+
+    def check_model(self, y=None):
+        """The model's derivatives against finite differences (dth_model_check, model.h) at y (2n+1
+        values over q, t, p; default: the initial state): a dict with grad_err, hess_err, sym_err,
+        third_err (0 without a third derivative), band_err, tol, pass and message."""
+        with self._use():
+            rs, L = self._rs, lib()
+            yy = ffi.new("double[]", 2 * rs.n + 1)
+            if y is None:
+                ffi.memmove(yy, rs.q0, 8 * rs.n)
+                yy[rs.n] = rs.t0
+                ffi.memmove(yy + rs.n + 1, rs.p0, 8 * rs.n)
+            else:
+                v = np.asarray(y, dtype=np.float64).ravel()
+                if len(v) != 2 * rs.n + 1:
+                    raise ValueError("dth: check_model: y has %d values, not 2n+1 = %d" % (len(v), 2 * rs.n + 1))
+                ffi.memmove(yy, np.ascontiguousarray(v), 8 * len(v))
+            rep = ffi.new("dth_model_check_report *")
+            rc = L.dth_model_check(rs.model, yy, rep)
+            _raise_pending()
+            if rc:
+                raise DthError(rc, "check_model: the model's evaluation failed: %s" % strerror(rc))
+            out = {k: getattr(rep, k) for k in ("grad_err", "hess_err", "sym_err", "third_err", "band_err", "tol")}
+            out["pass"] = bool(getattr(rep, "pass"))
+            out["message"] = ffi.string(rep.message).decode()
+            return out
 
     def run(self, t_end=None, steps=None, points=None, every=None, dt=None, times=None, diagnostics=None,
             megno=False, progress=None):
