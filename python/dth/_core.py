@@ -287,6 +287,25 @@ class Model:
     def invariants(self, q, t, p):
         return ()
 
+    @staticmethod
+    def from_hamiltonian(formula, n, name, params=None, doc=None, cache_dir=None):
+        """A compiled model from the formula of H_phys (text SymPy reads, or a SymPy expression) in
+        q1..qn, p1..pn, t and the parameters `params` {name: default, None: required}:
+
+            hh = dth.Model.from_hamiltonian(
+                "p1**2/2 + p2**2/2 + (q1**2 + q2**2)/2 + q1**2*q2 - q2**3/3", n=2, name="hh-formula")
+            dth.run("docs/examples/henon-heiles.ini", models=[hh], set={"model.name": "hh-formula"})
+
+        SymPy derives the gradient, the Hessian, the third derivative along u (sum H_ijk u_i u_j u_k) and
+        hdiff (H(y1) - H(y0) by differences of monomials and of sin, cos, exp, log, sqrt, 1/x, exactly
+        antisymmetric); the C source (m.source) is compiled by the system C compiler (cc -O2 -shared -fPIC
+        -ffp-contract=off) into a shared object cached by a hash of everything that enters it (in
+        $DTH_MODEL_CACHE, else $XDG_CACHE_HOME/dth/models, else ~/.cache/dth/models; or cache_dir), and
+        loaded like dth.load_model. m.write_library(path) copies it for dth sweep --model-lib
+        PATH:SYMBOL (returned). Needs SymPy (python3-sympy) and a C compiler."""
+        from . import _formula
+        return FormulaModel(_formula, formula, n, name, params, doc, cache_dir)
+
     # optional (model.h): defined by a subclass, they enter the C table; these stand for "absent"
     def third(self, q, t, p, u):
         raise NotImplementedError
@@ -511,6 +530,31 @@ class CModel:
         self.name = ffi.string(self.table.name).decode()
 
 
+class FormulaModel(CModel):
+    """A model compiled from a Hamiltonian's formula (Model.from_hamiltonian): a CModel with
+    formula (the SymPy expression), n, source (the C text), path (the cached shared object),
+    symbol, key (the cache hash) and hdiff_exact (False where a term had no cancellation-free
+    difference and hdiff falls back to H(y1) - H(y0) for it)."""
+
+    def __init__(self, gen, formula, n, name, params, doc, cache_dir):
+        self.formula, self.source, symbol, self.key, self.hdiff_exact = gen.generate(formula, n, name, params, doc)
+        self.n = n
+        path = gen.build(self.source, symbol, self.key, cache_dir)
+        super().__init__(path, symbol)
+
+    def write_library(self, path):
+        """Copy the shared object to `path` (and its C source to path + '.c'); returns
+        'PATH:SYMBOL' for dth sweep --model-lib."""
+        import shutil
+        shutil.copyfile(self.path, path)
+        with open(path + ".c", "w") as f:
+            f.write(self.source)
+        return "%s:%s" % (path, self.symbol)
+
+    def __repr__(self):
+        return "<dth.FormulaModel %s: H = %s>" % (self.name, self.formula)
+
+
 def load_model(path, symbol):
     """Load a C model type (a `const dth_model_type` named `symbol`) from the shared object `path`."""
     return CModel(path, symbol)
@@ -591,6 +635,27 @@ class Events:
     def __len__(self):
         return len(self.t)
 
+    def to_pandas(self):
+        """The events as a pandas DataFrame: i, name, which, direction, k, t, q1..qn, p1..pn, wp, H, E
+        (needs pandas: Debian python3-pandas)."""
+        pd = _pandas()
+        n = self.q.shape[1]
+        cols = {"i": self.i, "name": self.name, "which": self.which, "direction": self.direction, "k": self.k,
+                "t": self.t}
+        cols.update({"q%d" % (j + 1): self.q[:, j] for j in range(n)})
+        cols.update({"p%d" % (j + 1): self.p[:, j] for j in range(n)})
+        cols.update({"wp": self.wp, "H": self.H, "E": self.E})
+        return pd.DataFrame(cols)
+
+
+def _pandas():
+    try:
+        import pandas
+    except ImportError as e:
+        raise ImportError("to_pandas needs pandas (Debian: apt-get install python3-pandas; bash scripts/setup.sh "
+                          "installs it)") from e
+    return pandas
+
 
 class Result:
     """What a run gives, as numpy arrays over its samples (rows as dth run writes them):
@@ -603,6 +668,63 @@ class Result:
     t_stop, crossings, regularized, max_ratio; megno, lyapunov, megno_span, megno_t_stop where
     asked for.
     """
+
+    def to_pandas(self):
+        """The samples as a pandas DataFrame, one row per sample with dth run's columns: k, kind, t,
+        lam, q1..qn, p1..pn, wp, H, E, iters, branch, ordinary, the invariants by name and, with
+        diagnostics, psi, dpsi, region (needs pandas: Debian python3-pandas). r.events.to_pandas()
+        gives the events."""
+        pd = _pandas()
+        n = self.q.shape[1]
+        cols = {"k": self.k, "kind": self.kind, "t": self.t, "lam": self.lam}
+        cols.update({"q%d" % (j + 1): self.q[:, j] for j in range(n)})
+        cols.update({"p%d" % (j + 1): self.p[:, j] for j in range(n)})
+        cols.update({"wp": self.wp, "H": self.H, "E": self.E, "iters": self.iters, "branch": self.branch,
+                     "ordinary": self.ordinary})
+        cols.update(self.inv)
+        if hasattr(self, "psi"):
+            cols.update({"psi": self.psi, "dpsi": self.dpsi, "region": self.region})
+        return pd.DataFrame(cols)
+
+    def plot(self, path=None, title=None):
+        """A figure of the run (matplotlib; Debian python3-matplotlib): q and p against t, the orbit
+        (q1, p1) for one degree of freedom, else (q1, q2), with the located events marked, and the
+        relative energy error (E - E0)/|E0| against t. Returns the Figure; with `path`, also saves it."""
+        import matplotlib.pyplot as plt
+        n = self.q.shape[1]
+        fig, ax = plt.subplots(1, 3, figsize=(14, 4))
+        for j in range(n):
+            ax[0].plot(self.t, self.q[:, j], lw=0.8, label="q%d" % (j + 1))
+            ax[0].plot(self.t, self.p[:, j], lw=0.8, ls="--", label="p%d" % (j + 1))
+        ax[0].set_xlabel("t")
+        ax[0].set_title("coordinates and momenta")
+        if 2 * n <= 8:
+            ax[0].legend(fontsize=7)
+        x, y, lx, ly = (self.q[:, 0], self.p[:, 0], "q1", "p1") if n == 1 else (self.q[:, 0], self.q[:, 1], "q1", "q2")
+        ax[1].plot(x, y, lw=0.6)
+        if len(self.events):
+            ex, ey = (self.events.q[:, 0], self.events.p[:, 0]) if n == 1 else (self.events.q[:, 0], self.events.q[:, 1])
+            ax[1].plot(ex, ey, "r.", ms=4, label="events")
+            ax[1].legend(fontsize=7)
+        ax[1].set_xlabel(lx)
+        ax[1].set_ylabel(ly)
+        ax[1].set_title("orbit")
+        if len(self.E) and self.E[0] != 0:
+            ax[2].plot(self.t, (self.E - self.E[0]) / abs(self.E[0]), lw=0.6)
+            ax[2].set_ylabel("(E - E0) / |E0|")
+        else:
+            ax[2].plot(self.t, self.E - (self.E[0] if len(self.E) else 0), lw=0.6)
+            ax[2].set_ylabel("E - E0")
+        ax[2].set_xlabel("t")
+        kinds = sorted(set(self.kind))
+        ax[2].set_title("energy error at the %s samples" % "/".join(kinds))
+        fig.suptitle(title or "%d samples to t = %.6g (stop: %s, status %s)" % (
+            len(self.t), self.t[-1] if len(self.t) else math.nan, getattr(self, "stop", "?"),
+            getattr(self, "status_name", "?")))
+        fig.tight_layout()
+        if path is not None:
+            fig.savefig(path, dpi=100)
+        return fig
 
     def __repr__(self):
         return "<dth.Result %d samples, t %.6g .. %.6g, stop %s, status %s>" % (

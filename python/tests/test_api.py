@@ -172,6 +172,170 @@ class TestPythonModelEntries(unittest.TestCase):
             dth.run(scene("kepler-e06.ini"), models=[Kepler], set={"model.name": "kepler-py", "initial.q": [0, 0]})
         self.assertIn("r = 0 (q1 = q2 = 0)", str(cm.exception))
 
+HH_FORMULA = "p1**2/2 + p2**2/2 + (q1**2 + q2**2)/2 + q1**2*q2 - q2**3/3"
+
+
+@unittest.skipUnless(has("sympy"), "no SymPy (Debian python3-sympy)")
+class TestFormulaModels(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.cache = tempfile.mkdtemp(prefix="dth-formula-")
+        t = time.perf_counter()
+        cls.hh = dth.Model.from_hamiltonian(HH_FORMULA, n=2, name="hh-formula", cache_dir=cls.cache)
+        cls.build_s = time.perf_counter() - t
+
+    @classmethod
+    def tearDownClass(cls):
+        import shutil
+        shutil.rmtree(cls.cache, ignore_errors=True)
+
+    @unittest.skipUnless(HH_SO, "the henon_heiles shared module is not built")
+    def test_henon_heiles_from_its_formula(self):
+        """The done-when of issue 25: the formula's model follows docs/examples/henon_heiles.c's trajectory to
+        round-off (its hdiff is not the C model's Gauss-Legendre difference, so the bits differ at that level),
+        passes dth_model_check with its third derivative, and its step time is printed beside the C model's."""
+        c = dth.load_model(HH_SO, "example_henon_heiles")
+        over = {"integrator.t_end": 200}
+        a = dth.run(HH_SCENE, models=[c], set=over)
+        b = dth.run(HH_SCENE, models=[self.hh], set=dict(over, **{"model.name": "hh-formula"}))
+        self.assertEqual(len(a.t), len(b.t))
+        self.assertLess(np.abs(a.z - b.z).max(), 1e-9)
+        self.assertEqual(len(a.events), len(b.events))
+        self.assertLess(np.abs(a.events.t - b.events.t).max(), 1e-9)
+        rel = np.abs(b.E - b.E[0]).max() / abs(b.E[0])
+        self.assertLessEqual(rel, 1e-14)
+        with dth.Simulation(HH_SCENE, models=[self.hh], set={"model.name": "hh-formula"}) as sim:
+            rep = sim.check_model([0.1, 0.2, 0.0, 0.3, -0.2])
+        self.assertTrue(rep["pass"], rep["message"])
+        self.assertTrue(0 < rep["third_err"] < 1e-6, rep)
+        # step time: the driver's loop in C (one sample per run), best of 3
+        times = {}
+        for tag, m, o in (("C model", c, {}), ("formula", self.hh, {"model.name": "hh-formula"})):
+            best = math.inf
+            for _ in range(3):
+                t = time.perf_counter()
+                r = dth.run(HH_SCENE, models=[m], set=dict(o, **{"integrator.t_end": 1000}), points="vertices",
+                            every=10 ** 9, check_model=False)
+                best = min(best, (time.perf_counter() - t) / r.steps)
+            times[tag] = best
+        print("\n  Henon-Heiles step: C model (henon_heiles.c) %.3f us, from the formula %.3f us (%.2fx); "
+              "formula compiled in %.2f s" % (times["C model"] * 1e6, times["formula"] * 1e6,
+                                              times["formula"] / times["C model"], self.build_s))
+        self.assertLess(times["formula"], 1.5 * times["C model"])
+
+    def _instance(self, m):
+        """(create, the C table) of a formula model, for calling its callbacks directly."""
+        ffi = dth._ffi.ffi
+        args, selfp, info = ffi.new("dth_model_args *"), ffi.new("void **"), ffi.new("dth_model_info *")
+        self.assertEqual(m.table.create(args, selfp, info), 0)
+        self.addCleanup(m.table.destroy, selfp[0], ffi.NULL)
+        return selfp[0], info
+
+    def test_hdiff_is_exact_and_antisymmetric(self):
+        from fractions import Fraction as F
+        ffi = dth._ffi.ffi
+        m = dth.Model.from_hamiltonian("p1**2/2 + cos(q1) + q1**3*q2 + exp(q2)/7 + 1/(1 + q1**2)", n=2,
+                                       name="mixed", cache_dir=self.cache)
+        self.assertTrue(m.hdiff_exact)
+        me, info = self._instance(m)
+        self.assertEqual((info.n, info.autonomous, info.separable), (2, 1, 1))
+        rng = np.random.default_rng(5)
+        out, back, H1, H0 = (ffi.new("double *") for _ in range(4))
+        exact_poly = lambda y: F(y[3]) ** 2 / 2 + F(y[0]) ** 3 * F(y[1])  # noqa: E731
+        for k in range(200):
+            y0 = rng.uniform(-1, 1, 5)
+            y1 = y0 + rng.uniform(-1, 1, 5) * 10.0 ** -rng.integers(3, 12)
+            a, b = ffi.new("double[]", y1.tolist()), ffi.new("double[]", y0.tolist())
+            self.assertEqual(m.table.hdiff(me, a, b, out), 0)
+            self.assertEqual(m.table.hdiff(me, b, a, back), 0)
+            self.assertEqual(out[0], -back[0])  # antisymmetric, bit for bit
+            # the error scales with |y1 - y0|, not with H: against exact arithmetic (the transcendental
+            # terms by their derivative bound: |d| <= 1e-3 makes their part small but nonzero)
+            m.table.eval(me, a, 1, H1, ffi.NULL, ffi.NULL)
+            m.table.eval(me, b, 1, H0, ffi.NULL, ffi.NULL)
+            step = float(np.abs(y1 - y0).max())
+            naive_err_scale = 4e-16 * max(abs(H1[0]), abs(H0[0]))
+            self.assertLess(abs(out[0] - (H1[0] - H0[0])), 10 * naive_err_scale + 1e-12 * step)
+        # a polynomial alone: its error is round-off of |y1 - y0| times the gradient's size (|grad H| <= 34 on
+        # [-2, 2]^5), where H(y1) - H(y0) would carry round-off of H's size (~16) whatever the step
+        p = dth.Model.from_hamiltonian("p1**2/2 + q1**3*q2", n=2, name="poly", cache_dir=self.cache)
+        pe, _ = self._instance(p)
+        worst = 0.0
+        for k in range(200):
+            y0 = rng.uniform(-2, 2, 5)
+            y1 = y0 + rng.uniform(-1, 1, 5) * 10.0 ** -rng.integers(4, 14)
+            a, b = ffi.new("double[]", y1.tolist()), ffi.new("double[]", y0.tolist())
+            p.table.hdiff(pe, a, b, out)
+            ex = exact_poly(y1.tolist()) - exact_poly(y0.tolist())
+            step = float(np.abs(y1 - y0).max())
+            worst = max(worst, abs(float(F(out[0]) - ex)) / (step * 34 * 2.0 ** -52))
+        self.assertLess(worst, 16)  # ulps of the step's scale
+
+    def test_cache_by_hash_and_parameters(self):
+        path, mtime = self.hh.path, os.path.getmtime(self.hh.path)
+        again = dth.Model.from_hamiltonian(HH_FORMULA, n=2, name="hh-formula", cache_dir=self.cache)
+        self.assertEqual(again.path, path)
+        self.assertEqual(os.path.getmtime(path), mtime)  # not compiled again
+        other = dth.Model.from_hamiltonian(HH_FORMULA + " + 0", n=2, name="hh-formula2", cache_dir=self.cache)
+        self.assertNotEqual(other.key, self.hh.key)
+        lam = dth.Model.from_hamiltonian("p1**2/2 + p2**2/2 + (q1**2 + q2**2)/2 + lam*(q1**2*q2 - q2**3/3)", n=2,
+                                         name="hh-lam", params={"lam": 1.0}, cache_dir=self.cache)
+        base = {"model.name": "hh-lam", "integrator.t_end": 20}
+        a = dth.run(HH_SCENE, models=[lam], set=base)
+        b = dth.run(HH_SCENE, models=[self.hh], set={"model.name": "hh-formula", "integrator.t_end": 20})
+        np.testing.assert_array_equal(a.z[:, :2].shape, b.z[:, :2].shape)
+        self.assertLess(np.abs(a.z - b.z).max(), 1e-12)
+        c = dth.run(HH_SCENE, models=[lam], set=dict(base, **{"model.lam": 0}))
+        self.assertFalse(c.z.shape == a.z.shape and np.allclose(c.z, a.z))
+        with self.assertRaises(dth.DthError) as cm:
+            dth.run(HH_SCENE, models=[lam], set=dict(base, **{"model.lam": "x"}))
+        self.assertIn("lam", str(cm.exception))
+        with self.assertRaises(ValueError) as cm:
+            dth.Model.from_hamiltonian("p1**2/2 + k*q1**2", n=1, name="osc", cache_dir=self.cache)
+        self.assertIn("k", str(cm.exception))
+
+    @unittest.skipUnless(CLI, "the dth CLI is not built")
+    def test_library_for_the_cli(self):
+        with tempfile.TemporaryDirectory() as d:
+            spec = self.hh.write_library(os.path.join(d, "hh.so"))
+            self.assertEqual(spec, os.path.join(d, "hh.so") + ":dth_formula_hh_formula")
+            with open(os.path.join(d, "list.csv"), "w") as f:
+                f.write("initial.q[2]\n0.1\n")
+            out = subprocess.run([CLI, "sweep", HH_SCENE, "--model-lib", spec, "--list", os.path.join(d, "list.csv"),
+                                  "-s", "model.name=hh-formula", "-s", "integrator.t_end=50"],
+                                 capture_output=True, text=True)
+            self.assertEqual(out.returncode, 0, out.stderr)
+            rows = [r.split(",") for r in out.stdout.strip().splitlines()]
+            self.assertEqual(rows[1][rows[0].index("status")], "ok")
+
+
+class TestResultViews(unittest.TestCase):
+    @unittest.skipUnless(has("pandas"), "no pandas (Debian python3-pandas)")
+    def test_to_pandas(self):
+        r = dth.run(scene("kepler-e06.ini"), set={"integrator.t_end": 5, "events.section": "q2"})
+        df = r.to_pandas()
+        self.assertEqual(len(df), len(r.t))
+        for col in ("t", "q1", "q2", "p1", "p2", "wp", "H", "E", "lam", "kind", "L", "psi"):
+            self.assertIn(col, df.columns)
+        np.testing.assert_array_equal(df["q2"].to_numpy(), r.q[:, 1])
+        ev = r.events.to_pandas()
+        self.assertEqual(list(ev["name"]), r.events.name)
+        np.testing.assert_array_equal(ev["t"].to_numpy(), r.events.t)
+
+    @unittest.skipUnless(has("matplotlib"), "no matplotlib (Debian python3-matplotlib)")
+    def test_plot(self):
+        import matplotlib
+        matplotlib.use("Agg")
+        r = dth.run(scene("pendulum.ini"))
+        fig = r.plot()
+        self.assertEqual(len(fig.axes), 3)
+        titles = [a.get_title() for a in fig.axes]
+        self.assertTrue(any("energy" in t for t in titles), titles)
+        with tempfile.TemporaryDirectory() as d:
+            path = os.path.join(d, "p.png")
+            r.plot(path)
+            self.assertGreater(os.path.getsize(path), 1000)
+
 
 if __name__ == "__main__":
     unittest.main()
