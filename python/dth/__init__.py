@@ -25,8 +25,8 @@ except ImportError as _e:
         "docs/python.md." % (_sys.executable, _e.name or str(_e)), name=_e.name) from _e
 
 from ._core import (DthError, OutsideDomain, Scene, Simulation, Event, Result, Events, Roots, Map, Model, CModel,
-                    load_model, run, roots, map, models, strerror, status_name)
+                    FormulaModel, load_model, run, roots, map, models, strerror, status_name)
 
 __version__ = "0.1.0"
-__all__ = ["DthError", "OutsideDomain", "Scene", "Simulation", "Event", "Result", "Events", "Roots", "Map", "Model", "CModel",
-           "load_model", "run", "roots", "map", "models", "strerror", "status_name"]
+__all__ = ["DthError", "OutsideDomain", "Scene", "Simulation", "Event", "Result", "Events", "Roots", "Map", "Model",
+           "CModel", "FormulaModel", "load_model", "run", "roots", "map", "models", "strerror", "status_name"]

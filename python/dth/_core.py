@@ -2,7 +2,6 @@
 """Scenes, runs through the library's driver dth_run, roots, checkpoints and user models (the
 Python face of lib/include/dth/*.h; see docs/python.md)."""
 import contextlib
-import functools
 import json
 import math
 import numbers
@@ -13,7 +12,7 @@ import numpy as np
 from ._ffi import ffi, lib
 
 __all__ = ["DthError", "OutsideDomain", "Scene", "Simulation", "Event", "Result", "Events", "Roots", "Map", "Model",
-           "CModel", "load_model", "run", "roots", "map", "models", "strerror", "status_name"]
+           "CModel", "FormulaModel", "load_model", "run", "roots", "map", "models", "strerror", "status_name"]
 
 _ERRLEN = 1024
 
