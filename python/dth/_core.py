@@ -29,7 +29,7 @@ _STATUS = ffi.typeof("dth_status").relements
 DTH_EMODEL = _STATUS["DTH_EMODEL"]
 
 # Exceptions raised inside callbacks that C called: re-raised once control is back in Python.
-_pending = []
+_tls = threading.local()  # .pending: per thread, so that one thread never raises another's
 
 
 def strerror(status):
@@ -59,15 +59,15 @@ class OutsideDomain(Exception):
 
 
 def _raise_pending():
-    if _pending:
-        exc = _pending[0]
-        del _pending[:]
+    exc = getattr(_tls, "pending", None)
+    if exc is not None:
+        _tls.pending = None
         raise exc
 
 
 def _onerror(exc_type, exc, tb):
-    if not _pending:
-        _pending.append(exc.with_traceback(tb) if exc is not None else exc_type())
+    if getattr(_tls, "pending", None) is None:  # the first one of the call counts
+        _tls.pending = exc.with_traceback(tb) if exc is not None else exc_type()
 
 
 def _err(buf):

@@ -93,6 +93,39 @@ class TestSimulationLifetime(unittest.TestCase):
         np.testing.assert_array_equal(np.vstack([r.z for r in out]), whole.z)
         sim.close()
 
+    def test_callback_errors_stay_in_their_thread(self):
+        """An exception a callback raised is kept for the thread whose C call ran it: another thread's
+        check after its own C call (dth._core._raise_pending) does not pick it up (it did, from a list
+        shared by all threads)."""
+        stored, out = threading.Event(), {}
+
+        def a():
+            try:
+                raise RuntimeError("thread A's model")
+            except RuntimeError as e:
+                dth._core._onerror(type(e), e, e.__traceback__)  # what cffi calls for a failed callback
+            stored.set()
+            time.sleep(0.2)
+            try:
+                dth._core._raise_pending()
+            except RuntimeError as e:
+                out["a"] = str(e)
+
+        def b():
+            stored.wait(10)
+            try:
+                dth._core._raise_pending()
+                out["b"] = "nothing"
+            except RuntimeError as e:
+                out["b"] = str(e)
+
+        ths = [threading.Thread(target=f) for f in (a, b)]
+        for t in ths:
+            t.start()
+        for t in ths:
+            t.join()
+        self.assertEqual(out, {"a": "thread A's model", "b": "nothing"})
+
     def test_partly_built_objects_close_quietly(self):
         with Unraisable() as u:
             with self.assertRaises(dth.DthError):
