@@ -571,7 +571,7 @@ static int report(const run_job *j)
 {
     const run_out *r = &j->r;
     const dth_run_state *S = &j->S;
-    int rc = j->rc, sig = r->sig && rc == DTH_ESTOPPED && !r->too_many ? r->sig : 0;
+    int rc = j->rc, sig = r->sig && rc == DTH_ESTOPPED ? r->sig : 0;
     char crossing[160] = "", est[200];
     if (S->crossings || S->regularized)
         snprintf(crossing, sizeof crossing, "; %ld psi = 0 crossings, %ld regularized steps, largest step ratio "
@@ -588,10 +588,10 @@ static int report(const run_job *j)
                   "%g h): DTH steps follow lambda^6 psi^2 = const along the orbit, and h sets them only at the start "
                   "(docs/theory.md); the estimated error says what they cost",
                   S->lam_max, S->lam_max / fabs(j->rs.opt.h), S->t_lam_max, j->rs.warn_ratio);
-    if (r->too_many) {
+    if (S->stop == DTH_RUN_SAMPLES) { /* the library's bound (run.h) */
         cli_error("stopped at k=%ld, t=%.17g: output.dt = %.3g asks for more than %d rows within one step (a larger "
                   "output.dt, or output.points = vertices; the rows so far are kept)", S->k, S->t, j->rs.dt,
-                  MAX_SAMPLES_PER_STEP);
+                  DTH_RUN_MAX_SAMPLES_PER_STEP);
         return CLI_USAGE;
     } else if (sig) {
         cli_error("interrupted at k=%ld, t=%.17g (the rows so far are kept)%s", S->k, S->t, crossing);

@@ -8,9 +8,6 @@
 #include "ckpt.h"
 #include "h5out.h"
 
-/* At most this many rows within one step (output.dt far below the step: a full disk, not a trajectory). */
-enum { MAX_SAMPLES_PER_STEP = 1000000 };
-
 /* One dth run: its scene and setup, the outputs (CSV or HDF5, events), checkpoint and progress
  * state; the `user` of the run driver's callbacks. */
 typedef struct run_out {
@@ -32,8 +29,6 @@ typedef struct run_out {
     int sig;
     int ckpt_written, ckpt_failed; /* a checkpoint was written (at step ckpt_k); one failed */
     long ckpt_k;
-    long step_k, step_samples; /* samples within the current step (bounded) */
-    int too_many;
     cli_out ev;            /* event rows ([events]) */
     int has_ev;
     double *vals;          /* one row's values */

@@ -162,11 +162,6 @@ int run_on_sample(void *user, const dth_sample *s)
     run_out *r = user;
     /* a stop request, also between the samples of one step (dense output can hold many) */
     if ((r->sig = cli_signal_received()) != 0) return DTH_ESTOPPED;
-    if (s->k != r->step_k) r->step_k = s->k, r->step_samples = 0;
-    if (++r->step_samples > MAX_SAMPLES_PER_STEP) {
-        r->too_many = 1;
-        return DTH_ESTOPPED;
-    }
     if (r->check_wp && s->k == 0) {
         double lam = s->kind == DTH_SAMPLE_VERTEX ? s->lambda_out : s->za ? s->step->lambda : 0;
         if (lam != 0) {

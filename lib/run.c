@@ -135,6 +135,7 @@ typedef struct drv {
     dth_step_info seg;    /* the step za -> zb */
     long kseg;            /* index of za */
     int cb_failed;        /* a sample or checkpoint callback failed: no final checkpoint */
+    int too_many;         /* a step held more than DTH_RUN_MAX_SAMPLES_PER_STEP output times */
 } drv;
 
 static void vertex_now(drv *d, double *z) { memcpy(z, dth_integrator_vertex(d->it), d->N * sizeof *z); }
@@ -323,7 +324,11 @@ static int segment(drv *d, double lo, double hi, int lo_closed, double *stop_t, 
     }
     /* ---- output times up to the top of the window */
     if (cfg->points == DTH_POINTS_TIMES) {
-        for (;;) {
+        for (long count = 0;; count++) {
+            if (count >= DTH_RUN_MAX_SAMPLES_PER_STEP) { /* run.h: a step holds too many */
+                d->too_many = 1;
+                return DTH_EINVAL;
+            }
             double t;
             if (cfg->times) {
                 if ((size_t)st->j >= cfg->ntimes) break;
@@ -577,20 +582,14 @@ static int drive(drv *d)
     st->stop = ended_by;
     return DTH_OK;
 cb:
-    st->stop = DTH_RUN_CALLBACK;
+    st->stop = d->too_many ? DTH_RUN_SAMPLES : DTH_RUN_CALLBACK;
     return rc;
 }
 
 int dth_run(dth_integrator *it, const dth_run_config *cfg, dth_run_state *st)
 {
-    if (!cfg || !st || !it) return DTH_EINVAL;
-    if (cfg->every < 1) return DTH_EINVAL;
-    if (cfg->points == DTH_POINTS_TIMES && !cfg->times && !(cfg->dt > 0 && isfinite(cfg->dt))) return DTH_EINVAL;
-    if (cfg->points == DTH_POINTS_MIDPOINTS && !dth__integrator_has_midpoints(it)) return DTH_EINVAL;
-    if (cfg->nevents && !cfg->events) return DTH_EINVAL;
-    for (size_t e = 0; e < cfg->nevents; e++)
-        if (!cfg->events[e].g) return DTH_EINVAL;
-    if (cfg->has_t_end && !isfinite(cfg->t_end)) return DTH_EINVAL;
+    int rc = dth_run_check(it, cfg, st, NULL, 0); /* every rule on cfg (run_check.c) */
+    if (rc) return rc;
     drv d;
     memset(&d, 0, sizeof d);
     d.cfg = cfg;
@@ -625,13 +624,7 @@ int dth_run(dth_integrator *it, const dth_run_config *cfg, dth_run_state *st)
     d.ghi = p, p += ne;
     d.tev = p;
     d.dev = dev;
-    int rc = DTH_OK;
-    if (cfg->has_t_end && !st->started) {
-        double t = dth_integrator_vertex(it)[d.n];
-        double t0 = isnan(cfg->t0) ? t : cfg->t0;
-        if (d.dir * (cfg->t_end - t0) < 0) rc = DTH_EINVAL;
-    }
-    if (!rc) rc = drive(&d);
+    rc = drive(&d);
     dth_free(cfg->alloc, blk);
     dth_free(cfg->alloc, dev);
     return rc;

@@ -22,6 +22,7 @@
 typedef struct entry {
     char *section, *key, *value, *origin;
     size_t vlen, vcap; /* length of value and its allocation (continuation lines grow it) */
+    int override;      /* set by dth_scene_set / dth_scene_set_from, not read from a file */
 } entry;
 
 struct dth_scene {
@@ -106,6 +107,7 @@ static void put(dth_scene *s, entry *x)
     e->vlen = x->vlen;
     e->vcap = x->vcap;
     e->origin = x->origin;
+    e->override = x->override;
     dth_free(s->alloc, x->section);
     dth_free(s->alloc, x->key);
 }
@@ -118,6 +120,7 @@ static int make_entry(const dth_allocator *a, const char *section, size_t sl, co
     x->value = dup_n(a, value, vl);
     x->vlen = vl;
     x->vcap = vl + 1;
+    x->override = 0; /* dth_scene_set_from marks its own */
     x->origin = dup_s(a, origin);
     if (x->section && x->key && x->value && x->origin) return DTH_OK;
     entry_free(a, x);
@@ -240,7 +243,7 @@ static int handler(void *user, const char *section, const char *name, const char
     }
     char origin[4096 + 32];
     snprintf(origin, sizeof origin, "%s:%d", c->path, c->lineno);
-    entry x;
+    entry x = {0};
     if (reserve(c->tmp, 1) || make_entry(c->tmp->alloc, section, strlen(section), name, strlen(name),
                                          value, strlen(value), origin, &x)) {
         c->nomem = 1;
@@ -471,14 +474,37 @@ static void trim(const char **b, const char **e)
 
 int dth_scene_set(dth_scene *s, const char *assignment, char *err, size_t errlen)
 {
+    return dth_scene_set_from(s, NULL, assignment, err, errlen);
+}
+
+int dth_scene_check_entry(const char *section, const char *key, const char *value, char *err, size_t errlen)
+{
+    if (!section || !key || !value) {
+        dth__set_err(err, errlen, "invalid arguments to dth_scene_check_entry");
+        return DTH_EINVAL;
+    }
+    const char *why = unwritable(section, key, value);
+    if (why) {
+        dth__set_err(err, errlen, "%.49s.%.49s: a scene file cannot hold this (%s)", section, key, why);
+        return DTH_EPARSE;
+    }
+    return DTH_OK;
+}
+
+int dth_scene_set_from(dth_scene *s, const char *from, const char *assignment, char *err, size_t errlen)
+{
     if (!s || !assignment) {
         dth__set_err(err, errlen, "invalid arguments to dth_scene_set");
         return DTH_EINVAL;
     }
+    /* the override names itself in messages (and as its origin), cut after 80 characters */
+    char origin[80 + 8];
+    if (from) snprintf(origin, sizeof origin, "%.*s%s", AS_CUT(from));
+    else snprintf(origin, sizeof origin, "-s %.*s%s", AS_CUT(assignment));
     const char *eq = strchr(assignment, '=');
     const char *dot = eq ? memchr(assignment, '.', (size_t)(eq - assignment)) : NULL;
     if (!eq || !dot) {
-        dth__set_err(err, errlen, "-s %.*s%s: expected section.key=value", AS_CUT(assignment));
+        dth__set_err(err, errlen, "%s: expected section.key=value", origin);
         return DTH_EPARSE;
     }
     const char *sb = assignment, *se = dot, *kb = dot + 1, *ke = eq, *vb = eq + 1,
@@ -487,7 +513,7 @@ int dth_scene_set(dth_scene *s, const char *assignment, char *err, size_t errlen
     trim(&kb, &ke);
     trim(&vb, &ve);
     if (sb == se || kb == ke) {
-        dth__set_err(err, errlen, "-s %.*s%s: expected section.key=value", AS_CUT(assignment));
+        dth__set_err(err, errlen, "%s: expected section.key=value", origin);
         return DTH_EPARSE;
     }
     /* only what a scene file could hold (a checkpoint saves the scene as a file) */
@@ -507,20 +533,12 @@ int dth_scene_set(dth_scene *s, const char *assignment, char *err, size_t errlen
         dth_free(s->alloc, val);
     }
     if (why) {
-        dth__set_err(err, errlen, "-s %.*s%s: a scene file cannot hold this (%s)", AS_CUT(assignment), why);
+        dth__set_err(err, errlen, "%s: a scene file cannot hold this (%s)", origin, why);
         return DTH_EPARSE;
     }
-    /* the override names itself in messages, cut after 80 characters */
-    size_t olen = 80 + 8;
-    char *origin = dth_calloc(s->alloc, olen, 1);
     entry x = {0};
-    int rc = origin ? DTH_OK : DTH_ENOMEM;
-    if (!rc) {
-        snprintf(origin, olen, "-s %.*s%s", AS_CUT(assignment));
-        rc = make_entry(s->alloc, sb, (size_t)(se - sb), kb, (size_t)(ke - kb), vb, (size_t)(ve - vb),
-                        origin, &x);
-    }
-    dth_free(s->alloc, origin);
+    int rc = make_entry(s->alloc, sb, (size_t)(se - sb), kb, (size_t)(ke - kb), vb, (size_t)(ve - vb), origin, &x);
+    x.override = 1;
     if (!rc) rc = reserve(s, 1);
     if (rc) {
         if (x.section) entry_free(s->alloc, &x);
@@ -704,7 +722,7 @@ static int check_keys(setup_ctx *c, const dth_model_type *type, dth_run_setup *r
     return DTH_OK;
 }
 
-static int is_override(const entry *e) { return strncmp(e->origin, "-s ", 3) == 0; }
+static int is_override(const entry *e) { return e->override; }
 
 /* The run's extent: steps or t_end (an override of one replaces the other from the file), and a
  * clock that moves with steps of h. */
@@ -755,7 +773,7 @@ static int check_rows(setup_ctx *c, dth_run_setup *rs)
     int is_dth = strcmp(rs->opt.method, "dth") == 0;
     /* output times far denser than the steps: millions of rows per step fill a disk, they do not
      * resolve the trajectory (the method's steps do) */
-    if (rs->dt > 0 && !(fabs(rs->opt.h) / rs->dt <= 1e6))
+    if (rs->dt > 0 && !(fabs(rs->opt.h) / rs->dt <= DTH_RUN_MAX_SAMPLES_PER_STEP))
         return bad(c->err, c->errlen, dt, "%.3g asks for %.3g rows per step of h = %.3g: at most 1e6 (a larger dt)",
                    rs->dt, fabs(rs->opt.h) / rs->dt, rs->opt.h);
     if (rs->dt > 0) {

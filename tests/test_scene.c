@@ -639,6 +639,85 @@ static void test_default_regularizer_bad_key_and_events(void)
     dth_registry_free(reg);
 }
 
+/* An override named by its caller (dth_scene_set_from: a binding's set=): messages and the origin name
+ * it, and it is an override like -s (steps= replaces the file's t_end=). */
+static void test_set_from(void)
+{
+    char path[64], err[512];
+    write_scene(good_pendulum, path, sizeof path);
+    dth_registry *reg = registry();
+    dth_scene *s;
+    dth_run_setup rs;
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    CU_ASSERT_FATAL(dth_scene_load(s, path, err, sizeof err) == DTH_OK);
+    CU_ASSERT_EQUAL(dth_scene_set_from(s, "set={'integrator.hh': 1}", "integrator.hh=1", err, sizeof err), DTH_OK);
+    CU_ASSERT_STRING_EQUAL(dth_scene_origin(s, "integrator", "hh"), "set={'integrator.hh': 1}");
+    CU_ASSERT_EQUAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT(strncmp(err, "set={'integrator.hh': 1}: integrator.hh: unknown key", 51) == 0);
+    CU_ASSERT(strstr(err, "-s") == NULL);
+    dth_scene_free(s);
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    CU_ASSERT_FATAL(dth_scene_load(s, path, err, sizeof err) == DTH_OK);
+    CU_ASSERT_EQUAL(dth_scene_set_from(s, "set={'integrator.steps': 5}", "integrator.steps=5", err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL_FATAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_OK);
+    CU_ASSERT(rs.has_t_end == 0 && rs.steps == 5);
+    dth_run_setup_clear(&rs);
+    /* refusals name it too */
+    CU_ASSERT_EQUAL(dth_scene_set_from(s, "set={'model.name': ...}", "model.name=pendulum\nomega2 = 4", err, sizeof err),
+                    DTH_EPARSE);
+    CU_ASSERT(strncmp(err, "set={'model.name': ...}: a scene file cannot hold this (a control character)", 70) == 0);
+    CU_ASSERT_EQUAL(dth_scene_set_from(s, "set=[('x', 1)]", "x=1", err, sizeof err), DTH_EPARSE);
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "set=[('x', 1)]: expected section.key=value"));
+    /* what a scene file holds, checked alone (a caller writing scene text) */
+    CU_ASSERT_EQUAL(dth_scene_check_entry("model", "name", "pendulum", err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL(dth_scene_check_entry("model", "name", "pendulum\nomega2 = 4", err, sizeof err), DTH_EPARSE);
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "model.name: a scene file cannot hold this (a control character)"));
+    CU_ASSERT_EQUAL(dth_scene_check_entry("model]\n[x", "name", "p", err, sizeof err), DTH_EPARSE);
+    CU_ASSERT_EQUAL(dth_scene_check_entry("model", "a=b", "p", err, sizeof err), DTH_EPARSE);
+    CU_ASSERT_EQUAL(dth_scene_check_entry("model", "name", "p ; c", err, sizeof err), DTH_EPARSE);
+    dth_scene_free(s);
+    dth_registry_free(reg);
+    unlink(path);
+}
+
+/* What a resume may change (one rule for dth run --resume and the Python package): the run's length
+ * and the file names; with DTH_RESUME_ROWS also every and diagnostics; anything else is named. */
+static void test_resume_rule(void)
+{
+    static const char text[] = "[model]\nname=pendulum\n[initial]\nq=1\np=0\n[integrator]\nh=0.05\nsteps=100\n"
+                               "[output]\nfile=o.csv\n";
+    char err[512];
+    dth_scene *saved, *now;
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &saved) == DTH_OK && dth_scene_new(NULL, &now) == DTH_OK);
+    CU_ASSERT_FATAL(dth_scene_load_mem(saved, "s.ini", text, strlen(text), err, sizeof err) == DTH_OK);
+    CU_ASSERT_FATAL(dth_scene_load_mem(now, "s.ini", text, strlen(text), err, sizeof err) == DTH_OK);
+    const char *ok[] = {"integrator.steps=500", "integrator.t_end=9", "output.file=b.csv", "events.file=e.csv", NULL};
+    for (int i = 0; ok[i]; i++) CU_ASSERT(dth_scene_set(now, ok[i], err, sizeof err) == DTH_OK);
+    CU_ASSERT(dth_scene_resume_check(saved, now, 0, "--resume", err, sizeof err) == DTH_OK);
+    CU_ASSERT(dth_scene_set_from(now, "set={'output.every': 5}", "output.every=5", err, sizeof err) == DTH_OK);
+    CU_ASSERT(dth_scene_resume_check(saved, now, 0, "--resume", err, sizeof err) == DTH_EINVAL);
+    CU_ASSERT(strncmp(err, "set={'output.every': 5}: output.every = '5' would change the checkpointed run", 70) == 0);
+    CU_ASSERT(dth_scene_resume_check(saved, now, DTH_RESUME_ROWS, NULL, err, sizeof err) == DTH_OK);
+    CU_ASSERT(dth_scene_set_from(now, "set={'model.omega2': 1.1}", "model.omega2=1.1", err, sizeof err) == DTH_OK);
+    CU_ASSERT(dth_scene_resume_check(saved, now, DTH_RESUME_ROWS, NULL, err, sizeof err) == DTH_EINVAL);
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "set={'model.omega2': 1.1}: model.omega2 = '1.1' would change the checkpointed "
+                                       "run (it ran without it)"));
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "output.file, output.every, output.diagnostics and events.file"));
+    /* a key the resumed scene lacks is named by `what` */
+    dth_scene_free(now);
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &now) == DTH_OK);
+    CU_ASSERT(dth_scene_resume_check(saved, now, 0, "--resume", err, sizeof err) == DTH_EINVAL);
+    CU_ASSERT(strncmp(err, "--resume: model.name = (unset) would change", 40) == 0);
+    const char *fixed[][2] = {{"model", "omega2"}, {"initial", "q"}, {"integrator", "h"}, {"integrator", "method"},
+                              {"regularize", "method"}, {"output", "dt"}, {"output", "points"}, {"events", "section"}};
+    for (size_t i = 0; i < sizeof fixed / sizeof *fixed; i++)
+        CU_ASSERT(!dth_scene_resume_may_change(fixed[i][0], fixed[i][1], DTH_RESUME_ROWS));
+    CU_ASSERT(dth_scene_resume_may_change("output", "every", DTH_RESUME_ROWS));
+    CU_ASSERT(!dth_scene_resume_may_change("output", "every", 0));
+    dth_scene_free(saved);
+    dth_scene_free(now);
+}
+
 static CU_TestInfo scene_tests[] = {
     {"scene text from memory", test_load_mem},
     {"indented lines continue a list", test_continuation},
@@ -652,6 +731,8 @@ static CU_TestInfo scene_tests[] = {
     {"a NUL byte is refused; the 197-character line limit, exactly", test_nul_and_line_limit},
     {"default regularizer: smooth for DTH, none for baselines", test_default_regularizer},
     {"the default regularizer refusing a key; [output] points and [events]", test_default_regularizer_bad_key_and_events},
+    {"an override named by its caller (dth_scene_set_from); dth_scene_check_entry", test_set_from},
+    {"what a resume may change (dth_scene_resume_check)", test_resume_rule},
     CU_TEST_INFO_NULL,
 };
 

@@ -227,8 +227,10 @@ typedef struct dth_event_spec {
     size_t ndofs;
 } dth_event_spec;
 typedef enum dth_run_stop {
-    DTH_RUN_RUNNING = 0, DTH_RUN_END = 1, DTH_RUN_EVENT = 2, DTH_RUN_CALLBACK = 3, DTH_RUN_FAILED = 4
+    DTH_RUN_RUNNING = 0, DTH_RUN_END = 1, DTH_RUN_EVENT = 2, DTH_RUN_CALLBACK = 3, DTH_RUN_FAILED = 4,
+    DTH_RUN_SAMPLES = 5
 } dth_run_stop;
+#define DTH_RUN_MAX_SAMPLES_PER_STEP 1000000
 typedef struct dth_run_state {
     int started;
     int pending;
@@ -277,7 +279,10 @@ typedef struct dth_run_config {
     int local_error;
 } dth_run_config;
 void dth_run_config_default(dth_run_config *cfg);
+int dth_run_check(const dth_integrator *it, const dth_run_config *cfg, const dth_run_state *st, char *err,
+                  size_t errlen);
 int dth_run(dth_integrator *it, const dth_run_config *cfg, dth_run_state *st);
+int dth_event_coordinate(void *user, size_t n, const double *z, double *g);
 
 /* scene.h */
 typedef struct dth_scene dth_scene;
@@ -286,10 +291,17 @@ void dth_scene_free(dth_scene *s);
 int dth_scene_load(dth_scene *s, const char *path, char *err, size_t errlen);
 int dth_scene_load_mem(dth_scene *s, const char *name, const char *text, size_t len, char *err, size_t errlen);
 int dth_scene_set(dth_scene *s, const char *assignment, char *err, size_t errlen);
+int dth_scene_set_from(dth_scene *s, const char *from, const char *assignment, char *err, size_t errlen);
+int dth_scene_check_entry(const char *section, const char *key, const char *value, char *err, size_t errlen);
+const char *dth_scene_origin(const dth_scene *s, const char *section, const char *key);
 const char *dth_scene_get(const dth_scene *s, const char *section, const char *key);
 size_t dth_scene_count(const dth_scene *s);
 int dth_scene_entry(const dth_scene *s, size_t i, const char **section, const char **key, const char **value,
                     const char **origin);
+enum { DTH_RESUME_ROWS = 1 };
+int dth_scene_resume_may_change(const char *section, const char *key, unsigned flags);
+int dth_scene_resume_check(const dth_scene *saved, const dth_scene *now, unsigned flags, const char *what,
+                           char *err, size_t errlen);
 typedef struct dth_run_setup {
     dth_model *model;
     size_t n;
@@ -377,6 +389,8 @@ typedef struct dth_megno_result {
     double t_stop;
 } dth_megno_result;
 int dth_megno_new(const dth_integrator *it, const double *delta0, const dth_allocator *alloc, dth_megno **out);
+int dth_megno_new_len(const dth_integrator *it, const double *delta0, size_t len, const dth_allocator *alloc,
+                      dth_megno **out);
 void dth_megno_free(dth_megno *g);
 int dth_megno_update(dth_megno *g, dth_integrator *it);
 void dth_megno_get(const dth_megno *g, dth_megno_result *r);

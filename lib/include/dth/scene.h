@@ -57,9 +57,26 @@ DTH_API int dth_scene_load_mem(dth_scene *s, const char *name, const char *text,
  * @return DTH_OK, DTH_EPARSE (message names the override and what is wrong), DTH_ENOMEM.
  */
 DTH_API int dth_scene_set(dth_scene *s, const char *assignment, char *err, size_t errlen);
+/**
+ * dth_scene_set with the override's origin named by the caller: `from` (at most 80 characters are
+ * kept) stands for "-s section.key=value" in messages and dth_scene_origin, e.g. a binding's
+ * "set={'integrator.h': 0.01}"; NULL: "-s ASSIGNMENT" (dth_scene_set). The entry is an override as
+ * dth_scene_set's are (an override of steps= or t_end= replaces the other from a file).
+ * @return as dth_scene_set.
+ */
+DTH_API int dth_scene_set_from(dth_scene *s, const char *from, const char *assignment, char *err, size_t errlen);
+/**
+ * Whether a scene file can hold section.key = value as dth_scene_set stores it (the same rules:
+ * no control characters, no comment ';' after a blank, names of at most 49 characters without '=',
+ * ':' or ']', values that fit lines of 197 characters between commas), for a caller that writes scene
+ * text itself (e.g. from a dictionary). @return DTH_OK, DTH_EPARSE (message "section.key: a scene
+ * file cannot hold this (why)"), DTH_EINVAL (NULL).
+ */
+DTH_API int dth_scene_check_entry(const char *section, const char *key, const char *value, char *err, size_t errlen);
 /** Value of section.key, or NULL. */
 DTH_API const char *dth_scene_get(const dth_scene *s, const char *section, const char *key);
-/** Where section.key was set: "FILE:LINE" or "-s section.key=value"; NULL if absent. */
+/** Where section.key was set: "FILE:LINE", "-s section.key=value" or dth_scene_set_from's `from`; NULL if
+ *  absent. */
 DTH_API const char *dth_scene_origin(const dth_scene *s, const char *section, const char *key);
 /** Number of stored keys (for validating a section's keys, e.g. a regularizer's). */
 DTH_API size_t dth_scene_count(const dth_scene *s);
@@ -115,6 +132,30 @@ DTH_API const char *dth_scene_key_choice(size_t i, size_t j, const char **doc);
  *  vertex", "a finite number >= 0 (0: estimate K locally)"), written as snprintf does. @return the
  *  length snprintf returns (0 for i out of range). */
 DTH_API size_t dth_scene_key_describe(size_t i, char *buf, size_t len);
+/** dth_scene_resume_may_change / dth_scene_resume_check flags. */
+enum {
+    /** output.every and output.diagnostics may change too: for a caller that keeps each leg's rows
+     *  apart (dth run appends to the checkpointed run's files, so it passes 0). */
+    DTH_RESUME_ROWS = 1u
+};
+
+/**
+ * Whether a resume from a checkpoint may change section.key: integrator.steps, integrator.t_end,
+ * output.file and events.file (how far the run goes and where its rows go), with DTH_RESUME_ROWS also
+ * output.every and output.diagnostics. Everything else changes the trajectory or its rows (the model
+ * and its parameters, the initial state, h, the method, the regularizer, events, output times).
+ */
+DTH_API int dth_scene_resume_may_change(const char *section, const char *key, unsigned flags);
+
+/**
+ * A resume continues the same run: the scene as resumed (`now`, after its overrides) must hold the
+ * checkpointed scene's keys with the same values, but for those dth_scene_resume_may_change allows.
+ * The message names the first change by its origin in `now` (or `what`, e.g. "--resume", where the
+ * key is absent from `now`), its new and old values, and the keys a resume may change.
+ * @return DTH_OK, DTH_EINVAL.
+ */
+DTH_API int dth_scene_resume_check(const dth_scene *saved, const dth_scene *now, unsigned flags, const char *what,
+                                   char *err, size_t errlen);
 
 /** Everything needed to run a scene, validated. Free with dth_run_setup_clear(). */
 typedef struct dth_run_setup {
