@@ -74,10 +74,10 @@ static result run(const dth_model *m, const dth_regularizer_type *rt, const doub
 static void table(const char *name, const dth_model *m, const double *q0, const double *p0, const double *hs, int nh,
                   const double *Ts, int nT)
 {
-    const dth_regularizer_type *regs[] = {&dth_reg_land, &dth_reg_smooth, &dth_reg_prescribed};
+    const dth_regularizer_type *regs[] = {&dth_reg_land, &dth_reg_prescribed};
     printf("\n#### %s\n\n| regularizer | T | h | error | order | steps | replaced | us/step |\n|---|---|---|---|---|---|---|---|\n",
            name);
-    for (int g = 0; g < 3; g++)
+    for (int g = 0; g < 2; g++)
         for (int k = 0; k < nT; k++) {
             double prev = NAN;
             for (int i = 0; i < nh; i++) {

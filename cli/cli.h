@@ -123,7 +123,7 @@ double cli_now(void);
 
 /**
  * What to do when a DTH run stops with `status` (exit 3): a clause such as "; to carry the run
- * across psi = 0: -s regularize.method=smooth" naming the scene key to change (empty if none
+ * across psi = 0: -s regularize.method=land" naming the scene key to change (empty if none
  * applies). `regularizer` is the run's [regularize] method, h its first step, m / z / lambda the
  * model, the last vertex and the last step (for the step ceiling of a region II fold; may be NULL/0).
  */

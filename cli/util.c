@@ -159,7 +159,7 @@ const char *cli_stop_hint(const char *regularizer, int status, double h, const d
                  status == DTH_ENOCONV || status == DTH_ESINGULAR;
     if (!branch && status != DTH_EREFUSED) return buf;
     if (!strcmp(regularizer, "none")) {
-        snprintf(buf, len, "; to carry the run across psi = 0 and folds: -s regularize.method=smooth");
+        snprintf(buf, len, "; to carry the run across psi = 0 and folds: -s regularize.method=land");
         return buf;
     }
     /* a fold the regularizer could not carry, with the step at the ceiling 6/5 |psi/psi'| */

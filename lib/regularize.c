@@ -519,7 +519,7 @@ typedef struct kj_ctx {
 size_t dth__kicked_joint_work_size(const dth_model *model)
 {
     size_t n = dth_model_dof(model), d = 2 * n + 1, m = 2 * n + 2, ni = model_ninv(model);
-    return 3 * d + d * d + m * m + 3 * m + 2 * n + ni * 2 * n + 2 * ni + 8 + d + 2 * n + d + (m + 1) / 2 + 1;
+    return 3 * d + d * d + m * m + 4 * m + 2 * n + ni * 2 * n + 2 * ni + 8 + d + 2 * n + d + (m + 1) / 2 + 1;
 }
 
 /* zbar and z_b over y from x = (d_q, d_p, lambda, mu) */
@@ -574,16 +574,14 @@ int dth__kicked_joint(const dth_model *model, const double *z, const double *zlo
     size_t n = dth_model_dof(model), N = 2 * n + 2, d = 2 * n + 1, m = 2 * n + 2, q = 2 * n, ni = model_ninv(model);
     kj_ctx c = {.model = model, .z = z, .zlo = zlo, .close = close, .wp = z[N - 1] + (zlo ? zlo[N - 1] : 0), .n = n,
                 .d = d, .m = m};
-    double *p = work;
-    double **slots[] = {&c.y, &c.yb, &c.g, &c.hs, &c.A, &c.F, &c.dx, &c.nv, &c.G, &c.tmp, &c.ys, &c.sc, &c.gc};
-    size_t sizes[] = {d, d, d, d * d, m * m, m, m, q, ni * q, 2 * ni + 8, d, q, d};
+    double *p = work, *xv;
+    double **slots[] = {&c.y, &c.yb, &c.g, &c.hs, &c.A, &c.F, &c.dx, &c.nv, &c.G, &c.tmp, &c.ys, &c.sc, &c.gc, &xv};
+    size_t sizes[] = {d, d, d, d * d, m * m, m, m, q, ni * q, 2 * ni + 8, d, q, d, m};
     for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) {
         *slots[i] = p;
         p += sizes[i];
     }
     c.piv = (int *)p;
-    double x[2 * 64 + 2], *xv = m <= sizeof x / sizeof x[0] ? x : NULL;
-    if (!xv) return DTH_EUNSUPPORTED; /* a crossing of more than 64 degrees of freedom: not here */
     for (size_t i = 0; i < n; i++) {
         xv[i] = dz[i];
         xv[n + i] = dz[n + 1 + i];

@@ -960,8 +960,8 @@ static int setup_regularizer(const dth_scene *s, const dth_registry *reg, dth_ru
             if (!strcmp(s->e[i].key, "method")) em = &s->e[i];
             else np++;
         }
-    /* default: `smooth` for DTH (ordinary steps, a changeover around psi = 0), none for baselines */
-    const char *def = strcmp(rs->method, "dth") ? "none" : "smooth";
+    /* default: `land` for DTH (raw DTH, one replaced step per psi = 0 crossing), none for baselines */
+    const char *def = strcmp(rs->method, "dth") ? "none" : "land";
     const dth_regularizer_type *t = dth_registry_find_regularizer(reg, em ? em->value : def);
     if (!t) {
         char names[256];
@@ -970,6 +970,10 @@ static int setup_regularizer(const dth_scene *s, const dth_registry *reg, dth_ru
         for (size_t i = 0; i < dth_registry_regularizer_count(reg) && len < sizeof names; i++)
             len += (size_t)snprintf(names + len, sizeof names - len, "%s%s", i ? ", " : "",
                                     dth_registry_regularizer_at(reg, i)->name);
+        if (!strcmp(em->value, "smooth")) /* retired with issue 23 */
+            return bad(err, errlen, em, "regularizer 'smooth' was retired: it replaced steps where nothing crosses and "
+                       "lost order; 'land', the default, crosses psi = 0 at second order (docs/regularization.md; "
+                       "available: %s)", names);
         return bad(err, errlen, em, "unknown regularizer '%s' (available: %s)", em->value, names);
     }
     snprintf(rs->regularize, sizeof rs->regularize, "%s", t->name);

@@ -215,9 +215,12 @@ static int observe(void *self, const dth_reg_step *s, double *dt)
             r->C_fixed = 1;
         }
     }
-    if (!r->clock) return DTH_OK;
     double psi = s->psi_a, dpsi = s->dpsi_a;
     if (isnan(psi) || isnan(dpsi)) {
+        if (!r->clock) { /* psi'' for the landing's seed only where the branch test read psi' anyway */
+            r->have_prev = 0;
+            return DTH_OK;
+        }
         int rc = dth_model_psi(r->model, s->za, &psi, &dpsi, r->pw);
         if (rc) return rc;
     }
@@ -226,7 +229,7 @@ static int observe(void *self, const dth_reg_step *s, double *dt)
     r->dpsi_prev = dpsi;
     r->lam_prev = s->lambda;
     r->have_prev = 1;
-    return w > 0 ? clock_add(r, s->zbar, s->lambda, w, dt) : DTH_OK;
+    return w > 0 && r->clock ? clock_add(r, s->zbar, s->lambda, w, dt) : DTH_OK;
 }
 
 /* The landing condition c(z_b) = psi - kappa psi' dir l, l = (C/psi'^2)^(1/8), with d c / dy ~ grad psi
@@ -289,23 +292,60 @@ static int reset(land *r, const double *zb, double wp, int exit, double *jump, i
     return it > 30 ? DTH_ENOCONV : DTH_OK;
 }
 
+/* The root of a x^2 + b x + c nearest 0 on the side dir (NaN: none). */
+static double side_root(double a, double b, double c, double dir)
+{
+    double best = NAN, r[2];
+    int k = 0;
+    if (fabs(a) * fabs(c) <= 1e-12 * b * b) { /* linear (or nearly) */
+        if (b != 0) r[k++] = -c / b;
+    } else {
+        double disc = b * b - 4 * a * c;
+        if (disc < 0) return NAN;
+        double qq = -0.5 * (b + copysign(sqrt(disc), b));
+        r[k++] = qq / a;
+        if (qq != 0) r[k++] = c / qq;
+    }
+    for (int i = 0; i < k; i++)
+        if (r[i] * dir > 0 && (isnan(best) || fabs(r[i]) < fabs(best))) best = r[i];
+    return best;
+}
+
+/* The step to the landing target from psi's quadratic model psi + psi' l + psi'' l^2 / 2 (psi'' = d2, 0 if
+ * unknown), the target's psi' at the landing point: a few fixed-point rounds. NaN: no landing ahead. */
+static double landing_step(const land *r, double psi, double dpsi, double d2)
+{
+    double l = NAN;
+    for (int k = 0; k < 8; k++) {
+        double db = isnan(l) ? dpsi : dpsi + d2 * l;
+        if (db == 0) return NAN;
+        double tgt = r->kappa * db * r->dir * pow(r->C / (db * db), 0.125);
+        double ln = side_root(0.5 * d2, dpsi, psi - tgt, r->dir);
+        if (isnan(ln)) return NAN;
+        int done = !isnan(l) && fabs(ln - l) <= 1e-12 * fabs(l);
+        l = ln;
+        if (done) break;
+    }
+    return l;
+}
+
 /*
  * The seed of the landing segment from the vertex's cubic model with a linear psi: the step that ends at
  * the landing target, the kick from the offsets' sum relation (rho_a + rho_b = psibar lambda^2/4) and
  * d = (lambda/2) u + (lambda^2/8) J H u + (mu/2) n.
  */
-static int seed(land *r, const dth_reg_event *ev, double psi, double dpsi, double rho_a, double lam_last, double *lam,
-                double *mu)
+static int seed(land *r, const dth_reg_event *ev, double psi, double dpsi, double d2, double rho_a, double lam_last,
+                double l_fixed, double *lam, double *mu)
 {
     size_t n = r->n, N = r->N, d = N - 1;
     for (size_t j = 0; j < d; j++) r->y[j] = ev->z[j] + ev->zlo[j];
-    double l = (r->kappa * dpsi * r->dir * pow(r->C / (dpsi * dpsi), 0.125) - psi) / dpsi;
+    double l = l_fixed != 0 ? l_fixed : landing_step(r, psi, dpsi, d2);
     if (!(l * r->dir > 0) || !(fabs(l) <= 8 * lam_last)) l = r->dir * lam_last;
     int rc = dth__kick_at(r->model, r->y, r->nv, r->kick);
     double *A = r->gp, H; /* the Hessian in the psi workspace's room (d x d fits it) */
     if (!rc) rc = dth_model_eval(r->model, r->y, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &H, r->g, A);
     if (rc) return rc;
-    double c = 0, pbar = psi + dpsi * l / 2, rho_b = pbar * l * l / 4 - rho_a;
+    double c = 0, pbar = psi + dpsi * l / 2 + d2 * l * l / 8, rho_b = pbar * l * l / 4 - rho_a;
     for (size_t i = 0; i < n; i++) c += r->g[i] * r->nv[i] + r->g[n + 1 + i] * r->nv[n + i];
     double k = c != 0 ? (rho_b - rho_a - dpsi * l * l * l / 24) / c : 0;
     dth__flow_y(n, r->g, r->zb); /* u over y, into zb's room */
@@ -368,26 +408,39 @@ static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
         act->why = "psi' = 0 at the vertex: no crossing to land past";
         return DTH_EREFUSED;
     }
+    /* psi'' from psi' at the last two vertices (observe), 0 without: the landing step's quadratic model,
+     * which also finds a crossing back through 0 just after a dip (psi grazing 0) */
+    double d2 = r->have_prev && r->lam_prev != 0 ? (dpsi - r->dpsi_prev) / r->lam_prev : 0;
+    if (!isfinite(d2)) d2 = 0;
     double lam0, mu0, lam, mu, res;
     int its = 0, its2 = 0, exit = 1;
-    rc = seed(r, ev, psi, dpsi, rho_a, lam_last, &lam0, &mu0);
+    rc = seed(r, ev, psi, dpsi, d2, rho_a, lam_last, 0, &lam0, &mu0);
     dth__kj_close landing = {land_close, r, 0};
     if (!rc) rc = segment(r, ev, &landing, lam0, mu0, &lam, &mu, &res, &its);
     if (rc || fabs(lam) > r->bound * lam_last) {
-        /* the crossing is further than the linear model says (psi bends away): a segment of the last
-         * step's length that does not cross yet, reset onto I = C on its own side */
-        dth__kj_close fixed = {NULL, NULL, r->dir * lam_last};
-        int its1 = 0, rb = seed(r, ev, psi, dpsi, rho_a, lam_last, &lam0, &mu0);
-        if (!rb) rb = segment(r, ev, &fixed, r->dir * lam_last, mu0, &lam, &mu, &res, &its1);
-        double pb;
-        if (!rb) rb = dth_model_psi(r->model, r->zb, &pb, NULL, r->pw);
-        if (rb || (pb > 0) != (psi > 0)) {
+        /* no landing within the bound (psi bends away, dips and turns back, or creeps along 0 near a
+         * separatrix): a segment of the last step's length, or a half, quarter, eighth of it, reset onto
+         * I = C on its own side, or on the exit branch where it crossed after all; the next vertex tries
+         * again. Preferred: the longest that does not cross; else the longest that converged. */
+        int rb = DTH_EREFUSED, found = 0;
+        for (int pass = 0; pass < 2 && !found; pass++)
+            for (int k = 0; k < 4 && !found; k++) {
+                double lk = r->dir * lam_last / (double)(1 << k), pb;
+                dth__kj_close fixed = {NULL, NULL, lk};
+                int its1 = 0;
+                rb = seed(r, ev, psi, dpsi, d2, rho_a, lam_last, lk, &lam0, &mu0);
+                if (!rb) rb = segment(r, ev, &fixed, lk, mu0, &lam, &mu, &res, &its1);
+                if (!rb) rb = dth_model_psi(r->model, r->zb, &pb, NULL, r->pw);
+                its += its1;
+                if (rb) continue;
+                exit = (pb > 0) != (psi > 0);
+                found = !exit || pass == 1;
+            }
+        if (!found) {
             act->why = rc ? "no landing segment past psi = 0 (an unresolved crossing: a smaller h)"
-                          : "no landing segment within the bound, and the last step's length crosses";
+                          : "no landing segment within the bound, and no segment of the last step's length or a part of it";
             return rc ? rc : DTH_EREFUSED;
         }
-        its += its1;
-        exit = 0;
     }
     rc = reset(r, r->zb, ev->z[N - 1] + ev->zlo[N - 1], exit, act->jump, &its2);
     if (rc) {
@@ -401,10 +454,10 @@ static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
         if (!r->crossed) act->dt = r->acc;
         r->crossed = 1;
         r->acc = 0;
-        r->dpsi_prev = dpsi; /* psi'' at the next vertex from this segment's ends */
-        r->lam_prev = lam;
-        r->have_prev = 1;
     }
+    r->dpsi_prev = dpsi; /* psi'' at the next vertex from this segment's ends */
+    r->lam_prev = lam;
+    r->have_prev = 1;
     memcpy(act->d, r->d, N * sizeof *act->d);
     act->what = DTH_REG_REPLACE;
     act->lambda = lam;

@@ -158,7 +158,7 @@ static void test_regularized_step_ends_it(void)
     dth_model *m = model(&dth_model_pendulum, NULL, 0, 1);
     dth_regularizer *rg = NULL;
     char err[256];
-    CU_ASSERT_EQUAL_FATAL(dth_regularizer_new(&dth_reg_smooth, NULL, 0, m, NULL, &rg, err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL_FATAL(dth_regularizer_new(&dth_reg_land, NULL, 0, m, NULL, &rg, err, sizeof err), DTH_OK);
     double q = 0, p = 2.2; /* rotation: psi = 0 is crossed every half turn */
     dth_megno_result r;
     follow(m, &q, &p, 0.05, 20, rg, 0, &r);

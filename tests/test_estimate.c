@@ -40,7 +40,7 @@ static int run(const dth_model *m, const double *q0, const double *p0, double h,
     o.h = h;
     o.estimate = 1;
     dth_regularizer *rg = NULL;
-    CU_ASSERT_FATAL(dth_regularizer_new(&dth_reg_smooth, NULL, 0, m, NULL, &rg, NULL, 0) == DTH_OK);
+    CU_ASSERT_FATAL(dth_regularizer_new(&dth_reg_land, NULL, 0, m, NULL, &rg, NULL, 0) == DTH_OK);
     o.regularizer = rg;
     dth_integrator *it = NULL;
     CU_ASSERT_FATAL(dth_integrator_new(m, &o, &it) == DTH_OK);
@@ -148,14 +148,17 @@ static void test_within_ten(void)
 }
 
 /* The issue's runs: Kepler from the pericentre with steps that run away from h (96 h and 2080 h):
- * DTH_EACCURACY, not an orbit-sized error with a 0 exit. */
+ * DTH_EACCURACY, not an orbit-sized error with a 0 exit. (With the regularizer land, e = 0.99 at
+ * h = 1e-4 stops before: its pericentre crossing is unresolved at that h, DTH_EREFUSED; the retired
+ * smooth carried it on to an orbit-sized error.) */
 static void test_runaway_stops(void)
 {
     dth_model *m = make(&dth_model_kepler);
     orbit a = kepler("e = 0.9", 0.9, 1, 10 * TWO_PI, 0.01), b = kepler("e = 0.99", 0.99, 1, TWO_PI, 1e-4);
     end_point e;
     CU_ASSERT(run(m, a.q0, a.p0, a.h[0], a.T, &e) == DTH_EACCURACY);
-    CU_ASSERT(run(m, b.q0, b.p0, b.h[0], b.T, &e) == DTH_EACCURACY);
+    int rb = run(m, b.q0, b.p0, b.h[0], b.T, &e);
+    CU_ASSERT(rb == DTH_EACCURACY || rb == DTH_EREFUSED);
     dth_model_free(m);
 }
 

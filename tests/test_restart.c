@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Restart at every step, bit for bit: for each shipped regularizer (none, land, smooth, prescribed; with
+ * Restart at every step, bit for bit: for each shipped regularizer (none, land, prescribed; with
  * and without the branch check) and each model (the rotating pendulum through psi = 0, Kepler e = 0.9, the harmonic
  * oscillator, a 2-D chain through psi = 0), a straight run saves a checkpoint before every step;
  * from each one a fresh integrator with a fresh regularizer is restored and steps on, and every
@@ -53,8 +53,6 @@ static const reg_case regs[] = {
     {"none", &dth_reg_none, {{0}}, 0},
     {"land", &dth_reg_land, {{0}}, 0},
     {"land clock=no", &dth_reg_land, {{"clock", "no"}}, 1},
-    {"smooth", &dth_reg_smooth, {{0}}, 0},
-    {"smooth outer=6", &dth_reg_smooth, {{"outer", "6"}}, 1},
     {"prescribed", &dth_reg_prescribed, {{0}}, 0},
     {"prescribed alpha=1", &dth_reg_prescribed, {{"alpha", "1"}}, 1},
 };

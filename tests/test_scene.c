@@ -264,7 +264,7 @@ static const bad_case bad_cases[] = {
     {BASE_PEND "steps = 10\n[initial]\nwp = 1\n", 10, "initial.wp", "start=vertex"},
     {BASE_PEND "steps = 10\n[initial]\nx = 1\n", 10, "initial.x", "unknown key"},
     {BASE_PEND "steps = 10\n[regularize]\nmethod = tunnel\n", 10, "regularize.method", "tunnel"},
-    {BASE_PEND "steps = 10\n[regularize]\neps = 1\n", 10, "regularize.eps", "'smooth' has no parameter"},
+    {BASE_PEND "steps = 10\n[regularize]\neps = 1\n", 10, "regularize.eps", "'land' has no parameter"},
     {BASE_PEND "steps = 10\n[regularize]\nmethod = none\neps = 1\n", 11, "regularize.eps", "no parameters"},
     {BASE_PEND "steps = 10\n[output]\nevery = 0\n", 10, "output.every", "0"},
     {BASE_PEND "steps = 10\n[output]\ndt = -1\n", 10, "output.dt", "-1"},
@@ -563,8 +563,8 @@ static void test_nul_and_line_limit(void)
     dth_scene_free(s);
 }
 
-/* Without [regularize] method=, DTH runs get the default regularizer `smooth` (a new scene crosses
- * psi = 0) and the baselines none; method = none keeps raw DTH. */
+/* Without [regularize] method=, DTH runs get the default regularizer `land` (a new scene crosses
+ * psi = 0) and the baselines none; method = none keeps raw DTH; the retired `smooth` is named as such. */
 static void test_default_regularizer(void)
 {
     dth_registry *reg = registry();
@@ -572,10 +572,10 @@ static void test_default_regularizer(void)
         const char *text, *want;
         int has;
     } c[] = {
-        {BASE_PEND "steps = 10\n", "smooth", 1},
+        {BASE_PEND "steps = 10\n", "land", 1},
         {BASE_PEND "method = gauss4\nsteps = 10\n", "none", 0},
         {BASE_PEND "steps = 10\n[regularize]\nmethod = none\n", "none", 0},
-        {BASE_PEND "steps = 10\n[regularize]\nouter = 5\n", "smooth", 1},
+        {BASE_PEND "steps = 10\n[regularize]\nkappa = 0.02\n", "land", 1},
     };
     for (size_t i = 0; i < sizeof c / sizeof c[0]; i++) {
         char path[64], err[512];
@@ -592,6 +592,17 @@ static void test_default_regularizer(void)
         dth_scene_free(s);
         unlink(path);
     }
+    char path[64], err[512];
+    write_scene(BASE_PEND "steps = 10\n[regularize]\nmethod = smooth\n", path, sizeof path);
+    dth_scene *s;
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    CU_ASSERT_FATAL(dth_scene_load(s, path, err, sizeof err) == DTH_OK);
+    dth_run_setup rs;
+    CU_ASSERT_EQUAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT(strstr(err, "regularizer 'smooth' was retired") != NULL);
+    CU_ASSERT(strstr(err, "available: land, none, prescribed") != NULL);
+    dth_scene_free(s);
+    unlink(path);
     dth_registry_free(reg);
 }
 
@@ -729,7 +740,7 @@ static CU_TestInfo scene_tests[] = {
     {"bad override values name the override", test_bad_override_values},
     {"dth_scene_text loads back to the same entries (random overrides and files)", test_text_round_trip},
     {"a NUL byte is refused; the 197-character line limit, exactly", test_nul_and_line_limit},
-    {"default regularizer: smooth for DTH, none for baselines", test_default_regularizer},
+    {"default regularizer: land for DTH, none for baselines", test_default_regularizer},
     {"the default regularizer refusing a key; [output] points and [events]", test_default_regularizer_bad_key_and_events},
     {"an override named by its caller (dth_scene_set_from); dth_scene_check_entry", test_set_from},
     {"what a resume may change (dth_scene_resume_check)", test_resume_rule},

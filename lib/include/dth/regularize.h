@@ -114,8 +114,8 @@ typedef struct dth_regularizer_type {
     const dth_param_spec *params; /**< accepted parameters */
     size_t n_params;              /**< length of params */
     /** Build an instance (allocate its workspace here; workspace needed only by rare events may be
-     *  allocated once, at the first such event, with the allocator create was given, as `smooth`
-     *  does its dense changeover workspace); may be NULL if it needs no state. */
+     *  allocated once, at the first such event, with the allocator create was given, as `land`
+     *  does its crossing workspace); may be NULL if it needs no state. */
     int (*create)(const dth_reg_args *args, void **self);
     /** Release an instance (self may be NULL). */
     void (*destroy)(void *self, const dth_allocator *alloc);
@@ -183,8 +183,6 @@ DTH_API int dth_regularizer_apply(dth_regularizer *r, const dth_reg_event *ev, d
 DTH_API extern const dth_regularizer_type dth_reg_none;
 /** Every step a kicked segment with lambda = arc/|u(zbar)|^alpha: reversible, energy-exact (not symplectic). */
 DTH_API extern const dth_regularizer_type dth_reg_prescribed;
-/** Ordinary DTH where the step is healthy, a smooth changeover to a step law around psi = 0. */
-DTH_API extern const dth_regularizer_type dth_reg_smooth;
 /** Raw DTH wherever it runs; one replaced step per psi = 0 crossing that lands just past it and resets
  *  its end vertex's offset onto the run's step invariant (the default). */
 DTH_API extern const dth_regularizer_type dth_reg_land;
