@@ -30,6 +30,7 @@ static cli_ckpt sample(void)
     S->in = (dth_step_info){0.05000000000000071, 2, 1e-17, DTH_BRANCH_PLUS, DTH_STEP_CROSSING, 0, 0.5e-9};
     S->crossings = 5;
     S->regularized = 4;
+    S->nonreversible = 2;
     S->max_ratio = 1.24;
     S->prev_crossing = 1;
     S->stop = DTH_RUN_RUNNING;

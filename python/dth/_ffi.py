@@ -252,6 +252,7 @@ typedef struct dth_run_state {
     double q_max, p_max;
     double lam_max;
     double t_lam_max;
+    long nonreversible;
 } dth_run_state;
 void dth_run_state_init(dth_run_state *st);
 typedef struct dth_run_config {

@@ -158,6 +158,8 @@ typedef struct dth_run_state {
     double q_max, p_max; /**< the largest |q|, |p| at the vertices so far (the stop rule's scale) */
     double lam_max;      /**< the largest |lambda| of the steps so far */
     double t_lam_max;    /**< the time of the vertex that step arrived at */
+    long nonreversible;  /**< steps with no reverse (flagged DTH_STEP_RESET or DTH_STEP_CLOCK): a round
+                              trip of the run does not come back to its start */
 } dth_run_state;
 
 /** Zero a state (a fresh run). */
