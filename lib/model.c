@@ -491,6 +491,68 @@ static void check_verdict(size_t n, dth_model_check_report *rep)
              rep->pass ? "pass" : "FAIL", what, entry, worst, tol);
 }
 
+/* dth_model_check's third-derivative check: D^3 H[u,u,u] against a difference of the Hessian form
+ * along u = J grad H held fixed. */
+static int check_third(const dth_model *m, const double *y, const double *grad, double hscale, double *u, double *yy,
+                       double *hp, dth_model_check_report *rep)
+{
+    size_t n = m->info.n, d = 2 * n + 1;
+    int rc = DTH_OK;
+    /* Compare D^3 H[u,u,u] with a difference of the Hessian form along a fixed direction. */
+    dth__flow_y(n, grad, u);
+    double unorm = 0, ynorm = 0, d3 = 0, f[2];
+    for (size_t i = 0; i < d; i++) {
+        unorm = fmax(unorm, fabs(u[i]));
+        if (i != n) ynorm = fmax(ynorm, fabs(y[i])); /* (q, p): the time's size sets no step */
+    }
+    double e = cbrt(DBL_EPSILON) * fmax(ynorm, 1.0) / unorm, fd = 0;
+    int r3 = m->type->third(m->self, y, u, &d3);
+    if (r3) rc = r3 > 0 ? DTH_EDOMAIN : DTH_EMODEL;
+    double sc3 = hscale * unorm * unorm * unorm / fmax(ynorm, 1.0);
+    /* differences at e and e/2, Richardson-extrapolated; e divided by 4 while they disagree
+     * by more than the threshold (at most 8 times), as for the gradient and the Hessian */
+    for (int shrink = 0; !rc; shrink++) {
+        double f2[2];
+        for (int s = 0; s < 4 && !rc; s++) {
+            double es = (s & 1 ? -e : e) * (s & 2 ? 0.5 : 1.0);
+            for (size_t i = 0; i < d; i++) yy[i] = y[i] + es * u[i];
+            rc = dth_model_eval(m, yy, DTH_EVAL_HESS, NULL, NULL, hp);
+            if (!rc) (s & 2 ? f2 : f)[s & 1] = quad_form(d, hp, u);
+        }
+        if (rc) break;
+        double a = (f[0] - f[1]) / (2 * e), b = (f2[0] - f2[1]) / e;
+        fd = (4 * b - a) / 3;
+        if (fabs(a - b) <= rep->tol * fmax(fmax(fabs(fd), fabs(d3)), sc3) || shrink == 8) break;
+        e *= 0.25;
+    }
+    if (!rc) rep->third_err = fabs(fd - d3) / fmax(fmax(fabs(fd), fabs(d3)), sc3);
+    return rc;
+}
+
+/* dth_model_check's banded Hessian against the dense one. */
+static int check_band(const dth_model *m, const double *y, const double *hess, double hscale, dth_model_check_report *rep)
+{
+    size_t n = m->info.n, d = 2 * n + 1;
+    int rc = DTH_OK;
+    size_t w = m->info.bandwidth, bw = 2 * w + 1, nn = 2 * n;
+    double *band = dth_calloc(m->alloc, nn * bw, sizeof(double));
+    if (!band) rc = DTH_ENOMEM;
+    else if (m->type->hess_band(m->self, y, band) != 0) rc = DTH_EMODEL;
+    else {
+        /* interleaved index x_(2i) = q_i -> y_i, x_(2i+1) = p_i -> y_(n+1+i) */
+        for (size_t a = 0; a < nn; a++)
+            for (size_t b = 0; b < nn; b++) {
+                size_t ya = (a % 2) ? n + 1 + a / 2 : a / 2, yb = (b % 2) ? n + 1 + b / 2 : b / 2;
+                double dense = hess[ya * d + yb];
+                double bv = 0;
+                if ((a > b ? a - b : b - a) <= w) bv = band[a * bw + (b + w - a)];
+                rep->band_err = fmax(rep->band_err, fabs(bv - dense) / hscale);
+            }
+    }
+    dth_free(m->alloc, band);
+    return rc;
+}
+
 /* the block of coordinate i of y = (q, t, p): 0, 1, 2 */
 static int blk(size_t n, size_t i) { return i < n ? 0 : i == n ? 1 : 2; }
 int dth_model_check(const dth_model *m, const double *y, dth_model_check_report *rep)
@@ -572,56 +634,8 @@ int dth_model_check(const dth_model *m, const double *y, dth_model_check_report 
     for (size_t i = 0; !rc && i < d; i++)
         for (size_t j = 0; j < i; j++)
             rep->sym_err = fmax(rep->sym_err, fabs(hess[i * d + j] - hess[j * d + i]) / hscale);
-    if (!rc && m->type->third) {
-        /* Compare D^3 H[u,u,u] with a difference of the Hessian form along a fixed direction. */
-        dth__flow_y(n, grad, u);
-        double unorm = 0, ynorm = 0, d3 = 0, f[2];
-        for (size_t i = 0; i < d; i++) {
-            unorm = fmax(unorm, fabs(u[i]));
-            if (i != n) ynorm = fmax(ynorm, fabs(y[i])); /* (q, p): the time's size sets no step */
-        }
-        double e = cbrt(DBL_EPSILON) * fmax(ynorm, 1.0) / unorm, fd = 0;
-        if (!rc) {
-            int r3 = m->type->third(m->self, y, u, &d3);
-            if (r3) rc = r3 > 0 ? DTH_EDOMAIN : DTH_EMODEL;
-        }
-        double sc3 = hscale * unorm * unorm * unorm / fmax(ynorm, 1.0);
-        /* differences at e and e/2, Richardson-extrapolated; e divided by 4 while they disagree
-         * by more than the threshold (at most 8 times), as for the gradient and the Hessian */
-        for (int shrink = 0; !rc; shrink++) {
-            double f2[2];
-            for (int s = 0; s < 4 && !rc; s++) {
-                double es = (s & 1 ? -e : e) * (s & 2 ? 0.5 : 1.0);
-                for (size_t i = 0; i < d; i++) yy[i] = y[i] + es * u[i];
-                rc = dth_model_eval(m, yy, DTH_EVAL_HESS, NULL, NULL, hp);
-                if (!rc) (s & 2 ? f2 : f)[s & 1] = quad_form(d, hp, u);
-            }
-            if (rc) break;
-            double a = (f[0] - f[1]) / (2 * e), b = (f2[0] - f2[1]) / e;
-            fd = (4 * b - a) / 3;
-            if (fabs(a - b) <= rep->tol * fmax(fmax(fabs(fd), fabs(d3)), sc3) || shrink == 8) break;
-            e *= 0.25;
-        }
-        if (!rc) rep->third_err = fabs(fd - d3) / fmax(fmax(fabs(fd), fabs(d3)), sc3);
-    }
-    if (!rc && m->info.hess_kind == DTH_HESS_BANDED && m->type->hess_band) {
-        size_t w = m->info.bandwidth, bw = 2 * w + 1, nn = 2 * n;
-        double *band = dth_calloc(m->alloc, nn * bw, sizeof(double));
-        if (!band) rc = DTH_ENOMEM;
-        else if (m->type->hess_band(m->self, y, band) != 0) rc = DTH_EMODEL;
-        else {
-            /* interleaved index x_(2i) = q_i -> y_i, x_(2i+1) = p_i -> y_(n+1+i) */
-            for (size_t a = 0; a < nn; a++)
-                for (size_t b = 0; b < nn; b++) {
-                    size_t ya = (a % 2) ? n + 1 + a / 2 : a / 2, yb = (b % 2) ? n + 1 + b / 2 : b / 2;
-                    double dense = hess[ya * d + yb];
-                    double bv = 0;
-                    if ((a > b ? a - b : b - a) <= w) bv = band[a * bw + (b + w - a)];
-                    rep->band_err = fmax(rep->band_err, fabs(bv - dense) / hscale);
-                }
-        }
-        dth_free(m->alloc, band);
-    }
+    if (!rc && m->type->third) rc = check_third(m, y, grad, hscale, u, yy, hp, rep);
+    if (!rc && m->info.hess_kind == DTH_HESS_BANDED && m->type->hess_band) rc = check_band(m, y, hess, hscale, rep);
     dth_free(m->alloc, buf);
     if (!rc) check_verdict(n, rep);
     return rc;
