@@ -7,16 +7,14 @@
 #include <math.h>
 #include <stdio.h>
 #include "dth/run.h"
-#include "dth_core.h"
 #include "dth_internal.h"
 
-/* The step the next one will be about: the last one taken, or before the first the step aimed for
- * (the DTH step's h; a baseline's lambda is its h). */
+/* The step the next one will be about: the last one taken, or before the first the step asked for
+ * (the options' h; a baseline's lambda is its h). */
 static double known_step(const dth_integrator *it)
 {
     double lam = fabs(dth_integrator_lambda(it));
-    const dth__dth *c = lam > 0 ? NULL : dth__integrator_core((dth_integrator *)it);
-    return c ? fabs(c->st.lam_hint) : lam;
+    return lam > 0 ? lam : fabs(dth__integrator_h(it));
 }
 
 int dth_run_check(const dth_integrator *it, const dth_run_config *cfg, const dth_run_state *st, char *err,
