@@ -19,6 +19,7 @@ void dth_run_config_default(dth_run_config *cfg)
 {
     if (!cfg) return;
     memset(cfg, 0, sizeof *cfg);
+    cfg->size = sizeof *cfg;
     cfg->t0 = NAN;
     cfg->points = DTH_POINTS_VERTICES;
     cfg->every = 1;

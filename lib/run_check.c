@@ -23,6 +23,9 @@ int dth_run_check(const dth_integrator *it, const dth_run_config *cfg, const dth
 #define NO(...) return dth__set_err(err, errlen, __VA_ARGS__), DTH_EINVAL
     if (err && errlen) err[0] = '\0';
     if (!it || !cfg || !st) NO("dth_run: no integrator, configuration or state (NULL)");
+    if (cfg->size != sizeof *cfg)
+        NO("dth_run_config.size = %zu, not %zu: fill the configuration with dth_run_config_default (a caller "
+           "built against another layout of run.h)", cfg->size, sizeof *cfg);
     double dir = dth_integrator_direction(it);
     const double *z = dth_integrator_vertex(it);
     size_t n = dth_model_dof(dth_integrator_model(it));

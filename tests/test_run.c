@@ -623,6 +623,13 @@ static void test_refusals(void)
     c.has_t_end = 1;
     c.t_end = 5;
     c.points = DTH_POINTS_TIMES;
+    /* a configuration of another layout (not filled by dth_run_config_default) */
+    c.size = sizeof c - 8;
+    dth_run_state_init(&st);
+    CU_ASSERT(dth_run_check(it, &c, &st, err, sizeof err) == DTH_EINVAL);
+    CU_ASSERT(strstr(err, "dth_run_config.size") != NULL);
+    CU_ASSERT(dth_run(it, &c, &st) == DTH_EINVAL);
+    c.size = sizeof c;
     static const struct {
         double times[3];
         const char *says;

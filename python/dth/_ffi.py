@@ -256,6 +256,7 @@ typedef struct dth_run_state {
 } dth_run_state;
 void dth_run_state_init(dth_run_state *st);
 typedef struct dth_run_config {
+    size_t size;
     int has_t_end;
     double t_end;
     long steps;

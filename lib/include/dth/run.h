@@ -167,6 +167,8 @@ DTH_API void dth_run_state_init(dth_run_state *st);
 
 /** What to do. Initialize with dth_run_config_default(). */
 typedef struct dth_run_config {
+    size_t size;            /**< sizeof(dth_run_config) where the caller was compiled (dth_run_config_default
+                                 sets it; dth_run refuses another: a caller built against an older layout) */
     int has_t_end;          /**< 1: run to t_end; 0: until the vertex index reaches `steps` */
     double t_end;           /**< end time (exactly: the END sample is the dense output there) */
     long steps;             /**< vertex index to stop at (counted from the run's start) */
