@@ -141,12 +141,17 @@ int dth__parse_list(const char *v, double *out, size_t max, size_t *count);
 
 /* ---- dense LU (linsolve.c: LAPACK, or written out for m <= DTH__SMALL_MAX) ---- */
 
-/** One linear-solver choice (linsolve.c's table). */
+/** The factor/solve/tangent of a linear-solver path (dth_newton.c: the dense paths, the banded ones). */
+struct dth__linsolver;
+extern const struct dth__linsolver dth__dense_ls, dth__band_ls;
+
+/** One linear-solver choice (linsolve.c's table): a new solver is one entry here and its ops. */
 typedef struct dth__linsolve_info {
     dth_linsolve kind;
     const char *name;
     int banded;      /* needs a banded model; no O(m^2) buffers (banded.c) */
     const char *doc;
+    const struct dth__linsolver *ops; /* the step's factor/solve/tangent (NULL: AUTO, resolved first) */
 } dth__linsolve_info;
 /** The entry of choice k, NULL if k is not one. */
 const dth__linsolve_info *dth__linsolve_find(dth_linsolve k);
