@@ -67,6 +67,8 @@ static size_t fields(cli_ckpt *c, fld *f)
     D("run.lam_max", &S->lam_max, C_NONNEG);
     D("run.t_lam_max", &S->t_lam_max, C_FINITE);
     I("run.nonreversible", M_LONG, &S->nonreversible, 0, LONG_MAX);
+    D("run.e_err", &S->e_err, C_NONNEG);
+    D("run.e_scale", &S->e_scale, C_NONNEG);
     I("scene.hash", M_U64, &c->scene_hash, 0, 0);
     S_("out.path", &c->out.path);
     S_("out.tmp", &c->out.tmp);
@@ -81,8 +83,8 @@ static size_t fields(cli_ckpt *c, fld *f)
 #undef S_
     return k;
 }
-/* A field added to the driver's state must be added to the table: the last member is nonreversible. */
-_Static_assert(offsetof(dth_run_state, nonreversible) + sizeof(long) == sizeof(dth_run_state),
+/* A field added to the driver's state must be added to the table: the last member is e_scale. */
+_Static_assert(offsetof(dth_run_state, e_scale) + sizeof(double) == sizeof(dth_run_state),
                "dth_run_state changed: update the field table of cli/ckpt.c");
 
 static int wire_type(int mem) { return mem == M_DBL ? T_F64 : mem == M_STR ? T_STR : T_I64; }

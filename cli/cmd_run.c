@@ -558,6 +558,13 @@ static void estimate_note(const run_job *j, char *buf, size_t len)
 static void accuracy_msg(const run_job *j, char *buf, size_t len)
 {
     const dth_run_state *S = &j->S;
+    if (!j->is_dth) { /* a fixed-step baseline: its energy error */
+        snprintf(buf, len, "the energy error |H - H0| = %.3g is %.0f %% of the size of the energy's terms %.3g (the run's "
+                 "bound integrator.stop_error = %.2g): the fixed step h = %.3g does not resolve the orbit here (a "
+                 "near-collision?): a smaller integrator.h, or integrator.method = dth", S->e_err,
+                 100 * S->e_err / S->e_scale, S->e_scale, j->rs.stop_error, fabs(j->rs.opt.h));
+        return;
+    }
     int p = S->err_p / S->p_max > S->err_q / S->q_max;
     snprintf(buf, len, "the estimated error |d%c| = %.3g is %.0f %% of the largest |%c| = %.3g (the run's bound "
              "integrator.stop_error = %.2g): the steps grew to lambda = %.3g = %.3g h (at t = %.6g, more than "

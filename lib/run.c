@@ -388,15 +388,30 @@ static void account_vertex(drv *d, const dth_step_info *s)
         st->t_lam_max = d->zb[n];
     }
     if (dth_integrator_error(d->it, &st->err_q, &st->err_p) != DTH_OK) st->err_q = st->err_p = NAN;
+    if (d->wp_fixed && d->cfg->stop_error > 0) { /* a baseline: its energy error (wp = -H_phys(z_0)) */
+        double H;
+        if (dth_model_eval(d->model, d->zb, DTH_EVAL_H | DTH_EVAL_GRAD, &H, d->zr, NULL) != DTH_OK) return;
+        st->e_err = fabs(d->zb[d->N - 1] + H);
+        if (!s) {
+            double sc = fabs(H);
+            for (size_t j = 0; j + 1 < d->N; j++)
+                if (j != n) sc += fabs(d->zb[j] * d->zr[j]);
+            st->e_scale = sc;
+        }
+    }
 }
 
 /* The stop rule of the error estimate (dth_run_config.stop_error): the steps ran away from h and
- * the error is a sizeable part of the orbit. */
+ * the error is a sizeable part of the orbit; or a fixed-step baseline's energy error is (its own
+ * estimate cannot see it: the shadow takes the same steps with a method of the same kind). */
 static int runaway(const drv *d)
 {
     const dth_run_state *st = d->st;
     double f = d->cfg->stop_error, h = fabs(dth__integrator_h(d->it));
-    return f > 0 && d->cfg->step_ratio > 0 && st->lam_max > d->cfg->step_ratio * h && (st->err_q > f * st->q_max || st->err_p > f * st->p_max);
+    if (!(f > 0)) return 0;
+    if (d->wp_fixed) return st->e_err > f * st->e_scale;
+    return d->cfg->step_ratio > 0 && st->lam_max > d->cfg->step_ratio * h &&
+           (st->err_q > f * st->q_max || st->err_p > f * st->p_max);
 }
 
 /* The local error estimate of the segment za -> zb: the defect of its cubic Hermite interpolant at

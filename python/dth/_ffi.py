@@ -253,6 +253,7 @@ typedef struct dth_run_state {
     double lam_max;
     double t_lam_max;
     long nonreversible;
+    double e_err, e_scale;
 } dth_run_state;
 void dth_run_state_init(dth_run_state *st);
 typedef struct dth_run_config {

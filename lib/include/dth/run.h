@@ -160,6 +160,10 @@ typedef struct dth_run_state {
     double t_lam_max;    /**< the time of the vertex that step arrived at */
     long nonreversible;  /**< steps with no reverse (flagged DTH_STEP_RESET or DTH_STEP_CLOCK): a round
                               trip of the run does not come back to its start */
+    double e_err;        /**< a fixed-step baseline's energy error |H_phys(z_k) - H_phys(z_0)| at the current
+                              vertex (0 for the DTH step, whose midpoints keep the energy) */
+    double e_scale;      /**< the size of the energy's terms at the first vertex, |H_phys| + sum |y_j dH/dy_j|
+                              (the scale e_err is judged by) */
 } dth_run_state;
 
 /** Zero a state (a fresh run). */
