@@ -9,6 +9,7 @@
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <stdint.h>
 #include <string.h>
 #include "dth_internal.h"
 
@@ -491,6 +492,69 @@ static void check_verdict(size_t n, dth_model_check_report *rep)
              rep->pass ? "pass" : "FAIL", what, entry, worst, tol);
 }
 
+/*
+ * dth_model_check's guarded evaluation: every output the model writes (gradient, Hessian, third
+ * derivative, banded Hessian, invariants) in its own slice of one block with a canary of GUARD
+ * doubles (a NaN payload) before and after each, so that a model writing past an output, or before
+ * it, is named (outputs of a run are slices of one block with no gap: such a write would silently
+ * change another output). Returns 1 and the message in `what` when a canary was touched.
+ */
+enum { GUARD = 8 };
+static const uint64_t canary_bits = 0x7ff4dead5eedbeefULL;
+
+static void canary_fill(double *p)
+{
+    for (int i = 0; i < GUARD; i++) memcpy(&p[i], &canary_bits, sizeof canary_bits);
+}
+
+static int canary_ok(const double *p)
+{
+    for (int i = 0; i < GUARD; i++)
+        if (memcmp(&p[i], &canary_bits, sizeof canary_bits)) return 0;
+    return 1;
+}
+
+static int guarded_eval(const dth_model *m, const double *y, char *what, size_t len)
+{
+    size_t n = m->info.n, d = 2 * n + 1, nb = 0, ni = m->type->n_invariants && m->type->invariants ? m->type->n_invariants(m->self) : 0;
+    if (m->info.hess_kind == DTH_HESS_BANDED && m->type->hess_band) nb = 2 * n * (2 * m->info.bandwidth + 1);
+    size_t sizes[5] = {d, d * d, 1, nb, ni};
+    const char *names[5] = {"gradient (2n+1 doubles)", "Hessian ((2n+1)^2 doubles)", "third derivative (1 double)",
+                            "banded Hessian (2n (2w+1) doubles)", "invariants (n_invariants doubles)"};
+    size_t total = GUARD;
+    for (int k = 0; k < 5; k++) total += sizes[k] + GUARD;
+    double *blk = dth_calloc(m->alloc, total, sizeof(double)), *out[5], *u = NULL, H;
+    if (!blk) return -1;
+    double *p = blk;
+    canary_fill(p);
+    p += GUARD;
+    for (int k = 0; k < 5; k++) {
+        out[k] = p;
+        p += sizes[k];
+        canary_fill(p);
+        p += GUARD;
+    }
+    u = dth_calloc(m->alloc, d, sizeof *u);
+    int bad = -1;
+    if (u) {
+        (void)m->type->eval(m->self, y, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &H, out[0], out[1]);
+        dth__flow_y(n, out[0], u);
+        if (m->type->third) (void)m->type->third(m->self, y, u, out[2]);
+        if (nb) (void)m->type->hess_band(m->self, y, out[3]);
+        if (ni) (void)m->type->invariants(m->self, y, out[4]);
+        bad = 0;
+        for (int k = 0; k < 5 && !bad; k++)
+            if (!canary_ok(out[k] - GUARD) || !canary_ok(out[k] + sizes[k])) {
+                snprintf(what, len, "FAIL: model '%s' wrote %s its %s", m->type->name,
+                         canary_ok(out[k] - GUARD) ? "past the end of" : "before the start of", names[k]);
+                bad = 1;
+            }
+    }
+    dth_free(m->alloc, u);
+    dth_free(m->alloc, blk);
+    return bad;
+}
+
 /* dth_model_check's third-derivative check: D^3 H[u,u,u] against a difference of the Hessian form
  * along u = J grad H held fixed. */
 static int check_third(const dth_model *m, const double *y, const double *grad, double hscale, double *u, double *yy,
@@ -561,6 +625,9 @@ int dth_model_check(const dth_model *m, const double *y, dth_model_check_report 
     memset(rep, 0, sizeof *rep);
     rep->tol = DTH_MODEL_CHECK_TOL;
     size_t n = m->info.n, d = 2 * n + 1;
+    int g = guarded_eval(m, y, rep->message, sizeof rep->message);
+    if (g < 0) return DTH_ENOMEM;
+    if (g) return DTH_OK; /* pass = 0 and the message name the output overrun */
     double *buf = dth_calloc(m->alloc, 3 * d * d + 9 * d, sizeof(double));
     if (!buf) return DTH_ENOMEM;
     double *hess = buf, *hp = hess + d * d, *hm = hp + d * d;

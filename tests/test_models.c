@@ -110,6 +110,56 @@ static int bad_create(const dth_model_args *a, void **self, dth_model_info *info
 static const dth_model_type bad_type = {DTH_MODEL_TYPE_HEAD, .name = "bad_pendulum", .doc = "pendulum with a wrong Hessian sign",
                                         .create = bad_create, .eval = bad_eval};
 
+/* Pendulums whose eval writes one double past the gradient, past the Hessian, or before the gradient
+ * (issue 24: a model library that writes past an output changed results with no report; the run's
+ * outputs are adjacent slices of one block). The selector is the model's parameter-free self. */
+static int over_kind;
+static int over_eval(const void *self, const double *y, unsigned what, double *H, double *grad, double *hess)
+{
+    (void)self;
+    if (what & DTH_EVAL_H) *H = 0.5 * y[2] * y[2] - cos(y[0]);
+    if (what & DTH_EVAL_GRAD) {
+        grad[0] = sin(y[0]), grad[1] = 0, grad[2] = y[2];
+        if (over_kind == 0) grad[3] = 1; /* past the end */
+        if (over_kind == 2) grad[-1] = 1; /* before the start */
+    }
+    if (what & DTH_EVAL_HESS) {
+        for (int i = 0; i < 9; i++) hess[i] = 0;
+        hess[0] = cos(y[0]);
+        hess[8] = 1;
+        if (over_kind == 1) hess[9] = 1;
+    }
+    return 0;
+}
+
+static const dth_model_type over_type = {DTH_MODEL_TYPE_HEAD, .name = "overrun", .doc = "writes past its outputs",
+                                         .create = bad_create, .eval = over_eval};
+
+static void test_check_overrun(void)
+{
+    const char *says[] = {"wrote past the end of its gradient", "wrote past the end of its Hessian",
+                          "wrote before the start of its gradient"};
+    double y[3] = {0.7, 0, 0.3};
+    for (int k = 0; k < 3; k++) {
+        over_kind = k;
+        dth_model *m = NULL;
+        char err[128];
+        CU_ASSERT_FATAL(dth_model_new(&over_type, NULL, 0, 1, NULL, &m, err, sizeof err) == DTH_OK);
+        dth_model_check_report rep;
+        CU_ASSERT(dth_model_check(m, y, &rep) == DTH_OK);
+        CU_ASSERT(rep.pass == 0);
+        CU_ASSERT(strstr(rep.message, says[k]) != NULL);
+        CU_ASSERT(strstr(rep.message, "'overrun'") != NULL);
+        dth_model_free(m);
+    }
+    over_kind = -1; /* the same model without the overrun passes */
+    dth_model *m = NULL;
+    CU_ASSERT_FATAL(dth_model_new(&over_type, NULL, 0, 1, NULL, &m, NULL, 0) == DTH_OK);
+    dth_model_check_report rep;
+    CU_ASSERT(dth_model_check(m, y, &rep) == DTH_OK && rep.pass == 1);
+    dth_model_free(m);
+}
+
 static void test_check_verdict(void)
 {
     dth_model *m = NULL;
@@ -391,6 +441,7 @@ static CU_TestInfo conformance[] = {
     {"exact solutions solve the equations of motion", test_exact},
     {"invariants are constant along the flow", test_invariants},
     {"a wrong Hessian sign fails the check, naming the entry", test_check_verdict},
+    {"a model writing past or before an output fails the check, naming it", test_check_overrun},
     {"tables of an unknown layout are refused with a message", test_table_layout},
     {"the derivative check scales with the model (Kepler pericentres)", test_check_scaled},
     CU_TEST_INFO_NULL,
