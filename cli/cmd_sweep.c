@@ -371,7 +371,7 @@ typedef struct runctx {
     double inv0[SWEEP_MAX_INV], drift[SWEEP_MAX_INV], inv[SWEEP_MAX_INV];
     int inv_ok;
     cli_out out;           /* the trajectory file */
-    char *line;
+    char *path, *line;
     int werr;
 } runctx;
 
@@ -443,6 +443,79 @@ static char *traj_path(const sweep *sw, long i)
     return p;
 }
 
+/* The integrator (method = dth) or the baseline of the run, at the initial state. */
+static int start_stepper(runctx *c, const dth_run_setup *rs, const dth_allocator *al)
+{
+    int rc;
+    if (!strcmp(rs->method, "dth")) {
+        rc = dth_integrator_new(rs->model, &rs->opt, &c->it);
+        if (!rc) rc = dth_integrator_start(c->it, rs->q0, rs->p0, rs->t0);
+    } else {
+        rc = dth_fixed_check(rs->model, rs->method, NULL, 0);
+        if (!rc) rc = dth_fixed_new(rs->model, rs->method, rs->opt.h, al, &c->fx);
+        if (!rc) rc = dth_fixed_start(c->fx, rs->q0, rs->p0, rs->t0);
+    }
+    return rc;
+}
+
+/* The reference energy and invariants at the initial condition. */
+static int reference_values(runctx *c, const dth_run_setup *rs)
+{
+    double *y = calloc(c->N, sizeof *y);
+    if (!y) return DTH_ENOMEM;
+    memcpy(y, rs->q0, rs->n * sizeof *y);
+    y[rs->n] = rs->t0;
+    memcpy(y + rs->n + 1, rs->p0, rs->n * sizeof *y);
+    if (dth_model_eval(rs->model, y, DTH_EVAL_H, &c->E0, NULL, NULL) != DTH_OK) c->E0 = NAN;
+    c->ninv = dth_model_n_invariants(rs->model);
+    if (c->ninv > SWEEP_MAX_INV) c->ninv = SWEEP_MAX_INV;
+    c->inv_ok = c->ninv > 0 && dth_model_invariants(rs->model, y, c->inv0) == DTH_OK;
+    free(y);
+    return DTH_OK;
+}
+
+/* --trajectories: run i's file P-RUN.csv opened, its header written, the samples asked of the driver. */
+static int open_trajectory(runctx *c, long i, dth_run_config *cfg)
+{
+    const dth_run_setup *rs = c->rs;
+    c->path = traj_path(c->sw, i);
+    c->line = malloc(32 * (c->N + 8));
+    if (!c->path || !c->line) return DTH_ENOMEM;
+    if (cli_out_open(&c->out, c->path)) return DTH_EIO;
+    char *p = c->line;
+    p += sprintf(p, "k,t,lambda");
+    for (size_t j = 0; j < rs->n; j++) p += sprintf(p, ",q%zu", j + 1);
+    for (size_t j = 0; j < rs->n; j++) p += sprintf(p, ",p%zu", j + 1);
+    p += sprintf(p, ",wp,H,E%s", rs->regularizer ? ",ordinary" : "");
+    if (cli_out_line(&c->out, c->line, (size_t)(p - c->line))) c->werr = 1;
+    cfg->points = rs->points;
+    cfg->every = rs->every;
+    cfg->dt = rs->dt;
+    cfg->sample = on_sample;
+    return DTH_OK;
+}
+
+/* The summary numbers of a run that ended with status rc in state S. */
+static void record(runctx *c, int rc, const dth_run_state *S, double *rec)
+{
+    rec[R_STATUS] = rc;
+    rec[R_STEPS] = (double)S->k;
+    rec[R_T] = rc ? S->t : S->t_stop;
+    rec[R_EERR] = c->eerr;
+    rec[R_CROSS] = (double)S->crossings;
+    rec[R_REG] = S->k > 0 ? (double)S->regularized / (double)S->k : 0;
+    rec[R_EVENTS] = (double)S->events;
+    rec[R_NINV] = c->inv_ok ? (double)c->ninv : 0;
+    for (size_t j = 0; c->inv_ok && j < c->ninv; j++) rec[R_INV + j] = c->drift[j];
+    if (c->meg && !c->megno_rc) {
+        dth_megno_result m;
+        dth_megno_get(c->meg, &m);
+        rec[R_MEGNO] = m.megno;
+        rec[R_LYAP] = m.lyapunov;
+        rec[R_MEGT] = m.span;
+    }
+}
+
 /* Run i, its summary numbers into rec (R_LEN doubles). */
 static void run_one(const sweep *sw, long i, double *rec)
 {
@@ -454,103 +527,45 @@ static void run_one(const sweep *sw, long i, double *rec)
     rec[R_SETUP] = 0;
     counter cnt = {0, 0};
     dth_allocator al = {count_alloc, count_free, &cnt};
-    int rc = run_setup(sw, i, &al, &scene, &rs, err, sizeof err);
     runctx c;
     memset(&c, 0, sizeof c);
     c.out.fd = -1;
-    char *path = NULL;
-    dth_run_state S;
-    dth_run_state_init(&S);
-    if (rc) {
-        rec[R_STATUS] = rc;
-        rec[R_SETUP] = 1;
-        goto done;
-    }
     c.sw = sw;
     c.rs = &rs;
+    dth_run_state S;
+    dth_run_state_init(&S);
+    int rc = run_setup(sw, i, &al, &scene, &rs, err, sizeof err);
     c.n = rs.n;
     c.N = 2 * rs.n + 2;
-    int is_dth = !strcmp(rs.method, "dth");
-    if (is_dth) {
-        rc = dth_integrator_new(rs.model, &rs.opt, &c.it);
-        if (!rc) rc = dth_integrator_start(c.it, rs.q0, rs.p0, rs.t0);
-    } else {
-        rc = dth_fixed_check(rs.model, rs.method, NULL, 0);
-        if (!rc) rc = dth_fixed_new(rs.model, rs.method, rs.opt.h, &al, &c.fx);
-        if (!rc) rc = dth_fixed_start(c.fx, rs.q0, rs.p0, rs.t0);
-    }
+    if (!rc) rc = start_stepper(&c, &rs, &al);
     if (rc) {
         rec[R_STATUS] = rc;
         rec[R_SETUP] = 1;
         goto done;
     }
-    /* the reference energy and invariants at the initial condition */
-    double *y = calloc(c.N, sizeof *y);
-    if (!y) {
-        rec[R_STATUS] = DTH_ENOMEM;
-        goto done;
-    }
-    memcpy(y, rs.q0, rs.n * sizeof *y);
-    y[rs.n] = rs.t0;
-    memcpy(y + rs.n + 1, rs.p0, rs.n * sizeof *y);
-    if (dth_model_eval(rs.model, y, DTH_EVAL_H, &c.E0, NULL, NULL) != DTH_OK) c.E0 = NAN;
-    c.ninv = dth_model_n_invariants(rs.model);
-    if (c.ninv > SWEEP_MAX_INV) c.ninv = SWEEP_MAX_INV;
-    c.inv_ok = c.ninv > 0 && dth_model_invariants(rs.model, y, c.inv0) == DTH_OK;
-    free(y);
-    if (sw->megno && c.it && (rc = dth_megno_new(c.it, NULL, &al, &c.meg)) != DTH_OK) {
-        rec[R_STATUS] = rc;
-        goto done;
-    }
+    rc = reference_values(&c, &rs);
+    if (!rc && sw->megno && c.it) rc = dth_megno_new(c.it, NULL, &al, &c.meg);
     dth_run_config cfg;
     dth_run_config_from_setup(&cfg, &rs);
     cfg.user = &c;
     cfg.alloc = &al;
     cfg.progress = on_progress;
     cfg.progress_every = 1;
-    if (sw->traj) {
-        path = traj_path(sw, i);
-        c.line = malloc(32 * (c.N + 8));
-        if (!path || !c.line || cli_out_open(&c.out, path)) {
-            rec[R_STATUS] = !path || !c.line ? DTH_ENOMEM : DTH_EIO;
-            goto done;
-        }
-        char *p = c.line;
-        p += sprintf(p, "k,t,lambda");
-        for (size_t j = 0; j < rs.n; j++) p += sprintf(p, ",q%zu", j + 1);
-        for (size_t j = 0; j < rs.n; j++) p += sprintf(p, ",p%zu", j + 1);
-        p += sprintf(p, ",wp,H,E%s", rs.regularizer ? ",ordinary" : "");
-        if (cli_out_line(&c.out, c.line, (size_t)(p - c.line))) c.werr = 1;
-        cfg.points = rs.points;
-        cfg.every = rs.every;
-        cfg.dt = rs.dt;
-        cfg.sample = on_sample;
+    if (!rc && sw->traj) rc = open_trajectory(&c, i, &cfg);
+    if (rc) {
+        rec[R_STATUS] = rc;
+        goto done;
     }
     rc = c.werr ? DTH_EIO : c.it ? dth_run(c.it, &cfg, &S) : dth_run_fixed(c.fx, &cfg, &S);
     if (!c.werr) account(&c); /* the last step: no progress call follows it */
     if (c.werr) rc = DTH_EIO;
-    rec[R_STATUS] = rc;
-    rec[R_STEPS] = (double)S.k;
-    rec[R_T] = rc ? S.t : S.t_stop;
-    rec[R_EERR] = c.eerr;
-    rec[R_CROSS] = (double)S.crossings;
-    rec[R_REG] = S.k > 0 ? (double)S.regularized / (double)S.k : 0;
-    rec[R_EVENTS] = (double)S.events;
-    rec[R_NINV] = c.inv_ok ? (double)c.ninv : 0;
-    for (size_t j = 0; c.inv_ok && j < c.ninv; j++) rec[R_INV + j] = c.drift[j];
-    if (c.meg && !c.megno_rc) {
-        dth_megno_result m;
-        dth_megno_get(c.meg, &m);
-        rec[R_MEGNO] = m.megno;
-        rec[R_LYAP] = m.lyapunov;
-        rec[R_MEGT] = m.span;
-    }
+    record(&c, rc, &S, rec);
     if (c.out.fd >= 0 || c.out.buf) {
         if (rc == DTH_EIO || cli_out_finish(&c.out)) rec[R_STATUS] = DTH_EIO;
     }
 done:
     if (c.out.buf) cli_out_abort(&c.out);
-    free(path);
+    free(c.path);
     free(c.line);
     dth_megno_free(c.meg);
     dth_integrator_free(c.it);
@@ -730,6 +745,26 @@ static int mpi_runs(sweep *sw, int rank, int size, int dynamic, long chunk)
 
 /* ---------------------------------------------------------------- the command */
 
+/* What each step of the command returns to let it go on; else it returns the exit status, having
+ * printed why. */
+enum { GO_ON = -1 };
+enum { MAX_LIBS = 16 };
+
+/* One dth sweep: its options, the loaded model libraries, the summary's file, the ranks. */
+typedef struct sweep_cmd {
+    sweep sw;
+    const char *out_path, *list_path;
+    int dynamic, stats;
+    long chunk;
+    const char *lib_args[MAX_LIBS]; /* the --model-lib values, loaded once the registry exists */
+    void *libs[MAX_LIBS];
+    int nlib_args, nlibs;
+    dth_registry *reg;
+    cli_out o;                      /* the summary */
+    int rank, size, mpi;
+    double t_work;                  /* seconds the runs took */
+} sweep_cmd;
+
 static void sweep_free(sweep *sw)
 {
     free(sw->text);
@@ -766,308 +801,364 @@ static char *read_file(const char *path, size_t *len)
     return b;
 }
 
-int cli_cmd_sweep(int argc, char **argv)
+/* The option a (one that takes a value) with its value v. */
+static int option_value(sweep_cmd *c, const char *a, const char *v)
 {
-    sweep sw;
-    memset(&sw, 0, sizeof sw);
-    sw.megno = 1;
-    const char *out_path = NULL, *list_path = NULL;
-    int dynamic = 1, status = CLI_USAGE, rank = 0, size = 1, mpi = 0, stats = 0;
-    long chunk = 16;
-    enum { MAX_LIBS = 16 };
-    const char *lib_args[MAX_LIBS]; /* the --model-lib values, loaded once the registry exists */
-    void *libs[MAX_LIBS];
-    int nlib_args = 0, nlibs = 0;
-    dth_registry *reg = NULL;
-    cli_out o;
-    memset(&o, 0, sizeof o);
-    o.fd = -1;
-    sw.sets = calloc((size_t)argc, sizeof *sw.sets);
-    if (!sw.sets) {
-        cli_error("out of memory");
-        return CLI_FAIL;
+    sweep *sw = &c->sw;
+    if (!strcmp(a, "-s")) {
+        sw->sets[sw->nsets++] = v;
+    } else if (!strcmp(a, "-o")) {
+        c->out_path = strcmp(v, "-") ? v : NULL;
+    } else if (!strcmp(a, "--vary")) {
+        if (sw->nkeys >= SWEEP_MAX_KEYS) {
+            cli_error("at most %d --vary keys", SWEEP_MAX_KEYS);
+            return CLI_USAGE;
+        }
+        if (parse_vary(v, &sw->keys[sw->nkeys])) return CLI_USAGE;
+        sw->nkeys++;
+    } else if (!strcmp(a, "--list")) {
+        c->list_path = v;
+    } else if (!strcmp(a, "--trajectories")) {
+        if (!v[0]) {
+            cli_error("--trajectories: the prefix is empty");
+            return CLI_USAGE;
+        }
+        sw->traj = v;
+    } else if (!strcmp(a, "--schedule")) {
+        if (strcmp(v, "static") && strcmp(v, "dynamic")) {
+            cli_error("--schedule: '%s' is not static or dynamic", v);
+            return CLI_USAGE;
+        }
+        c->dynamic = !strcmp(v, "dynamic");
+    } else if (!strcmp(a, "--chunk")) {
+        char *e;
+        errno = 0;
+        c->chunk = strtol(v, &e, 10);
+        if (errno || e == v || *e || c->chunk < 1) {
+            cli_error("--chunk: '%s' is not a positive integer", v);
+            return CLI_USAGE;
+        }
+    } else { /* --model-lib FILE:SYMBOL */
+        const char *colon = strrchr(v, ':');
+        if (!colon || colon == v || !colon[1] || c->nlib_args >= MAX_LIBS) {
+            cli_error("--model-lib: '%s' is not FILE.so:SYMBOL%s", v, c->nlib_args >= MAX_LIBS ? " (at most 16)" : "");
+            return CLI_USAGE;
+        }
+        c->lib_args[c->nlib_args++] = v;
     }
-    /* ---- the command line */
+    return GO_ON;
+}
+
+/* The command line into c: GO_ON, or the exit status (CLI_OK after --help). */
+static int parse_args(int argc, char **argv, sweep_cmd *c)
+{
+    sweep *sw = &c->sw;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
+        int st = GO_ON;
         if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
             usage_sweep(stdout);
-            free(sw.sets);
             return CLI_OK;
         } else if (!strcmp(a, "--no-megno")) {
-            sw.megno = 0;
+            sw->megno = 0;
         } else if (!strcmp(a, "--stats")) {
-            stats = 1;
+            c->stats = 1;
         } else if (!strcmp(a, "-s") || !strcmp(a, "-o") || !strcmp(a, "--vary") || !strcmp(a, "--list") ||
                    !strcmp(a, "--trajectories") || !strcmp(a, "--model-lib") || !strcmp(a, "--schedule") ||
                    !strcmp(a, "--chunk")) {
             if (i + 1 >= argc) {
                 cli_error("option %s needs an argument (try dth sweep --help)", a);
-                goto done;
+                return CLI_USAGE;
             }
-            const char *v = argv[++i];
-            if (!strcmp(a, "-s")) {
-                sw.sets[sw.nsets++] = v;
-            } else if (!strcmp(a, "-o")) {
-                out_path = strcmp(v, "-") ? v : NULL;
-            } else if (!strcmp(a, "--vary")) {
-                if (sw.nkeys >= SWEEP_MAX_KEYS) {
-                    cli_error("at most %d --vary keys", SWEEP_MAX_KEYS);
-                    goto done;
-                }
-                if (parse_vary(v, &sw.keys[sw.nkeys])) goto done;
-                sw.nkeys++;
-            } else if (!strcmp(a, "--list")) {
-                list_path = v;
-            } else if (!strcmp(a, "--trajectories")) {
-                if (!v[0]) {
-                    cli_error("--trajectories: the prefix is empty");
-                    goto done;
-                }
-                sw.traj = v;
-            } else if (!strcmp(a, "--schedule")) {
-                if (strcmp(v, "static") && strcmp(v, "dynamic")) {
-                    cli_error("--schedule: '%s' is not static or dynamic", v);
-                    goto done;
-                }
-                dynamic = !strcmp(v, "dynamic");
-            } else if (!strcmp(a, "--chunk")) {
-                char *e;
-                errno = 0;
-                chunk = strtol(v, &e, 10);
-                if (errno || e == v || *e || chunk < 1) {
-                    cli_error("--chunk: '%s' is not a positive integer", v);
-                    goto done;
-                }
-            } else { /* --model-lib FILE:SYMBOL */
-                const char *colon = strrchr(v, ':');
-                if (!colon || colon == v || !colon[1] || nlib_args >= MAX_LIBS) {
-                    cli_error("--model-lib: '%s' is not FILE.so:SYMBOL%s", v,
-                              nlib_args >= MAX_LIBS ? " (at most 16)" : "");
-                    goto done;
-                }
-                lib_args[nlib_args++] = v;
-            }
+            st = option_value(c, a, argv[++i]);
         } else if (a[0] == '-' && a[1]) {
             cli_error("unknown option '%s' (try dth sweep --help)", a);
-            goto done;
-        } else if (sw.scene_path) {
-            cli_error("more than one scene file ('%s' and '%s')", sw.scene_path, a);
-            goto done;
+            return CLI_USAGE;
+        } else if (sw->scene_path) {
+            cli_error("more than one scene file ('%s' and '%s')", sw->scene_path, a);
+            return CLI_USAGE;
         } else {
-            sw.scene_path = a;
+            sw->scene_path = a;
         }
+        if (st != GO_ON) return st;
     }
-    if (!sw.scene_path) {
+    if (!sw->scene_path) {
         cli_error("no scene file (usage: dth sweep SCENE.ini --vary section.key=a:b:n ... | --list FILE)");
-        goto done;
+        return CLI_USAGE;
     }
-    if ((sw.nkeys > 0) == (list_path != NULL)) {
+    if ((sw->nkeys > 0) == (c->list_path != NULL)) {
         cli_error("give the runs by --vary (a grid) or by --list FILE, one of the two (try dth sweep --help)");
-        goto done;
+        return CLI_USAGE;
     }
-    if (list_path) {
-        sw.is_list = 1;
-        if (read_list(&sw, list_path)) goto done;
+    return GO_ON;
+}
+
+/* The runs: the rows of --list, or the points of the --vary grid; then the scene file's text. */
+static int read_inputs(sweep_cmd *c)
+{
+    sweep *sw = &c->sw;
+    if (c->list_path) {
+        sw->is_list = 1;
+        if (read_list(sw, c->list_path)) return CLI_USAGE;
     } else {
-        sw.nruns = 1;
-        for (int j = 0; j < sw.nkeys; j++) {
-            if (sw.nruns > SWEEP_MAX_RUNS / sw.keys[j].g.n) {
+        sw->nruns = 1;
+        for (int j = 0; j < sw->nkeys; j++) {
+            if (sw->nruns > SWEEP_MAX_RUNS / sw->keys[j].g.n) {
                 cli_error("the grid has more than %ld points", SWEEP_MAX_RUNS);
-                goto done;
+                return CLI_USAGE;
             }
-            sw.nruns *= sw.keys[j].g.n;
+            sw->nruns *= sw->keys[j].g.n;
         }
     }
-    sw.text = read_file(sw.scene_path, &sw.textlen);
-    if (!sw.text) {
-        cli_error("cannot read '%s': %s", sw.scene_path, strerror(errno));
-        goto done;
+    sw->text = read_file(sw->scene_path, &sw->textlen);
+    if (!sw->text) {
+        cli_error("cannot read '%s': %s", sw->scene_path, strerror(errno));
+        return CLI_USAGE;
     }
-    /* ---- the registry: the built-in models and the loaded ones */
-    if (!(reg = cli_registry())) {
-        status = CLI_FAIL;
-        goto done;
-    }
-    for (int i = 0; i < nlib_args; i++) {
-        const char *v = lib_args[i], *colon = strrchr(v, ':');
+    return GO_ON;
+}
+
+/* The registry: the built-in models and those of --model-lib; the summary records. */
+static int load_models(sweep_cmd *c)
+{
+    sweep *sw = &c->sw;
+    if (!(c->reg = cli_registry())) return CLI_FAIL;
+    for (int i = 0; i < c->nlib_args; i++) {
+        const char *v = c->lib_args[i], *colon = strrchr(v, ':');
         char file[4096];
         snprintf(file, sizeof file, "%.*s", (int)(colon - v), v);
         void *h = dlopen(file, RTLD_NOW | RTLD_LOCAL);
         if (!h) {
             cli_error("--model-lib: cannot load '%s': %s", file, dlerror());
-            goto done;
+            return CLI_USAGE;
         }
-        libs[nlibs++] = h;
+        c->libs[c->nlibs++] = h;
         const dth_model_type *t = dlsym(h, colon + 1);
         if (!t || !t->name) {
             cli_error("--model-lib: '%s' has no model table '%s'", file, colon + 1);
-            goto done;
+            return CLI_USAGE;
         }
-        if (dth_registry_add_model(reg, t)) {
+        if (dth_registry_add_model(c->reg, t)) {
             cli_error("--model-lib: cannot register model '%s' from '%s' (a duplicate name?)", t->name, file);
-            goto done;
+            return CLI_USAGE;
         }
     }
-    sw.reg = reg;
-    sw.traj_width = 1;
-    for (long m = sw.nruns - 1; m >= 10; m /= 10) sw.traj_width++;
-    sw.rec = calloc((size_t)sw.nruns * R_LEN, sizeof *sw.rec);
-    if (!sw.rec) {
-        cli_error("out of memory (%ld runs)", sw.nruns);
-        status = CLI_FAIL;
-        goto done;
+    sw->reg = c->reg;
+    sw->traj_width = 1;
+    for (long m = sw->nruns - 1; m >= 10; m /= 10) sw->traj_width++;
+    sw->rec = calloc((size_t)sw->nruns * R_LEN, sizeof *sw->rec);
+    if (!sw->rec) {
+        cli_error("out of memory (%ld runs)", sw->nruns);
+        return CLI_FAIL;
     }
+    return GO_ON;
+}
 
-    /* ---- run 0 serially first: its scene must set up (a message for a bad key), its model pass the
-     * derivative check, and its invariants name the summary's columns */
-    {
-        char err[1024];
-        dth_scene *scene = NULL;
-        dth_run_setup rs;
-        memset(&rs, 0, sizeof rs);
-        int rc = run_setup(&sw, 0, NULL, &scene, &rs, err, sizeof err);
-        if (rc) {
-            cli_error("%s", err);
-            status = rc == DTH_ENOMEM ? CLI_FAIL : CLI_USAGE;
-            dth_scene_free(scene);
-            goto done;
-        }
-        sw.ninv = (int)dth_model_n_invariants(rs.model);
-        if (sw.ninv > SWEEP_MAX_INV) sw.ninv = SWEEP_MAX_INV;
-        for (int j = 0; j < sw.ninv; j++)
-            snprintf(sw.inv_names[j], sizeof sw.inv_names[j], "%s", dth_model_invariant_name(rs.model, (size_t)j));
-        if (strcmp(rs.method, "dth")) sw.megno = 0;
-        double *y = calloc(2 * rs.n + 1, sizeof *y);
-        dth_model_check_report rep;
-        rep.pass = 1;
-        if (y && rs.n <= 200) {
-            memcpy(y, rs.q0, rs.n * sizeof *y);
-            y[rs.n] = rs.t0;
-            memcpy(y + rs.n + 1, rs.p0, rs.n * sizeof *y);
-            if (dth_model_check(rs.model, y, &rep) != DTH_OK) rep.pass = 1;
-        }
-        free(y);
-        if (!rep.pass)
-            cli_error("%s: model '%s' fails its derivative check at run 0's initial state: %s", sw.scene_path,
-                      dth_model_get_type(rs.model)->name, rep.message);
-        dth_run_setup_clear(&rs);
+/* Run 0 serially first: its scene must set up (a message for a bad key), its model pass the
+ * derivative check, and its invariants name the summary's columns. */
+static int check_run0(sweep *sw)
+{
+    char err[1024];
+    dth_scene *scene = NULL;
+    dth_run_setup rs;
+    memset(&rs, 0, sizeof rs);
+    int rc = run_setup(sw, 0, NULL, &scene, &rs, err, sizeof err);
+    if (rc) {
+        cli_error("%s", err);
         dth_scene_free(scene);
-        if (!rep.pass) goto done;
+        return rc == DTH_ENOMEM ? CLI_FAIL : CLI_USAGE;
     }
+    sw->ninv = (int)dth_model_n_invariants(rs.model);
+    if (sw->ninv > SWEEP_MAX_INV) sw->ninv = SWEEP_MAX_INV;
+    for (int j = 0; j < sw->ninv; j++)
+        snprintf(sw->inv_names[j], sizeof sw->inv_names[j], "%s", dth_model_invariant_name(rs.model, (size_t)j));
+    if (strcmp(rs.method, "dth")) sw->megno = 0;
+    double *y = calloc(2 * rs.n + 1, sizeof *y);
+    dth_model_check_report rep;
+    rep.pass = 1;
+    if (y && rs.n <= 200) {
+        memcpy(y, rs.q0, rs.n * sizeof *y);
+        y[rs.n] = rs.t0;
+        memcpy(y + rs.n + 1, rs.p0, rs.n * sizeof *y);
+        if (dth_model_check(rs.model, y, &rep) != DTH_OK) rep.pass = 1;
+    }
+    free(y);
+    if (!rep.pass)
+        cli_error("%s: model '%s' fails its derivative check at run 0's initial state: %s", sw->scene_path,
+                  dth_model_get_type(rs.model)->name, rep.message);
+    dth_run_setup_clear(&rs);
+    dth_scene_free(scene);
+    return rep.pass ? GO_ON : CLI_USAGE;
+}
 
+/* Under an MPI launcher: MPI with this process's rank among size. */
+static void mpi_start(sweep_cmd *c, int *argc, char ***argv)
+{
+    (void)c, (void)argc, (void)argv;
 #ifdef DTH_HAVE_MPI
     if (under_mpi()) {
         int prov;
-        MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &prov);
-        MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-        MPI_Comm_size(MPI_COMM_WORLD, &size);
-        mpi = 1;
+        MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &prov);
+        MPI_Comm_rank(MPI_COMM_WORLD, &c->rank);
+        MPI_Comm_size(MPI_COMM_WORLD, &c->size);
+        c->mpi = 1;
     }
 #endif
-    /* the summary's file is opened before the work (rank 0), so an unwritable one fails at once */
+}
+
+/* The summary's file is opened before the work (rank 0), so an unwritable one fails at once; the
+ * trajectories' folders are made. */
+static int open_summary(sweep_cmd *c)
+{
     int open_ok = 1;
-    if (rank == 0 && out_path) {
-        cli_make_parents(out_path);
-        open_ok = cli_out_open(&o, out_path) == 0;
+    if (c->rank == 0 && c->out_path) {
+        cli_make_parents(c->out_path);
+        open_ok = cli_out_open(&c->o, c->out_path) == 0;
     }
 #ifdef DTH_HAVE_MPI
-    if (mpi) MPI_Bcast(&open_ok, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    if (c->mpi) MPI_Bcast(&open_ok, 1, MPI_INT, 0, MPI_COMM_WORLD);
 #endif
-    if (!open_ok) goto fin;
-    if (sw.traj) cli_make_parents(sw.traj);
+    if (!open_ok) return CLI_USAGE;
+    if (c->sw.traj) cli_make_parents(c->sw.traj);
+    return GO_ON;
+}
+
+/* Every run: on this process's threads, or shared among the ranks and gathered on rank 0. */
+static int work(sweep_cmd *c)
+{
     cli_catch_signals();
 #ifdef DTH_HAVE_MPI
-    if (mpi) MPI_Barrier(MPI_COMM_WORLD);
+    if (c->mpi) MPI_Barrier(MPI_COMM_WORLD);
 #endif
     double t_start = cli_now();
-    if (!mpi) {
-        run_range(&sw, 0, sw.nruns, NULL);
+    if (!c->mpi) {
+        run_range(&c->sw, 0, c->sw.nruns, NULL);
     }
 #ifdef DTH_HAVE_MPI
-    else if (mpi_runs(&sw, rank, size, dynamic, chunk)) {
-        cli_error("out of memory (rank %d)", rank);
-        status = CLI_FAIL;
-        goto fin;
+    else if (mpi_runs(&c->sw, c->rank, c->size, c->dynamic, c->chunk)) {
+        cli_error("out of memory (rank %d)", c->rank);
+        return CLI_FAIL;
     }
-#else
-    (void)dynamic;
-    (void)chunk;
 #endif
-    double t_work = cli_now() - t_start;
+    c->t_work = cli_now() - t_start;
     int sig = cli_signal_received();
     if (sig) {
         cli_error("interrupted (no summary written)");
-        status = 128 + sig;
-        goto fin;
+        return 128 + sig;
     }
-    status = CLI_OK;
-    if (rank == 0) {
-        if (!out_path && cli_out_open(&o, NULL)) {
-            status = CLI_FAIL;
-            goto fin;
-        }
-        if (write_summary(&sw, &o) || cli_out_finish(&o)) {
-            cli_error("cannot write '%s': %s", out_path ? out_path : "standard output", strerror(o.err));
-            status = CLI_FAIL;
-            goto fin;
-        }
-        /* runs that could not be set up or failed hard: the first one's message */
-        long bad = -1, hard = 0, stopped = 0;
-        for (long i = 0; i < sw.nruns; i++) {
-            const double *r = sw.rec + i * R_LEN;
-            if (r[R_SETUP] != 0 && bad < 0) bad = i;
-            if (r[R_SETUP] == 0 && r[R_STATUS] < 0) hard++;
-            if (r[R_SETUP] == 0 && r[R_STATUS] > 0) stopped++;
-        }
-        if (bad >= 0) {
-            char err[1024] = "";
-            dth_scene *scene = NULL;
-            dth_run_setup rs;
-            memset(&rs, 0, sizeof rs);
-            if (run_setup(&sw, bad, NULL, &scene, &rs, err, sizeof err) == DTH_OK)
-                snprintf(err, sizeof err, "%s", dth_strerror((int)sw.rec[bad * R_LEN + R_STATUS]));
-            cli_error("run %ld could not start: %s", bad, err);
-            dth_run_setup_clear(&rs);
-            dth_scene_free(scene);
-            status = CLI_USAGE;
-        }
-        if (stopped) cli_error("note: %ld of %ld trajectories stopped early (their status column)", stopped, sw.nruns);
-        if (stats) {
-            double mx = 0, sum = 0;
-            for (long i = 0; i < sw.nruns; i++) {
-                double m = sw.rec[i * R_LEN + R_MEM];
-                mx = fmax(mx, m);
-                sum += m;
-            }
-            int threads = 1;
+    return GO_ON;
+}
+
+/* --stats: the wall time, runs per second and the library's heap per run, on stderr. */
+static void print_stats(const sweep_cmd *c)
+{
+    const sweep *sw = &c->sw;
+    double mx = 0, sum = 0;
+    for (long i = 0; i < sw->nruns; i++) {
+        double m = sw->rec[i * R_LEN + R_MEM];
+        mx = fmax(mx, m);
+        sum += m;
+    }
+    int threads = 1;
 #ifdef _OPENMP
-            threads = omp_get_max_threads();
+    threads = omp_get_max_threads();
 #endif
-            fprintf(stderr, "dth sweep: %ld runs in %.3f s: %.1f runs/s (%d thread%s x %d rank%s, %s); library heap of "
-                    "one run: peak %.0f bytes (largest), %.0f (mean); summary record %zu bytes per run\n",
-                    sw.nruns, t_work, (double)sw.nruns / fmax(t_work, 1e-9), threads, threads == 1 ? "" : "s", size,
-                    size == 1 ? "" : "s", sw.megno ? "MEGNO on" : "MEGNO off", mx, sum / (double)sw.nruns,
-                    (size_t)R_LEN * sizeof(double));
-        }
-        if (hard) {
-            cli_error("%ld of %ld runs failed with a hard error (their status column)", hard, sw.nruns);
-            status = CLI_FAIL;
-        }
+    fprintf(stderr, "dth sweep: %ld runs in %.3f s: %.1f runs/s (%d thread%s x %d rank%s, %s); library heap of "
+            "one run: peak %.0f bytes (largest), %.0f (mean); summary record %zu bytes per run\n",
+            sw->nruns, c->t_work, (double)sw->nruns / fmax(c->t_work, 1e-9), threads, threads == 1 ? "" : "s",
+            c->size, c->size == 1 ? "" : "s", sw->megno ? "MEGNO on" : "MEGNO off", mx, sum / (double)sw->nruns,
+            (size_t)R_LEN * sizeof(double));
+}
+
+/* The runs that could not be set up (the first one's message: exit 2), stopped early (a note) or
+ * failed hard (exit 1), and the exit status. */
+static int report_runs(const sweep_cmd *c)
+{
+    const sweep *sw = &c->sw;
+    int status = CLI_OK;
+    long bad = -1, hard = 0, stopped = 0;
+    for (long i = 0; i < sw->nruns; i++) {
+        const double *r = sw->rec + i * R_LEN;
+        if (r[R_SETUP] != 0 && bad < 0) bad = i;
+        if (r[R_SETUP] == 0 && r[R_STATUS] < 0) hard++;
+        if (r[R_SETUP] == 0 && r[R_STATUS] > 0) stopped++;
     }
-fin:
+    if (bad >= 0) {
+        char err[1024] = "";
+        dth_scene *scene = NULL;
+        dth_run_setup rs;
+        memset(&rs, 0, sizeof rs);
+        if (run_setup(sw, bad, NULL, &scene, &rs, err, sizeof err) == DTH_OK)
+            snprintf(err, sizeof err, "%s", dth_strerror((int)sw->rec[bad * R_LEN + R_STATUS]));
+        cli_error("run %ld could not start: %s", bad, err);
+        dth_run_setup_clear(&rs);
+        dth_scene_free(scene);
+        status = CLI_USAGE;
+    }
+    if (stopped) cli_error("note: %ld of %ld trajectories stopped early (their status column)", stopped, sw->nruns);
+    if (c->stats) print_stats(c);
+    if (hard) {
+        cli_error("%ld of %ld runs failed with a hard error (their status column)", hard, sw->nruns);
+        status = CLI_FAIL;
+    }
+    return status;
+}
+
+/* Rank 0: the summary written, the runs reported; the exit status. */
+static int results(sweep_cmd *c)
+{
+    if (c->rank != 0) return CLI_OK;
+    if (!c->out_path && cli_out_open(&c->o, NULL)) return CLI_FAIL;
+    if (write_summary(&c->sw, &c->o) || cli_out_finish(&c->o)) {
+        cli_error("cannot write '%s': %s", c->out_path ? c->out_path : "standard output", strerror(c->o.err));
+        return CLI_FAIL;
+    }
+    return report_runs(c);
+}
+
+/* The end of MPI: every rank exits with rank 0's status. */
+static int mpi_end(sweep_cmd *c, int status)
+{
 #ifdef DTH_HAVE_MPI
-    if (mpi) {
-        int st = status;
-        MPI_Bcast(&st, 1, MPI_INT, 0, MPI_COMM_WORLD);
-        status = st;
+    if (c->mpi) {
+        MPI_Bcast(&status, 1, MPI_INT, 0, MPI_COMM_WORLD);
         MPI_Finalize();
     }
+#else
+    (void)c;
 #endif
-done:
-    if (o.buf) cli_out_abort(&o);
-    sweep_free(&sw);
-    dth_registry_free(reg);
-    for (int i = 0; i < nlibs; i++) dlclose(libs[i]);
     return status;
+}
+
+int cli_cmd_sweep(int argc, char **argv)
+{
+    sweep_cmd c;
+    memset(&c, 0, sizeof c);
+    c.sw.megno = 1;
+    c.dynamic = 1;
+    c.chunk = 16;
+    c.size = 1;
+    c.o.fd = -1;
+    c.sw.sets = calloc((size_t)argc, sizeof *c.sw.sets);
+    if (!c.sw.sets) {
+        cli_error("out of memory");
+        return CLI_FAIL;
+    }
+    int st = parse_args(argc, argv, &c);
+    if (st == GO_ON) st = read_inputs(&c);
+    if (st == GO_ON) st = load_models(&c);
+    if (st == GO_ON) st = check_run0(&c.sw);
+    if (st == GO_ON) {
+        /* from here on every rank ends through mpi_end */
+        mpi_start(&c, &argc, &argv);
+        st = open_summary(&c);
+        if (st == GO_ON) st = work(&c);
+        if (st == GO_ON) st = results(&c);
+        st = mpi_end(&c, st);
+    }
+    if (c.o.buf) cli_out_abort(&c.o);
+    sweep_free(&c.sw);
+    dth_registry_free(c.reg);
+    for (int i = 0; i < c.nlibs; i++) dlclose(c.libs[i]);
+    return st;
 }
