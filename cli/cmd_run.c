@@ -69,7 +69,6 @@ typedef struct run_job {
     double *zstart;       /* the first (or the resumed) vertex */
     const char *path;     /* the trajectory's output; NULL: standard output */
     char *ev_path;        /* the events CSV (NULL: none) */
-    int is_h5;            /* path is HDF5 (the events are its table /events) */
     dth_run_state S;      /* the driver's state */
     int rc, werr;         /* the driver's status; an output could not be written */
 } run_job;
@@ -322,8 +321,8 @@ static int events_path(run_job *j)
     return GO_ON;
 }
 
-/* Where the rows go: -o, else [output] file=, else (a resume) the checkpointed run's output; CSV
- * or HDF5 (by the name); the events file. */
+/* Where the rows go: -o, else [output] file=, else (a resume) the checkpointed run's output; its
+ * format (by the name, outfmt.h); the events file. */
 static int choose_outputs(run_job *j)
 {
     const run_opts *o = &j->o;
@@ -335,17 +334,16 @@ static int choose_outputs(run_job *j)
         cli_error("--checkpoint needs an output file (-o FILE or [output] file=): standard output cannot be resumed");
         return CLI_USAGE;
     }
-    size_t plen = path ? strlen(path) : 0;
-    j->is_h5 = path && ((plen > 3 && !strcmp(path + plen - 3, ".h5")) || (plen > 5 && !strcmp(path + plen - 5, ".hdf5")));
-    if (j->is_h5 && (o->ckpt_path || o->resume_path)) {
-        cli_error("checkpoints cover CSV output only (the output '%s' is HDF5)", path);
+    const out_format *fmt = j->r.fmt = run_format_for(path);
+    if (!fmt->resumable && (o->ckpt_path || o->resume_path)) {
+        cli_error("checkpoints cover CSV output only (the output '%s' is %s)", path, fmt->name);
         return CLI_USAGE;
     }
-    if (j->is_h5 && (o->ev_opt || rs->events_file)) {
-        cli_error("with HDF5 output the events are the table /events of '%s': give no events file", path);
+    if (fmt->events_in_file && (o->ev_opt || rs->events_file)) {
+        cli_error("with %s output the events are the table /events of '%s': give no events file", fmt->name, path);
         return CLI_USAGE;
     }
-    j->r.has_ev = rs->nevents > 0 && !j->is_h5;
+    j->r.has_ev = rs->nevents > 0 && !fmt->events_in_file;
     return j->r.has_ev ? events_path(j) : GO_ON;
 }
 
@@ -380,13 +378,8 @@ static int open_outputs(run_job *j)
     run_out *r = &j->r;
     if (j->path) cli_make_parents(j->path);
     if (j->ev_path) cli_make_parents(j->ev_path);
-    if (j->is_h5) {
-        int st = run_h5_open(r, j->path, j->argc, j->argv);
-        if (st) return st;
-    } else if (cli_out_open(&r->out, j->path)) {
-        return CLI_USAGE; /* the output cannot be written */
-    }
-    if (r->has_ev && cli_out_open(&r->ev, j->ev_path)) return CLI_USAGE;
+    int st = run_outputs_open(r, j->path, j->ev_path, j->argc, j->argv);
+    if (st) return st;
     if (j->o.resume_path && run_resume_prefix(r, &j->res.c, j->o.resume_path, j->ev_path))
         return r->out.failed || r->ev.failed ? CLI_FAIL : CLI_USAGE;
     cli_catch_signals();

@@ -1,11 +1,11 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * HDF5 output of dth run (meson feature 'hdf5'): tables of doubles, one row per sample, written
- * crash-safely like the CSV (a temporary FILE.tmp.PID.XXXXXX of lib/tempfile.h, fsync'ed and
- * renamed when the run ends). Each table is a 2-D
- * dataset (rows x columns, chunked, extendible) with its column names as the attribute
- * "columns"; the file carries the scene text and the provenance as root attributes. The values
- * are the doubles the CSV prints, bit for bit.
+ * dth run's HDF5 output format (outfmt.h; meson feature 'hdf5'): tables of doubles, one row per
+ * sample, written crash-safely like the CSV (a temporary FILE.tmp.PID.XXXXXX of lib/tempfile.h,
+ * fsync'ed and renamed when the run ends). Each table is a 2-D dataset (rows x columns, chunked,
+ * extendible) with its column names as the attribute "columns"; the file carries the scene text
+ * and the provenance as root attributes; the events are its table /events. The values are the
+ * doubles the CSV prints, bit for bit.
  */
 #include <errno.h>
 #include <fcntl.h>
@@ -13,7 +13,10 @@
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
-#include "h5out.h"
+#include "run_out.h"
+
+typedef struct h5file h5file;
+typedef struct h5table h5table;
 #include "../lib/tempfile.h"
 
 #ifdef DTH_HAVE_HDF5
@@ -49,7 +52,7 @@ static int attr_string(hid_t obj, const char *name, const char *text)
     return rc;
 }
 
-h5file *h5_open(const char *path, char *err, size_t errlen)
+static h5file *h5_open(const char *path, char *err, size_t errlen)
 {
     H5Eset_auto2(H5E_DEFAULT, NULL, NULL); /* no HDF5 error stack on stderr: we report */
     h5file *f = calloc(1, sizeof *f);
@@ -82,12 +85,12 @@ h5file *h5_open(const char *path, char *err, size_t errlen)
     return f;
 }
 
-int h5_attr(h5file *f, const char *name, const char *text)
+static int h5_attr(h5file *f, const char *name, const char *text)
 {
     return attr_string(f->file, name, text);
 }
 
-h5table *h5_table(h5file *f, const char *name, size_t ncol, const char *columns)
+static h5table *h5_table(h5file *f, const char *name, size_t ncol, const char *columns)
 {
     if (f->ntables >= 4) return NULL;
     h5table *t = calloc(1, sizeof *t);
@@ -131,7 +134,7 @@ static int flush_table(h5table *t)
     return rc;
 }
 
-int h5_row(h5table *t, const double *v)
+static int h5_row(h5table *t, const double *v)
 {
     memcpy(t->buf + t->nbuf * t->ncol, v, t->ncol * sizeof *v);
     if (++t->nbuf == CHUNK) return flush_table(t);
@@ -151,7 +154,7 @@ static void release(h5file *f)
     free(f);
 }
 
-int h5_finish(h5file *f, char *err, size_t errlen)
+static int h5_finish(h5file *f, char *err, size_t errlen)
 {
     int rc = 0;
     for (int i = 0; i < f->ntables && !rc; i++) rc = flush_table(f->tables[i]);
@@ -177,7 +180,7 @@ int h5_finish(h5file *f, char *err, size_t errlen)
     return rc;
 }
 
-void h5_abort(h5file *f)
+static void h5_abort(h5file *f)
 {
     if (!f) return;
     char *tmp = strdup(f->tmp);
@@ -186,25 +189,137 @@ void h5_abort(h5file *f)
     free(tmp);
 }
 
-int h5_available(void) { return 1; }
 
 #else /* without HDF5 */
 
-h5file *h5_open(const char *path, char *err, size_t errlen)
+static h5file *h5_open(const char *path, char *err, size_t errlen)
 {
     snprintf(err, errlen, "cannot write '%s': this dth was built without HDF5 (meson setup -Dhdf5=enabled, "
              "Debian package libhdf5-dev)", path);
     return NULL;
 }
-int h5_attr(h5file *f, const char *name, const char *text) { (void)f, (void)name, (void)text; return -1; }
-h5table *h5_table(h5file *f, const char *name, size_t ncol, const char *columns)
+static int h5_attr(h5file *f, const char *name, const char *text) { (void)f, (void)name, (void)text; return -1; }
+static h5table *h5_table(h5file *f, const char *name, size_t ncol, const char *columns)
 {
     (void)f, (void)name, (void)ncol, (void)columns;
     return NULL;
 }
-int h5_row(h5table *t, const double *v) { (void)t, (void)v; return -1; }
-int h5_finish(h5file *f, char *err, size_t errlen) { (void)f, (void)err, (void)errlen; return -1; }
-void h5_abort(h5file *f) { (void)f; }
-int h5_available(void) { return 0; }
+static int h5_row(h5table *t, const double *v) { (void)t, (void)v; return -1; }
+static int h5_finish(h5file *f, char *err, size_t errlen) { (void)f, (void)err, (void)errlen; return -1; }
+static void h5_abort(h5file *f) { (void)f; }
 
 #endif
+
+/* ---------------------------------------------------------------- the format */
+
+/* The format's state: the file and its tables. */
+typedef struct h5state {
+    h5file *f;
+    h5table *traj, *ev;
+} h5state;
+
+/* "dth VERSION; command: dth ARGS..." (malloc'd; NULL: out of memory). */
+static char *provenance(int argc, char **argv)
+{
+    size_t cl = 64;
+    for (int i = 0; i < argc; i++) cl += strlen(argv[i]) + 1;
+    char *prov = malloc(cl);
+    if (prov) {
+        size_t k = (size_t)snprintf(prov, cl, "dth %s; command: dth", DTH_VERSION_STRING);
+        for (int i = 0; i < argc; i++) k += (size_t)snprintf(prov + k, cl - k, " %s", argv[i]);
+    }
+    return prov;
+}
+
+/* The attribute NAME_codes of a code kind: "0 NAME, 1 NAME, ...". 0 or -1. */
+static int code_attr(run_out *r, h5file *f, const char *attr, int kind)
+{
+    size_t n = run_code_count(r, kind), nl = 8;
+    for (size_t i = 0; i < n; i++) nl += strlen(run_code_name(r, kind, (long)i)) + 24;
+    char *names = malloc(nl);
+    if (!names) return -1;
+    size_t k = 0;
+    for (size_t i = 0; i < n; i++)
+        k += (size_t)snprintf(names + k, nl - k, "%s%zu %s", i ? ", " : "", i, run_code_name(r, kind, (long)i));
+    int rc = h5_attr(f, attr, names);
+    free(names);
+    return rc;
+}
+
+static void h5fmt_release(run_out *r)
+{
+    h5state *st = r->fmt_state;
+    if (!st) return;
+    h5_abort(st->f);
+    free(st);
+    r->fmt_state = NULL;
+}
+
+static int h5fmt_open(run_out *r, const char *path, const char *ev_path, int argc, char **argv)
+{
+    (void)ev_path;
+    char herr[1200];
+    size_t tl;
+    char *text = NULL;
+    h5state *st = calloc(1, sizeof *st);
+    if (st && dth_scene_text(r->scene, NULL, NULL, &text, &tl)) text = NULL;
+    if (st && text) st->f = h5_open(path, herr, sizeof herr);
+    if (!st || !st->f) {
+        cli_error("%s", st && text ? herr : "out of memory");
+        free(text);
+        free(st);
+        return CLI_USAGE;
+    }
+    r->fmt_state = st;
+    /* provenance: the version and the command line; the scene as run */
+    char *prov = provenance(argc, argv);
+    int hrc = !prov || h5_attr(st->f, "scene", text) || h5_attr(st->f, "provenance", prov) ||
+              code_attr(r, st->f, "region_codes", COL_REGION) || code_attr(r, st->f, "branch_codes", COL_BRANCH) ||
+              !(st->traj = h5_table(st->f, "trajectory", r->ncol, run_columns(r, 0)));
+    free(text);
+    free(prov);
+    if (!hrc && r->rs->nevents)
+        hrc = code_attr(r, st->f, "event_codes", COL_EVENT) ||
+              !(st->ev = h5_table(st->f, "events", r->encol, run_columns(r, 1)));
+    if (hrc) {
+        cli_error("cannot write '%s': HDF5 error", path);
+        h5fmt_release(r);
+        return CLI_FAIL;
+    }
+    return 0; /* rows go to HDF5; standard output stays empty */
+}
+
+static int h5fmt_header(run_out *r)
+{
+    (void)r; /* the column names are the tables' attributes, written when they were made */
+    return 0;
+}
+
+static int h5fmt_row(run_out *r, int ev, const double *v)
+{
+    h5state *st = r->fmt_state;
+    return h5_row(ev ? st->ev : st->traj, v) ? -1 : 0;
+}
+
+static int h5fmt_finish(run_out *r)
+{
+    h5state *st = r->fmt_state;
+    char herr[1200];
+    int hrc = h5_finish(st->f, herr, sizeof herr);
+    free(st);
+    r->fmt_state = NULL;
+    if (hrc) cli_error("%s", herr);
+    return hrc ? -1 : 0;
+}
+
+static void h5fmt_failed(run_out *r, const char *path, const char *ev_path)
+{
+    (void)ev_path;
+    cli_error("cannot write '%s' (HDF5)", path);
+    h5fmt_release(r);
+}
+
+static const char *const h5_ext[] = {".h5", ".hdf5", NULL};
+
+const out_format cli_format_hdf5 = {"HDF5", h5_ext, 1, 0, h5fmt_open, h5fmt_header, h5fmt_row, h5fmt_finish,
+                                    h5fmt_failed, h5fmt_release};
