@@ -75,6 +75,9 @@ unsigned long long cli_fnv1a(unsigned long long h, const void *p, size_t n);
 
 /* Open; on failure prints "dth: cannot write 'FILE': reason" and returns -1. */
 int cli_out_open(cli_out *o, const char *path);
+/* The same, naming where the path was set in the message ("ORIGIN: cannot write ..."; NULL: as
+ * cli_out_open), such as "scene.ini:11: output.file". */
+int cli_out_open_from(cli_out *o, const char *path, const char *origin);
 /* Append one line (without its newline; it is added). Returns -1 after a write failure. */
 int cli_out_line(cli_out *o, const char *line, size_t len);
 /* Write out every buffered line and fsync a file: `written` is then on disk. -1 on failure. */

@@ -69,6 +69,7 @@ typedef struct run_job {
     double *zstart;       /* the first (or the resumed) vertex */
     const char *path;     /* the trajectory's output; NULL: standard output */
     char *ev_path;        /* the events CSV (NULL: none) */
+    char origin[2][1100]; /* where the scene named the output and the events file (r.out_origin, r.ev_origin) */
     dth_run_state S;      /* the driver's state */
     int rc, werr;         /* the driver's status; an output could not be written */
 } run_job;
@@ -321,6 +322,14 @@ static int events_path(run_job *j)
     return GO_ON;
 }
 
+/* "FILE:LINE: output.file" (ev = 0) or "...: events.file" (ev = 1): where the scene named the file. */
+static const char *scene_origin(run_job *j, int ev)
+{
+    const char *sec = ev ? "events" : "output", *org = dth_scene_origin(j->scene, sec, "file");
+    snprintf(j->origin[ev], sizeof j->origin[ev], "%s: %s.file", org ? org : "the scene", sec);
+    return j->origin[ev];
+}
+
 /* Where the rows go: -o, else [output] file=, else (a resume) the checkpointed run's output; its
  * format (by the name, outfmt.h); the events file. */
 static int choose_outputs(run_job *j)
@@ -344,6 +353,8 @@ static int choose_outputs(run_job *j)
         return CLI_USAGE;
     }
     j->r.has_ev = rs->nevents > 0 && !fmt->events_in_file;
+    j->r.out_origin = path && path == rs->out_file ? scene_origin(j, 0) : NULL;
+    j->r.ev_origin = j->r.has_ev && !o->ev_opt && rs->events_file ? scene_origin(j, 1) : NULL;
     return j->r.has_ev ? events_path(j) : GO_ON;
 }
 

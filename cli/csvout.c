@@ -12,8 +12,8 @@
 static int csv_open(run_out *r, const char *path, const char *ev_path, int argc, char **argv)
 {
     (void)argc, (void)argv;
-    if (cli_out_open(&r->out, path)) return CLI_USAGE; /* the output cannot be written */
-    if (r->has_ev && cli_out_open(&r->ev, ev_path)) return CLI_USAGE;
+    if (cli_out_open_from(&r->out, path, r->out_origin)) return CLI_USAGE; /* the output cannot be written */
+    if (r->has_ev && cli_out_open_from(&r->ev, ev_path, r->ev_origin)) return CLI_USAGE;
     return 0;
 }
 

@@ -265,7 +265,8 @@ static int h5fmt_open(run_out *r, const char *path, const char *ev_path, int arg
     if (st && dth_scene_text(r->scene, NULL, NULL, &text, &tl)) text = NULL;
     if (st && text) st->f = h5_open(path, herr, sizeof herr);
     if (!st || !st->f) {
-        cli_error("%s", st && text ? herr : "out of memory");
+        if (st && text) cli_error("%s%s%s", r->out_origin ? r->out_origin : "", r->out_origin ? ": " : "", herr);
+        else cli_error("out of memory");
         free(text);
         free(st);
         return CLI_USAGE;

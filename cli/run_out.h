@@ -40,6 +40,8 @@ typedef struct run_out {
     long step_k, step_samples; /* samples within the current step (bounded) */
     int too_many;
     cli_out ev;            /* CSV: the events' file ([events]) */
+    const char *out_origin, *ev_origin; /* where the scene set the output's, the events' name ("FILE:LINE:
+                                           output.file"; NULL: the command line), for messages */
     int has_ev;
     double *vals;          /* one row's values */
     unsigned char *kind, *ekind; /* column kinds of the trajectory and events tables */

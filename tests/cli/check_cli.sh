@@ -151,23 +151,7 @@ hint=$(sed -n "s/.*ceiling 6\/5 |psi\/psi'| = [0-9.e-]* of the physical root her
 "$DTH" run "$T/stiff.ini" -s integrator.h="$hint" -o "$T/stiff.csv" 2>"$T/stiff.err" || fail "the advised h = $hint fails: $(cat "$T/stiff.err")"
 ok "stiff step: the ceiling named, the advised h passes"
 
-# ---- bad scene files: exit 2, one line "dth: FILE:LINE: ...", nothing on stdout, no output file
-for f in "$BAD"/bad_*.ini; do
-    want=$(sed -n '1s/^; expect: //p' "$f")
-    # -o would replace a bad [output] file=; elsewhere it checks that no output file appears
-    if grep -q '^file' "$f"; then o=; else o="-o $T/bad.csv"; fi
-    "$DTH" run "$f" $o >"$T/bad.out" 2>"$T/bad.err"
-    rc=$?
-    name=$(basename "$f")
-    [ $rc -eq 2 ] || fail "$name: exit $rc, want 2"
-    [ "$(wc -l <"$T/bad.err")" -eq 1 ] || fail "$name: stderr not one line: $(cat "$T/bad.err")"
-    grep -q '^dth: ' "$T/bad.err" || fail "$name: message lacks 'dth: '"
-    grep -qF "$want" "$T/bad.err" || fail "$name: message '$(cat "$T/bad.err")' lacks '$want'"
-    [ -s "$T/bad.out" ] && fail "$name: wrote to stdout"
-    [ -e "$T/bad.csv" ] && fail "$name: left an output file"
-    [ -z "$(ls "$T" | grep '\.tmp\.')" ] || fail "$name: left a temporary file"
-done
-ok "bad scene files"
+# (bad scene files: check_bad.sh)
 
 # ---- bad command lines and unwritable outputs
 expect2() {
