@@ -17,7 +17,7 @@
 
 typedef struct h5file h5file;
 typedef struct h5table h5table;
-#include "../lib/tempfile.h"
+#include "tempfile.h" /* lib/ (cli/meson.build puts it on the include path) */
 
 #ifdef DTH_HAVE_HDF5
 #include <hdf5.h>

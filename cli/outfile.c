@@ -16,7 +16,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 #include "cli.h"
-#include "../lib/tempfile.h" /* the temporaries' names and the hash, as the library's checkpoints have them */
+#include "tempfile.h" /* lib/: the temporaries' names and the hash, as the library's checkpoints have them */
 
 enum { OUT_CAP = 1 << 16 };
 
