@@ -120,6 +120,12 @@ int cli_parse_grid(const char *s, long max, cli_grid *g);
 /* Grid value i; symmetric in a and b, so a symmetric range has an exact 0 in the middle. */
 double cli_grid_at(const cli_grid *g, long i);
 
+/* The model's derivatives against finite differences at the initial state of rs (dth_model_check;
+ * skipped above 200 degrees of freedom, its memory growing as (2n+1)^2). A failed verdict, or a check
+ * that cannot run (a model error, leaving the domain), is printed naming scene_path, `where` ("the
+ * initial state") and `skip` (how to skip the check): then the exit status, else 0. */
+int cli_check_model(const dth_run_setup *rs, const char *scene_path, const char *where, const char *skip);
+
 /* Seconds on a monotonic clock. */
 double cli_now(void);
 

@@ -218,29 +218,12 @@ static int check_setup(run_job *j)
     return GO_ON;
 }
 
-/* The model's derivatives against finite differences at the initial state, once (dth_model_check;
- * its memory grows as (2n+1)^2: skipped above 200 degrees of freedom). */
+/* The model's derivatives against finite differences at the initial state, once (cli_check_model). */
 static int check_model(run_job *j)
 {
-    const dth_run_setup *rs = &j->rs;
-    if (!j->o.model_check || rs->n > 200) return GO_ON;
-    double *y = calloc(2 * rs->n + 1, sizeof *y);
-    if (!y) {
-        cli_error("out of memory");
-        return CLI_FAIL;
-    }
-    memcpy(y, rs->q0, rs->n * sizeof *y);
-    y[rs->n] = rs->t0;
-    memcpy(y + rs->n + 1, rs->p0, rs->n * sizeof *y);
-    dth_model_check_report rep;
-    int rc = dth_model_check(rs->model, y, &rep);
-    free(y);
-    if (rc == DTH_OK && !rep.pass) {
-        cli_error("%s: model '%s' fails its derivative check at the initial state: %s (--no-model-check runs "
-                  "it anyway)", j->o.scene_path, dth_model_get_type(rs->model)->name, rep.message);
-        return CLI_USAGE;
-    }
-    return GO_ON;
+    if (!j->o.model_check) return GO_ON;
+    int st = cli_check_model(&j->rs, j->o.scene_path, "the initial state", "--no-model-check runs it anyway");
+    return st ? st : GO_ON;
 }
 
 /* The integrator at the initial state, or at the checkpoint's. */

@@ -108,6 +108,7 @@ static void usage_sweep(FILE *f)
             "  --trajectories P  also write each run's trajectory to P-RUN.csv (the scene's [output] points, every,\n"
             "                    dt; the columns of dth run without diagnostics)\n"
             "  --no-megno        skip MEGNO (it costs a tangent map per step)\n"
+            "  --no-model-check  skip the check of the model's derivatives at the first run's initial state\n"
             "  --model-lib F:SYM load a model type from a shared object: SYM names its const dth_model_type\n"
             "  --schedule static|dynamic  how MPI ranks share the runs (default dynamic: chunks from a counter)\n"
             "  --chunk N         runs per chunk of the dynamic schedule (default 16)\n"
@@ -662,84 +663,113 @@ static int under_mpi(void)
     return getenv("OMPI_COMM_WORLD_SIZE") || getenv("PMI_SIZE") || getenv("PMIX_RANK");
 }
 
-/*
- * Every rank computes its share of the runs, then rank 0 gathers the records (index + R_LEN
- * doubles each) and places them by index. static: run i on rank i mod size; dynamic: chunks of
- * `chunk` runs taken from a counter on rank 0 (MPI_Fetch_and_op) until none is left.
- */
-static int mpi_runs(sweep *sw, int rank, int size, int dynamic, long chunk)
+/* Static schedule: run i on rank i mod size. The indices of this rank's runs into *idx (malloc'd),
+ * their number into *mine: 0, or -1 out of memory (nothing run). */
+static int mpi_static(sweep *sw, int rank, int size, long **idx, long *mine)
 {
-    long total = sw->nruns, mine = 0, cap = 0;
-    long *idx = NULL;
-    if (!dynamic) {
-        cap = total / size + 1;
-        idx = malloc((size_t)cap * sizeof *idx);
-        if (!idx) return -1;
-        for (long i = rank; i < total; i += size) idx[mine++] = i;
-        run_range(sw, 0, mine, idx);
-    } else {
-        MPI_Win win;
-        long *next = NULL;
-        MPI_Win_allocate(rank == 0 ? (MPI_Aint)sizeof(long) : 0, sizeof(long), MPI_INFO_NULL, MPI_COMM_WORLD,
-                         &next, &win);
-        if (rank == 0) *next = 0;
-        MPI_Barrier(MPI_COMM_WORLD);
-        for (;;) {
-            long start, inc = chunk;
-            MPI_Win_lock(MPI_LOCK_SHARED, 0, 0, win);
-            MPI_Fetch_and_op(&inc, &start, MPI_LONG, 0, 0, MPI_SUM, win);
-            MPI_Win_unlock(0, win);
-            if (start >= total || cli_signal_received()) break;
-            long end = start + chunk < total ? start + chunk : total;
-            if (mine + (end - start) > cap) {
-                cap = 2 * cap + (end - start) + 64;
-                long *t = realloc(idx, (size_t)cap * sizeof *idx);
-                if (!t) {
-                    free(idx);
-                    MPI_Win_free(&win);
-                    return -1;
-                }
-                idx = t;
+    long total = sw->nruns;
+    *idx = malloc((size_t)(total / size + 1) * sizeof **idx);
+    if (!*idx) return -1;
+    for (long i = rank; i < total; i += size) (*idx)[(*mine)++] = i;
+    run_range(sw, 0, *mine, *idx);
+    return 0;
+}
+
+/* Dynamic schedule: chunks of `chunk` runs taken from a counter on rank 0 (MPI_Fetch_and_op) until
+ * none is left. As mpi_static; after a failed allocation this rank stops taking chunks, but it still
+ * meets the others at the window's collective calls. */
+static int mpi_dynamic(sweep *sw, int rank, long chunk, long **idx, long *mine)
+{
+    long total = sw->nruns, cap = 0;
+    int rc = 0;
+    MPI_Win win;
+    long *next = NULL;
+    MPI_Win_allocate(rank == 0 ? (MPI_Aint)sizeof(long) : 0, sizeof(long), MPI_INFO_NULL, MPI_COMM_WORLD, &next,
+                     &win);
+    if (rank == 0) *next = 0;
+    MPI_Barrier(MPI_COMM_WORLD);
+    for (;;) {
+        long start, inc = chunk;
+        MPI_Win_lock(MPI_LOCK_SHARED, 0, 0, win);
+        MPI_Fetch_and_op(&inc, &start, MPI_LONG, 0, 0, MPI_SUM, win);
+        MPI_Win_unlock(0, win);
+        if (start >= total || cli_signal_received()) break;
+        long end = start + chunk < total ? start + chunk : total;
+        if (*mine + (end - start) > cap) {
+            cap = 2 * cap + (end - start) + 64;
+            long *t = realloc(*idx, (size_t)cap * sizeof **idx);
+            if (!t) {
+                rc = -1;
+                break;
             }
-            for (long i = start; i < end; i++) idx[mine++] = i;
-            run_range(sw, mine - (end - start), mine, idx);
+            *idx = t;
         }
-        MPI_Barrier(MPI_COMM_WORLD);
-        MPI_Win_free(&win);
+        for (long i = start; i < end; i++) (*idx)[(*mine)++] = i;
+        run_range(sw, *mine - (end - start), *mine, *idx);
     }
-    /* pack (index, record) and gather on rank 0 */
-    int w = R_LEN + 1;
-    double *pack = malloc((size_t)(mine ? mine : 1) * (size_t)w * sizeof *pack);
-    if (!pack) {
-        free(idx);
-        return -1;
-    }
-    for (long j = 0; j < mine; j++) {
-        pack[j * w] = (double)idx[j];
-        memcpy(pack + j * w + 1, sw->rec + idx[j] * R_LEN, R_LEN * sizeof *pack);
-    }
-    int cnt = (int)(mine * w), *counts = NULL, *displs = NULL;
-    double *all = NULL;
+    MPI_Barrier(MPI_COMM_WORLD);
+    MPI_Win_free(&win);
+    return rc;
+}
+
+/* Pack (index, record) of this rank's runs and gather them on rank 0, which places them by index.
+ * Every buffer is allocated, and every rank told whether all were, before the collective calls:
+ * 0, -1 (out of memory here) or -2 (on another rank). `ok` is this rank's state so far. */
+static int mpi_gather(sweep *sw, int rank, int size, const long *idx, long mine, int ok)
+{
+    long total = sw->nruns;
+    int w = R_LEN + 1, all_ok = 0;
+    double *pack = malloc((size_t)(mine ? mine : 1) * (size_t)w * sizeof *pack), *all = NULL;
+    int *counts = NULL, *displs = NULL;
     if (rank == 0) {
         counts = malloc((size_t)size * sizeof *counts);
         displs = malloc((size_t)size * sizeof *displs);
         all = malloc((size_t)total * (size_t)w * sizeof *all);
     }
-    MPI_Gather(&cnt, 1, MPI_INT, counts, 1, MPI_INT, 0, MPI_COMM_WORLD);
-    if (rank == 0)
-        for (int r = 0, off = 0; r < size; r++) displs[r] = off, off += counts[r];
-    MPI_Gatherv(pack, cnt, MPI_DOUBLE, all, counts, displs, MPI_DOUBLE, 0, MPI_COMM_WORLD);
-    if (rank == 0)
-        for (long j = 0; j < total; j++) {
-            long i = (long)all[j * w];
-            memcpy(sw->rec + i * R_LEN, all + j * w + 1, R_LEN * sizeof *all);
+    ok = ok && pack && (rank != 0 || (counts && displs && all));
+    MPI_Allreduce(&ok, &all_ok, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    if (all_ok) {
+        for (long j = 0; j < mine; j++) {
+            pack[j * w] = (double)idx[j];
+            memcpy(pack + j * w + 1, sw->rec + idx[j] * R_LEN, R_LEN * sizeof *pack);
         }
+        int cnt = (int)(mine * w);
+        MPI_Gather(&cnt, 1, MPI_INT, counts, 1, MPI_INT, 0, MPI_COMM_WORLD);
+        if (rank == 0)
+            for (int r = 0, off = 0; r < size; r++) displs[r] = off, off += counts[r];
+        MPI_Gatherv(pack, cnt, MPI_DOUBLE, all, counts, displs, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+        if (rank == 0)
+            for (long j = 0; j < total; j++) {
+                long i = (long)all[j * w];
+                memcpy(sw->rec + i * R_LEN, all + j * w + 1, R_LEN * sizeof *all);
+            }
+    }
     free(all);
     free(counts);
     free(displs);
     free(pack);
+    return all_ok ? 0 : ok ? -2 : -1;
+}
+
+/* The name of an MPI thread support level. */
+static const char *mpi_level_name(int level)
+{
+    return level == MPI_THREAD_SINGLE ? "MPI_THREAD_SINGLE" : level == MPI_THREAD_FUNNELED ? "MPI_THREAD_FUNNELED"
+           : level == MPI_THREAD_SERIALIZED ? "MPI_THREAD_SERIALIZED" : "MPI_THREAD_MULTIPLE";
+}
+
+/*
+ * Every rank computes its share of the runs (static or dynamic schedule), then rank 0 gathers the
+ * records (index + R_LEN doubles each) and places them by index. 0, -1 (out of memory on this rank)
+ * or -2 (on another one): then no rank has the summary.
+ */
+static int mpi_runs(sweep *sw, int rank, int size, int dynamic, long chunk)
+{
+    long *idx = NULL, mine = 0;
+    int rc = dynamic ? mpi_dynamic(sw, rank, chunk, &idx, &mine) : mpi_static(sw, rank, size, &idx, &mine);
+    rc = mpi_gather(sw, rank, size, idx, mine, rc == 0);
     free(idx);
-    return 0;
+    return rc;
 }
 #endif
 
@@ -754,7 +784,7 @@ enum { MAX_LIBS = 16 };
 typedef struct sweep_cmd {
     sweep sw;
     const char *out_path, *list_path;
-    int dynamic, stats;
+    int dynamic, stats, model_check;
     long chunk;
     const char *lib_args[MAX_LIBS]; /* the --model-lib values, loaded once the registry exists */
     void *libs[MAX_LIBS];
@@ -863,6 +893,8 @@ static int parse_args(int argc, char **argv, sweep_cmd *c)
             sw->megno = 0;
         } else if (!strcmp(a, "--stats")) {
             c->stats = 1;
+        } else if (!strcmp(a, "--no-model-check")) {
+            c->model_check = 0;
         } else if (!strcmp(a, "-s") || !strcmp(a, "-o") || !strcmp(a, "--vary") || !strcmp(a, "--list") ||
                    !strcmp(a, "--trajectories") || !strcmp(a, "--model-lib") || !strcmp(a, "--schedule") ||
                    !strcmp(a, "--chunk")) {
@@ -954,41 +986,45 @@ static int load_models(sweep_cmd *c)
     return GO_ON;
 }
 
-/* Run 0 serially first: its scene must set up (a message for a bad key), its model pass the
- * derivative check, and its invariants name the summary's columns. */
-static int check_run0(sweep *sw)
+/* How many runs check_first tries before it takes run 0's failure to set up for a bad scene or option. */
+#define SWEEP_PROBE_RUNS 100
+
+/* Before the work, serially: the first run that sets up (of the first SWEEP_PROBE_RUNS) names the
+ * summary's invariant columns and has its model checked against finite differences (model_check);
+ * when none of them sets up, run 0's message is that of a bad scene, key or option (exit 2). A run
+ * that cannot start (its values put the model where it fails) is a row of the summary, not the end
+ * of the sweep. */
+static int check_first(sweep *sw, int model_check)
 {
-    char err[1024];
-    dth_scene *scene = NULL;
-    dth_run_setup rs;
-    memset(&rs, 0, sizeof rs);
-    int rc = run_setup(sw, 0, NULL, &scene, &rs, err, sizeof err);
-    if (rc) {
-        cli_error("%s", err);
+    char err[1024], err0[1024] = "";
+    for (long i = 0; i < sw->nruns && i < SWEEP_PROBE_RUNS; i++) {
+        dth_scene *scene = NULL;
+        dth_run_setup rs;
+        memset(&rs, 0, sizeof rs);
+        int rc = run_setup(sw, i, NULL, &scene, &rs, err, sizeof err);
+        if (rc) {
+            dth_scene_free(scene);
+            if (rc == DTH_ENOMEM) {
+                cli_error("out of memory");
+                return CLI_FAIL;
+            }
+            if (i == 0) snprintf(err0, sizeof err0, "%s", err);
+            continue;
+        }
+        sw->ninv = (int)dth_model_n_invariants(rs.model);
+        if (sw->ninv > SWEEP_MAX_INV) sw->ninv = SWEEP_MAX_INV;
+        for (int j = 0; j < sw->ninv; j++)
+            snprintf(sw->inv_names[j], sizeof sw->inv_names[j], "%s", dth_model_invariant_name(rs.model, (size_t)j));
+        if (strcmp(rs.method, "dth")) sw->megno = 0;
+        char where[64];
+        snprintf(where, sizeof where, "run %ld's initial state", i);
+        int st = model_check ? cli_check_model(&rs, sw->scene_path, where, "--no-model-check skips the check") : 0;
+        dth_run_setup_clear(&rs);
         dth_scene_free(scene);
-        return rc == DTH_ENOMEM ? CLI_FAIL : CLI_USAGE;
+        return st ? st : GO_ON;
     }
-    sw->ninv = (int)dth_model_n_invariants(rs.model);
-    if (sw->ninv > SWEEP_MAX_INV) sw->ninv = SWEEP_MAX_INV;
-    for (int j = 0; j < sw->ninv; j++)
-        snprintf(sw->inv_names[j], sizeof sw->inv_names[j], "%s", dth_model_invariant_name(rs.model, (size_t)j));
-    if (strcmp(rs.method, "dth")) sw->megno = 0;
-    double *y = calloc(2 * rs.n + 1, sizeof *y);
-    dth_model_check_report rep;
-    rep.pass = 1;
-    if (y && rs.n <= 200) {
-        memcpy(y, rs.q0, rs.n * sizeof *y);
-        y[rs.n] = rs.t0;
-        memcpy(y + rs.n + 1, rs.p0, rs.n * sizeof *y);
-        if (dth_model_check(rs.model, y, &rep) != DTH_OK) rep.pass = 1;
-    }
-    free(y);
-    if (!rep.pass)
-        cli_error("%s: model '%s' fails its derivative check at run 0's initial state: %s", sw->scene_path,
-                  dth_model_get_type(rs.model)->name, rep.message);
-    dth_run_setup_clear(&rs);
-    dth_scene_free(scene);
-    return rep.pass ? GO_ON : CLI_USAGE;
+    cli_error("%s", err0);
+    return CLI_USAGE;
 }
 
 /* Under an MPI launcher: MPI with this process's rank among size. */
@@ -1002,6 +1038,20 @@ static void mpi_start(sweep_cmd *c, int *argc, char ***argv)
         MPI_Comm_rank(MPI_COMM_WORLD, &c->rank);
         MPI_Comm_size(MPI_COMM_WORLD, &c->size);
         c->mpi = 1;
+        /* OpenMP threads beside MPI need MPI_THREAD_FUNNELED (MPI is called from the main thread
+         * only); below it a rank runs one thread, which writes the same bytes */
+        int threads = 1;
+#ifdef _OPENMP
+        threads = omp_get_max_threads();
+#endif
+        if (prov < MPI_THREAD_FUNNELED && threads > 1) {
+#ifdef _OPENMP
+            omp_set_num_threads(1);
+#endif
+            if (c->rank == 0)
+                cli_error("note: the MPI library provides thread support %s, below the MPI_THREAD_FUNNELED that "
+                          "%d OpenMP threads per rank need: each rank runs 1 thread", mpi_level_name(prov), threads);
+        }
     }
 #endif
 }
@@ -1035,9 +1085,10 @@ static int work(sweep_cmd *c)
         run_range(&c->sw, 0, c->sw.nruns, NULL);
     }
 #ifdef DTH_HAVE_MPI
-    else if (mpi_runs(&c->sw, c->rank, c->size, c->dynamic, c->chunk)) {
-        cli_error("out of memory (rank %d)", c->rank);
-        return CLI_FAIL;
+    else {
+        int rc = mpi_runs(&c->sw, c->rank, c->size, c->dynamic, c->chunk);
+        if (rc == -1) cli_error("out of memory (rank %d): no summary written", c->rank);
+        if (rc) return CLI_FAIL;
     }
 #endif
     c->t_work = cli_now() - t_start;
@@ -1137,6 +1188,7 @@ int cli_cmd_sweep(int argc, char **argv)
     c.sw.megno = 1;
     c.dynamic = 1;
     c.chunk = 16;
+    c.model_check = 1;
     c.size = 1;
     c.o.fd = -1;
     c.sw.sets = calloc((size_t)argc, sizeof *c.sw.sets);
@@ -1147,7 +1199,7 @@ int cli_cmd_sweep(int argc, char **argv)
     int st = parse_args(argc, argv, &c);
     if (st == GO_ON) st = read_inputs(&c);
     if (st == GO_ON) st = load_models(&c);
-    if (st == GO_ON) st = check_run0(&c.sw);
+    if (st == GO_ON) st = check_first(&c.sw, c.model_check);
     if (st == GO_ON) {
         /* from here on every rank ends through mpi_end */
         mpi_start(&c, &argc, &argv);

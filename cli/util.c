@@ -150,6 +150,33 @@ int cli_same_file(const char *a, const char *b)
     return same;
 }
 
+int cli_check_model(const dth_run_setup *rs, const char *scene_path, const char *where, const char *skip)
+{
+    if (rs->n > 200) return 0; /* its memory grows as (2n+1)^2 */
+    double *y = calloc(2 * rs->n + 1, sizeof *y);
+    if (!y) {
+        cli_error("out of memory");
+        return CLI_FAIL;
+    }
+    memcpy(y, rs->q0, rs->n * sizeof *y);
+    y[rs->n] = rs->t0;
+    memcpy(y + rs->n + 1, rs->p0, rs->n * sizeof *y);
+    dth_model_check_report rep;
+    int rc = dth_model_check(rs->model, y, &rep);
+    free(y);
+    const char *name = dth_model_get_type(rs->model)->name;
+    if (rc != DTH_OK) {
+        /* a check that cannot run has not passed */
+        cli_error("%s: model '%s': its derivative check cannot run at %s: %s (%s)", scene_path, name, where,
+                  dth_strerror(rc), skip);
+        return rc > 0 || rc == DTH_EINVAL ? CLI_USAGE : CLI_FAIL;
+    }
+    if (!rep.pass) {
+        cli_error("%s: model '%s' fails its derivative check at %s: %s (%s)", scene_path, name, where, rep.message, skip);
+        return CLI_USAGE;
+    }
+    return 0;
+}
 
 const char *cli_stop_hint(const char *regularizer, int status, double h, const dth_model *m, const double *z,
                           double lambda, char *buf, size_t len)

@@ -6,13 +6,15 @@
 # quoted list value; each --trajectories file equal to `dth run` with the same overrides, byte for
 # byte; MEGNO of Henon-Heiles as a user model (--model-lib) near 2 at E = 1/12 and growing at
 # E = 1/6; MEGNO ending at the first regularized step; usage errors.
-# usage: check_sweep.sh PATH/TO/dth SOURCE_ROOT HH_PLUGIN.so [MPIRUN]
-#   (with MPIRUN: only the grid, for 1 thread against 2 ranks)
+# usage: check_sweep.sh PATH/TO/dth SOURCE_ROOT HH_PLUGIN.so [MPIRUN [MPI_SHIM.so]]
+#   (with MPIRUN: only the grid, for 1 thread against 2 ranks; with the shim (tests/cli/mpi_shim.c)
+#   also an MPI that provides no thread support, and a failed allocation on rank 0)
 set -u
 DTH=$1
 ROOT=$2
 HH=$3
 MPIRUN=${4:-}
+SHIM=${5:-}
 SC=$ROOT/scenes
 T=$(mktemp -d /tmp/dth_sweep_test.XXXXXX)
 trap 'rm -rf "$T"' EXIT
@@ -42,6 +44,26 @@ if [ -n "$MPIRUN" ]; then
         2>/dev/null || fail "mpirun -n 2 with 2 threads"
     cmp -s "$T/s1.csv" "$T/m22.csv" || fail "the summary differs between 1 thread and 2 ranks x 2 threads"
     ok "2 MPI ranks (dynamic, static; 1 and 2 threads each) byte-identical to 1 thread"
+    if [ -n "$SHIM" ]; then
+        G16="--vary initial.q=-3:3:16 --vary initial.p=-2.5:2.5:16"
+        OMP_NUM_THREADS=1 "$DTH" sweep "$SC/pendulum.ini" $G16 -o "$T/g16.csv" --stats 2>"$T/g16.err" || fail "16 x 16 grid"
+        # MPI_THREAD_SINGLE with 2 OpenMP threads: a note, one thread per rank, the same bytes
+        OMP_NUM_THREADS=2 "$MPIRUN" $as_root --oversubscribe -n 2 -x LD_PRELOAD="$SHIM" -x DTH_SHIM_THREAD_SINGLE=1 \
+            "$DTH" sweep "$SC/pendulum.ini" $G16 -o "$T/single.csv" 2>"$T/single.err" || fail "thread level SINGLE: $(cat "$T/single.err")"
+        grep -q "provides thread support MPI_THREAD_SINGLE, below the MPI_THREAD_FUNNELED that 2 OpenMP threads per rank need: each rank runs 1 thread" \
+            "$T/single.err" || fail "no note on the thread level: $(cat "$T/single.err")"
+        cmp -s "$T/g16.csv" "$T/single.csv" || fail "thread level SINGLE: the summary differs"
+        # rank 0 cannot allocate the gathered records (runs x (record + index)): exit 1, a message, no hang
+        rec=$(sed -n 's/.*summary record \([0-9]*\) bytes per run.*/\1/p' "$T/g16.err")
+        [ -n "$rec" ] || fail "no record size in --stats: $(cat "$T/g16.err")"
+        timeout 120 "$MPIRUN" $as_root --oversubscribe -n 2 -x LD_PRELOAD="$SHIM" -x DTH_SHIM_FAIL_MALLOC=$((256 * (rec + 8))) \
+            "$DTH" sweep "$SC/pendulum.ini" $G16 -o "$T/nomem.csv" >/dev/null 2>"$T/nomem.err"
+        rc=$?
+        [ $rc -eq 1 ] || fail "rank 0 out of memory: exit $rc, want 1: $(head -3 "$T/nomem.err")"
+        grep -q "^dth: out of memory (rank 0): no summary written" "$T/nomem.err" || fail "rank 0 out of memory: $(head -3 "$T/nomem.err")"
+        [ -e "$T/nomem.csv" ] && fail "rank 0 out of memory: a summary was written"
+        ok "MPI below MPI_THREAD_FUNNELED runs one thread per rank; rank 0 out of memory before the gather: exit 1"
+    fi
     # the MPI test stops here; the rest runs in the test without MPIRUN
     [ $fails -eq 0 ] && echo "check_sweep (MPI): all passed"
     exit $((fails != 0))

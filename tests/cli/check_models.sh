@@ -1,0 +1,44 @@
+#!/bin/sh
+# SPDX-License-Identifier: MIT
+# Misbehaving user models (tests/cli/bad_models.c, loaded with --model-lib) in dth sweep and dth run:
+# never a crash; a derivative check that cannot run is a failure; a trajectory the model fails in
+# is a row of the summary, the others are kept.
+# usage: check_models.sh PATH/TO/dth SOURCE_ROOT BAD_MODELS.so
+set -u
+DTH=$1
+BM=$3
+T=$(mktemp -d /tmp/dth_models_test.XXXXXX)
+trap 'rm -rf "$T"' EXIT
+fails=0
+fail() { echo "FAIL: $*" >&2; fails=$((fails + 1)); }
+ok() { echo "ok: $*"; }
+printf '[model]\nname = hard-fail\n[initial]\nq = 1\np = 0\n[integrator]\nh = 0.1\nsteps = 20\n' >"$T/osc.ini"
+
+# ---- the derivative check cannot run (the model's third derivative fails): a failure, no summary
+"$DTH" sweep "$T/osc.ini" --model-lib "$BM:test_third_fail" -s model.name=third-fail --vary initial.q=0.5:2:3 \
+    -o "$T/third.csv" 2>"$T/third.err"
+rc=$?
+[ $rc -eq 1 ] || fail "sweep, check cannot run: exit $rc, want 1: $(cat "$T/third.err")"
+grep -q "model 'third-fail': its derivative check cannot run at run 0's initial state: a model callback reported an error" \
+    "$T/third.err" || fail "sweep, check cannot run: $(cat "$T/third.err")"
+[ -e "$T/third.csv" ] && fail "sweep, check cannot run: a summary was written"
+ok "a derivative check that cannot run fails the sweep"
+
+# ---- run 0 cannot start (q = 2 beyond the model's qmax = 1.5: it fails hard there): its row says so,
+# the other runs are in the summary, exit 2
+"$DTH" sweep "$T/osc.ini" --model-lib "$BM:test_hard_fail" -s model.qmax=1.5 --vary initial.q=2:0.5:3 \
+    -o "$T/hard0.csv" 2>"$T/hard0.err"
+rc=$?
+[ $rc -eq 2 ] || fail "sweep, run 0 cannot start: exit $rc, want 2: $(cat "$T/hard0.err")"
+[ "$(cut -d, -f1-3 "$T/hard0.csv" | tr '\n' ' ')" = "run,initial.q,status 0,2,DTH_EINVAL 1,1.25,ok 2,0.5,ok " ] ||
+    fail "sweep, run 0 cannot start: summary $(cat "$T/hard0.csv")"
+grep -q "^dth: run 0 could not start: .*initial.q: the model 'hard-fail' cannot start here" "$T/hard0.err" ||
+    fail "sweep, run 0 cannot start: $(cat "$T/hard0.err")"
+# a bad key is still refused before any run (every run fails alike)
+"$DTH" sweep "$T/osc.ini" --model-lib "$BM:test_hard_fail" -s model.qmx=1 --vary initial.q=2:0.5:3 -o "$T/key.csv" \
+    2>"$T/key.err"
+[ $? -eq 2 ] && [ ! -e "$T/key.csv" ] && grep -q "model.qmx" "$T/key.err" || fail "sweep, bad key: $(cat "$T/key.err")"
+ok "a run the model cannot start is a row of the summary; a bad key is refused before the runs"
+
+[ $fails -eq 0 ] && echo "check_models: all passed"
+exit $((fails != 0))
