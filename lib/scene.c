@@ -1096,8 +1096,16 @@ static int setup_regularizer(const dth_scene *s, const dth_registry *reg, dth_ru
         }
     /* default: `smooth` for DTH (ordinary steps, a changeover around psi = 0), none for baselines */
     const char *def = strcmp(rs->method, "dth") ? "none" : "smooth";
-    const dth_regularizer_type *t = dth_registry_find_regularizer(reg, em ? em->value : def);
-    if (!t) {
+    const char *name = em ? em->value : def;
+    const dth_regularizer_type *t = dth_registry_find_regularizer(reg, name);
+    if (!t && !em && strcmp(name, "none")) {
+        /* a registry built without the regularizers (a program's own, holding models only) */
+        dth__set_err(err, errlen, "%s: [regularize]: the default regularizer '%s' is not in the registry (register "
+                     "it, e.g. with dth_registry_add_builtin, or give [regularize] method = none)",
+                     s->source ? s->source : "scene", def);
+        return DTH_EINVAL;
+    }
+    if (!t && strcmp(name, "none")) {
         char names[256];
         size_t len = 0;
         names[0] = '\0';
@@ -1106,8 +1114,8 @@ static int setup_regularizer(const dth_scene *s, const dth_registry *reg, dth_ru
                                     dth_registry_regularizer_at(reg, i)->name);
         return bad(err, errlen, em, "unknown regularizer '%s' (available: %s)", em->value, names);
     }
-    snprintf(rs->regularize, sizeof rs->regularize, "%s", t->name);
-    if (!strcmp(t->name, "none")) {
+    snprintf(rs->regularize, sizeof rs->regularize, "%s", t ? t->name : "none");
+    if (!t || !strcmp(t->name, "none")) { /* none (raw DTH, the baselines' default) needs no registered type */
         for (size_t i = 0; i < s->n; i++)
             if (!strcmp(s->e[i].section, "regularize") && strcmp(s->e[i].key, "method"))
                 return bad(err, errlen, &s->e[i], "unknown key (regularizer 'none' takes no parameters)");

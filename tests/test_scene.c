@@ -595,6 +595,42 @@ static void test_default_regularizer(void)
     dth_registry_free(reg);
 }
 
+/* A program's own registry holding a model but no regularizer: the default regularizer (smooth, for
+ * DTH) cannot be found, which is a message naming it and the fix, not a crash; none (the fix, and a
+ * baseline's default) needs no registered type. */
+static void test_registry_without_regularizers(void)
+{
+    dth_registry *reg = NULL;
+    CU_ASSERT_FATAL(dth_registry_new(NULL, &reg) == DTH_OK);
+    CU_ASSERT_FATAL(dth_registry_add_model(reg, &dth_model_harmonic) == DTH_OK);
+    static const char *base = "[model]\nname = harmonic\n[initial]\nq = 1\np = 0\n[integrator]\nh = 0.1\nsteps = 3\n";
+    char err[512] = "";
+    dth_scene *s;
+    dth_run_setup rs;
+    memset(&rs, 0, sizeof rs);
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    CU_ASSERT_FATAL(dth_scene_load_mem(s, "own.ini", base, strlen(base), err, sizeof err) == DTH_OK);
+    CU_ASSERT_EQUAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT(strstr(err, "own.ini: [regularize]: the default regularizer 'smooth' is not in the registry") != NULL);
+    CU_ASSERT(strstr(err, "method = none") != NULL);
+    CU_ASSERT(rs.model == NULL); /* untouched on failure */
+    /* the fix the message names, and a baseline (default none) */
+    const char *fixes[] = {"regularize.method=none", "integrator.method=rk4"};
+    for (int i = 0; i < 2; i++) {
+        dth_scene *t;
+        CU_ASSERT_FATAL(dth_scene_new(NULL, &t) == DTH_OK);
+        CU_ASSERT_FATAL(dth_scene_load_mem(t, "own.ini", base, strlen(base), err, sizeof err) == DTH_OK);
+        CU_ASSERT_FATAL(dth_scene_set(t, fixes[i], err, sizeof err) == DTH_OK);
+        CU_ASSERT_EQUAL_FATAL(dth_scene_setup(t, reg, &rs, err, sizeof err), DTH_OK);
+        CU_ASSERT_STRING_EQUAL(rs.regularize, "none");
+        CU_ASSERT(rs.regularizer == NULL);
+        dth_run_setup_clear(&rs);
+        dth_scene_free(t);
+    }
+    dth_scene_free(s);
+    dth_registry_free(reg);
+}
+
 /* The default regularizer (no method= line) refusing a parameter whose name its message does not
  * quote: an error naming the override, not a NULL entry (found by fuzz_override). Also the new
  * [output] points and [events] keys: resolved, and bad values named. */
@@ -651,6 +687,7 @@ static CU_TestInfo scene_tests[] = {
     {"dth_scene_text loads back to the same entries (random overrides and files)", test_text_round_trip},
     {"a NUL byte is refused; the 197-character line limit, exactly", test_nul_and_line_limit},
     {"default regularizer: smooth for DTH, none for baselines", test_default_regularizer},
+    {"a registry without regularizers: a message, not a crash", test_registry_without_regularizers},
     {"the default regularizer refusing a key; [output] points and [events]", test_default_regularizer_bad_key_and_events},
     CU_TEST_INFO_NULL,
 };
