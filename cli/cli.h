@@ -108,6 +108,15 @@ char *cli_abspath(const char *path);
 /* 1 if the two paths name the same file (existing: same inode; else the same absolute path). */
 int cli_same_file(const char *a, const char *b);
 
+/* A file a command reads, and what it is in messages ("the scene file"). */
+typedef struct cli_input {
+    const char *path; /* NULL: none */
+    const char *what;
+} cli_input;
+/* An output must not replace an input: if `path` (may be NULL: standard output) is one of the n
+ * inputs, prints "refusing to write WHAT to 'PATH': it is INPUT" and returns CLI_USAGE; else 0. */
+int cli_check_clash(const char *what, const char *path, const cli_input *in, size_t n);
+
 /* A grid of n values from a to b, given as "a:b:n" (dth map's axes, dth sweep's --vary). */
 typedef struct cli_grid {
     double a, b;

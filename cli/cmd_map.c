@@ -342,7 +342,8 @@ static int load_scene(map_cmd *c, int argc, char **argv)
     return GO_ON;
 }
 
-/* The results' memory and both outputs, opened before the work so an unwritable prefix fails at once. */
+/* The results' memory and both outputs (neither may be the scene), opened before the work so an
+ * unwritable prefix fails at once. */
 static int open_outputs(map_cmd *c)
 {
     c->cells = calloc((size_t)c->total, sizeof *c->cells);
@@ -355,6 +356,9 @@ static int open_outputs(map_cmd *c)
     }
     snprintf(c->path_map, plen, "%s.csv", c->prefix);
     snprintf(c->path_traj, plen, "%s-traj.csv", c->prefix);
+    const cli_input scene[] = {{c->scene_path, "the scene file"}};
+    if (cli_check_clash("the map", c->path_map, scene, 1) || cli_check_clash("the trajectory", c->path_traj, scene, 1))
+        return CLI_USAGE;
     cli_make_parents(c->path_map);
     if (cli_out_open(&c->om, c->path_map)) return CLI_USAGE;
     if (cli_out_open(&c->ot, c->path_traj)) return CLI_USAGE;

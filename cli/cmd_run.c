@@ -341,28 +341,26 @@ static int choose_outputs(run_job *j)
     return j->r.has_ev ? events_path(j) : GO_ON;
 }
 
-/* An output that would overwrite an input is refused (a resume may write its checkpoint over the
- * one it read: that is whole in memory, and a checkpoint is replaced atomically). */
+/* An output that would overwrite an input is refused: the scene, the checkpoint, the trajectory
+ * (for the events); on a resume also the checkpointed run's file of the other kind, which the resume
+ * reads (its own kind it continues: the rows are copied before the file is replaced). A resume may
+ * write its checkpoint over the one it read: that is whole in memory, and replaced atomically. */
 static int check_clashes(const run_job *j)
 {
     const char *path = j->path, *ev_path = j->ev_path, *ckpt_path = j->o.ckpt_path, *resume_path = j->o.resume_path;
-    const char *outs[2] = {path, ev_path}, *scene_file = resume_path ? NULL : j->o.scene_path;
-    for (int i = 0; i < 2; i++) {
-        if (!outs[i]) continue;
-        const char *clash = cli_same_file(outs[i], scene_file) ? "the scene file"
-                            : cli_same_file(outs[i], ckpt_path) ? "the checkpoint file"
-                            : resume_path && cli_same_file(outs[i], resume_path) ? "the checkpoint file" : NULL;
-        if (i == 1 && !clash && cli_same_file(ev_path, path)) clash = "the trajectory's output";
-        if (clash) {
-            cli_error("refusing to write %s '%s': it is %s", i ? "events to" : "the output to", outs[i], clash);
-            return CLI_USAGE;
-        }
-    }
-    if (ckpt_path && cli_same_file(ckpt_path, scene_file)) {
-        cli_error("refusing to write the checkpoint to '%s': it is the scene file", ckpt_path);
-        return CLI_USAGE;
-    }
-    return GO_ON;
+    const char *scene_file = resume_path ? NULL : j->o.scene_path;
+    const cli_ckpt *c = resume_path ? &j->res.c : NULL;
+    const cli_input out_in[] = {{scene_file, "the scene file"}, {ckpt_path, "the checkpoint file"},
+                                {resume_path, "the checkpoint file"},
+                                {c && c->ev.path[0] ? c->ev.path : NULL, "the checkpointed run's events file"}};
+    const cli_input ev_in[] = {{scene_file, "the scene file"}, {ckpt_path, "the checkpoint file"},
+                               {resume_path, "the checkpoint file"}, {path, "the trajectory's output"},
+                               {c && c->out.path[0] ? c->out.path : NULL, "the checkpointed run's output"}};
+    const cli_input ckpt_in[] = {{scene_file, "the scene file"}};
+    int st = cli_check_clash("the output", path, out_in, sizeof out_in / sizeof *out_in);
+    if (!st) st = cli_check_clash("events", ev_path, ev_in, sizeof ev_in / sizeof *ev_in);
+    if (!st) st = cli_check_clash("the checkpoint", ckpt_path, ckpt_in, 1);
+    return st ? st : GO_ON;
 }
 
 /* The outputs (with their missing folders), a resume's rows copied in; stop requests caught from

@@ -942,11 +942,63 @@ static int read_inputs(sweep_cmd *c)
             sw->nruns *= sw->keys[j].g.n;
         }
     }
+    sw->traj_width = 1;
+    for (long m = sw->nruns - 1; m >= 10; m /= 10) sw->traj_width++;
     sw->text = read_file(sw->scene_path, &sw->textlen);
     if (!sw->text) {
         cli_error("cannot read '%s': %s", sw->scene_path, strerror(errno));
         return CLI_USAGE;
     }
+    return GO_ON;
+}
+
+/* The run whose trajectory file (--trajectories P: P-RUN.csv, RUN of traj_width digits) is `path`,
+ * or -1: compared by absolute names (the folders may not exist yet: then as given). */
+static long traj_run_of(const sweep *sw, const char *path)
+{
+    if (!sw->traj || !path) return -1;
+    char *ap = cli_abspath(path), *at = cli_abspath(sw->traj);
+    const char *p = ap && at ? ap : path, *t = ap && at ? at : sw->traj;
+    size_t tl = strlen(t), pl = strlen(p), w = (size_t)sw->traj_width;
+    long run = -1;
+    if (pl == tl + 1 + w + 4 && !strncmp(p, t, tl) && p[tl] == '-' && !strcmp(p + tl + 1 + w, ".csv")) {
+        run = 0;
+        for (size_t k = 0; k < w && run >= 0; k++)
+            run = isdigit((unsigned char)p[tl + 1 + k]) ? 10 * run + (p[tl + 1 + k] - '0') : -1;
+        if (run >= sw->nruns) run = -1;
+    }
+    free(ap);
+    free(at);
+    return run;
+}
+
+/* No output may replace an input: the summary and the trajectories are neither the scene, the list,
+ * a --model-lib file, nor (the summary) one of the trajectories. */
+static int check_clashes(sweep_cmd *c)
+{
+    sweep *sw = &c->sw;
+    cli_input in[2 + MAX_LIBS];
+    char lib[MAX_LIBS][4096];
+    size_t n = 0;
+    in[n++] = (cli_input){sw->scene_path, "the scene file"};
+    in[n++] = (cli_input){c->list_path, "the list (--list)"};
+    for (int i = 0; i < c->nlib_args; i++) {
+        snprintf(lib[i], sizeof lib[i], "%.*s", (int)(strrchr(c->lib_args[i], ':') - c->lib_args[i]), c->lib_args[i]);
+        in[n++] = (cli_input){lib[i], "a model library (--model-lib)"};
+    }
+    if (cli_check_clash("the summary", c->out_path, in, n)) return CLI_USAGE;
+    long run = traj_run_of(sw, c->out_path);
+    if (run >= 0) {
+        cli_error("refusing to write the summary to '%s': it is the trajectory of run %ld (--trajectories %s)",
+                  c->out_path, run, sw->traj);
+        return CLI_USAGE;
+    }
+    for (size_t i = 0; i < n; i++)
+        if ((run = traj_run_of(sw, in[i].path)) >= 0) {
+            cli_error("refusing to write the trajectory of run %ld (--trajectories %s) to '%s': it is %s", run, sw->traj,
+                      in[i].path, in[i].what);
+            return CLI_USAGE;
+        }
     return GO_ON;
 }
 
@@ -976,8 +1028,6 @@ static int load_models(sweep_cmd *c)
         }
     }
     sw->reg = c->reg;
-    sw->traj_width = 1;
-    for (long m = sw->nruns - 1; m >= 10; m /= 10) sw->traj_width++;
     sw->rec = calloc((size_t)sw->nruns * R_LEN, sizeof *sw->rec);
     if (!sw->rec) {
         cli_error("out of memory (%ld runs)", sw->nruns);
@@ -1198,6 +1248,7 @@ int cli_cmd_sweep(int argc, char **argv)
     }
     int st = parse_args(argc, argv, &c);
     if (st == GO_ON) st = read_inputs(&c);
+    if (st == GO_ON) st = check_clashes(&c);
     if (st == GO_ON) st = load_models(&c);
     if (st == GO_ON) st = check_first(&c.sw, c.model_check);
     if (st == GO_ON) {

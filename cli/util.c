@@ -149,6 +149,15 @@ int cli_same_file(const char *a, const char *b)
     free(cb);
     return same;
 }
+int cli_check_clash(const char *what, const char *path, const cli_input *in, size_t n)
+{
+    for (size_t i = 0; path && i < n; i++)
+        if (in[i].path && cli_same_file(path, in[i].path)) {
+            cli_error("refusing to write %s to '%s': it is %s", what, path, in[i].what);
+            return CLI_USAGE;
+        }
+    return 0;
+}
 
 int cli_check_model(const dth_run_setup *rs, const char *scene_path, const char *where, const char *skip)
 {
