@@ -203,7 +203,15 @@ grep -q '^harmonic .*omega=1' "$T/models.txt" || fail "models: harmonic line"
 # each parameter's description on its own indented line
 grep -q '^    omega2  squared small-oscillation frequency' "$T/models.txt" || fail "models: no parameter descriptions"
 "$DTH" regularizers | grep -q '^    alpha  *step law' || fail "regularizers: no parameter descriptions"
-ok "--version, --help, models"
+# dth roots with a range far beyond the vertex's root scale (issue 24): the physical pair, and a note
+# that the scan covers less than the range (it listed +-24003 at 1e10, nothing from 1e14 on)
+for L in 1e10 1e308; do
+    "$DTH" roots "$SC/pendulum-rotation.ini" --range $L >"$T/roots.csv" 2>"$T/roots.err" || fail "roots --range $L: exit $?"
+    [ "$(cut -d, -f1,2 "$T/roots.csv" | tr '\n' ' ')" = "lambda,class -0.050034554519442595,minus 0.050034554519442595,plus " ] ||
+        fail "roots --range $L: $(cat "$T/roots.csv")"
+    grep -q "^dth: note: the scan covers lambda in \[-51.2, 51.2\] only" "$T/roots.err" || fail "roots --range $L: $(cat "$T/roots.err")"
+done
+ok "--version, --help, models, roots"
 
 # ---- killed runs: SIGTERM finishes the file (exit 143); SIGKILL leaves a temporary of whole lines
 long="-s integrator.t_end=1e7"
