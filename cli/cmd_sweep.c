@@ -151,6 +151,24 @@ static int parse_key(const char *opt, const char *s, size_t len, vkey *k)
     return 0;
 }
 
+/* The varied key k[j] must differ from k[0 .. j-1]: the same key twice (or a whole list and one of
+ * its elements) would set it twice, the last value silently winning. Prints "WHERE: WHAT j (KEY) sets
+ * what WHAT i (KEY) sets" (where may be NULL) and returns -1. */
+static int check_unique(const char *where, const char *what, const vkey *k, int j)
+{
+    for (int i = 0; i < j; i++) {
+        if (strcmp(k[i].sec, k[j].sec) || strcmp(k[i].key, k[j].key)) continue;
+        if (k[i].elem && k[j].elem && k[i].elem != k[j].elem) continue; /* two elements of one list */
+        char a[160], b[160];
+        snprintf(a, sizeof a, k[j].elem ? "%s.%s[%d]" : "%s.%s", k[j].sec, k[j].key, k[j].elem);
+        snprintf(b, sizeof b, k[i].elem ? "%s.%s[%d]" : "%s.%s", k[i].sec, k[i].key, k[i].elem);
+        cli_error("%s%s%s %d (%s) sets what %s %d (%s) sets: each key may be varied once", where ? where : "",
+                  where ? ": " : "", what, j + 1, a, what, i + 1, b);
+        return -1;
+    }
+    return 0;
+}
+
 /* --vary K=a:b:n */
 static int parse_vary(const char *s, vkey *k)
 {
@@ -239,8 +257,11 @@ static int read_list(sweep *sw, const char *path)
             break;
         }
         if (!header) {
+            char where[4200];
+            snprintf(where, sizeof where, "%s:%ld", path, lineno);
             for (int j = 0; j < nf && !rc; j++)
-                rc = parse_key(path, fields[j], strlen(fields[j]), &sw->keys[j]);
+                rc = parse_key(path, fields[j], strlen(fields[j]), &sw->keys[j]) ||
+                     check_unique(where, "column", sw->keys, j);
             for (int j = 0; j < nf; j++) free(fields[j]);
             if (rc) break;
             sw->nkeys = nf;
@@ -844,7 +865,8 @@ static int option_value(sweep_cmd *c, const char *a, const char *v)
             cli_error("at most %d --vary keys", SWEEP_MAX_KEYS);
             return CLI_USAGE;
         }
-        if (parse_vary(v, &sw->keys[sw->nkeys])) return CLI_USAGE;
+        if (parse_vary(v, &sw->keys[sw->nkeys]) || check_unique(NULL, "--vary", sw->keys, sw->nkeys))
+            return CLI_USAGE;
         sw->nkeys++;
     } else if (!strcmp(a, "--list")) {
         c->list_path = v;

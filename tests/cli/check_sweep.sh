@@ -149,6 +149,17 @@ expect2 "$SC/pendulum.ini" --list "$T/no-such.csv"
 expect2 "$SC/pendulum.ini" --vary initial.q=0:1:3 --model-lib /no/such.so:x
 expect2 "$SC/pendulum.ini" --vary initial.q=0:1:3 --schedule sometimes
 expect2 "$SC/pendulum.ini" --vary initial.q=0:1:3 -o /dev/null/x.csv
+# a key varied twice (a repeated --list column, a whole list and its element, two --vary) is refused:
+# the last value silently won
+printf 'initial.q,integrator.h,initial.q\n0.5,0.05,1\n' >"$T/dup.csv"
+expect2 "$SC/pendulum.ini" --list "$T/dup.csv" -o "$T/dup-out.csv"
+grep -q "dup.csv:1: column 3 (initial.q) sets what column 1 (initial.q) sets" "$T/e.err" || fail "duplicate column: $(cat "$T/e.err")"
+[ -e "$T/dup-out.csv" ] && fail "duplicate column: a summary was written"
+printf 'initial.q,initial.q[1]\n0.5,1\n' >"$T/dup.csv"
+expect2 "$SC/pendulum.ini" --list "$T/dup.csv"
+grep -q "column 2 (initial.q\[1\]) sets what column 1 (initial.q) sets" "$T/e.err" || fail "element of a varied list: $(cat "$T/e.err")"
+expect2 "$SC/pendulum.ini" --vary initial.q=0:1:2 --vary initial.q=1:2:2
+grep -q "^dth: --vary 2 (initial.q) sets what --vary 1 (initial.q) sets" "$T/e.err" || fail "--vary twice: $(cat "$T/e.err")"
 "$DTH" sweep --help | grep -q "megno_t" || fail "--help does not describe the columns"
 ok "usage errors"
 
