@@ -134,6 +134,13 @@ int dth_model_new(const dth_model_type *type, const dth_kv *kv, size_t nkv, size
     dth_model_args args = {kv, nkv, n_hint, alloc, err, errlen};
     if (err && errlen) err[0] = '\0';
     int rc = type->create(&args, &m->self, &m->info);
+    if (rc == DTH_OK && !m->self && type->n_params > 0) {
+        /* a model with parameters keeps them in its instance: none is a bug of the model (its eval
+         * would read through NULL); stateless models without parameters may leave self NULL */
+        dth__set_err(err, errlen, "create succeeded without an instance (*self = NULL), but the model has "
+                     "parameters to keep in one: a bug in the model");
+        rc = DTH_EINVAL;
+    }
     if (rc == DTH_OK && (m->info.n == 0 || m->info.n > DTH__MAX_DOF)) {
         dth__set_err(err, errlen, "model '%s' reported %zu degrees of freedom (1 to 2^40 supported)", type->name,
                      m->info.n);
@@ -144,6 +151,18 @@ int dth_model_new(const dth_model_type *type, const dth_kv *kv, size_t nkv, size
         dth__set_err(err, errlen, "model '%s' reported %zu invariants (at most %zu supported)", type->name, ninv,
                      DTH__MAX_INVARIANTS);
         rc = DTH_EINVAL;
+    }
+    for (size_t i = 0; rc == DTH_OK && i < ninv; i++) {
+        /* the names are columns of CSV files: present, not empty, no separators or control characters */
+        const char *nm = type->invariant_name ? type->invariant_name(m->self, i) : NULL;
+        int ok = nm && nm[0];
+        for (const char *c = nm; ok && *c; c++) ok = *c != ',' && *c != '"' && (unsigned char)*c >= 0x20;
+        if (!ok) {
+            dth__set_err(err, errlen, "invariant %zu of %zu has %s (invariant_name returned %s%s%s)", i + 1, ninv,
+                         nm && nm[0] ? "a name that cannot be a CSV column" : "no name",
+                         nm ? "'" : "NULL", nm ? nm : "", nm ? "'" : "");
+            rc = DTH_EINVAL;
+        }
     }
     if (rc == DTH_OK && m->info.bandwidth >= 2 * m->info.n && (m->info.hess_kind == DTH_HESS_BANDED)) {
         dth__set_err(err, errlen, "model '%s' reported a Hessian bandwidth of %zu for %zu degrees of freedom",

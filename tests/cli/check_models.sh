@@ -2,7 +2,8 @@
 # SPDX-License-Identifier: MIT
 # Misbehaving user models (tests/cli/bad_models.c, loaded with --model-lib) in dth sweep and dth run:
 # never a crash; a derivative check that cannot run is a failure; a trajectory the model fails in
-# is a row of the summary, the others are kept.
+# is a row of the summary, the others are kept; a model without an instance, or with an invariant
+# without a name, is refused naming the fault.
 # usage: check_models.sh PATH/TO/dth SOURCE_ROOT BAD_MODELS.so
 set -u
 DTH=$1
@@ -39,6 +40,23 @@ grep -q "^dth: run 0 could not start: .*initial.q: the model 'hard-fail' cannot 
     2>"$T/key.err"
 [ $? -eq 2 ] && [ ! -e "$T/key.csv" ] && grep -q "model.qmx" "$T/key.err" || fail "sweep, bad key: $(cat "$T/key.err")"
 ok "a run the model cannot start is a row of the summary; a bad key is refused before the runs"
+
+# ---- create succeeds without an instance (it crashed in the model's eval: SIGSEGV); an invariant
+# without a name (it became the column "(null)_drift"): refused by dth_model_new, exit 2, one line
+"$DTH" sweep "$T/osc.ini" --model-lib "$BM:test_null_self" -s model.name=null-self --vary initial.q=0:1:3 \
+    -o "$T/null.csv" 2>"$T/null.err"
+rc=$?
+[ $rc -eq 2 ] || fail "null self: exit $rc, want 2: $(cat "$T/null.err")"
+grep -q "model 'null-self': create succeeded without an instance (\*self = NULL)" "$T/null.err" ||
+    fail "null self: $(cat "$T/null.err")"
+"$DTH" sweep "$T/osc.ini" --model-lib "$BM:test_null_invname" -s model.name=null-invname --vary initial.q=0:1:3 \
+    -o "$T/inv.csv" 2>"$T/inv.err"
+rc=$?
+[ $rc -eq 2 ] || fail "invariant without a name: exit $rc, want 2: $(cat "$T/inv.err")"
+grep -q "model 'null-invname': invariant 1 of 1 has no name (invariant_name returned NULL)" "$T/inv.err" ||
+    fail "invariant without a name: $(cat "$T/inv.err")"
+[ -e "$T/inv.csv" ] && fail "invariant without a name: a summary was written: $(head -1 "$T/inv.csv")"
+ok "a model without an instance, an invariant without a name: refused, naming the fault"
 
 [ $fails -eq 0 ] && echo "check_models: all passed"
 exit $((fails != 0))
