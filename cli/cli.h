@@ -147,6 +147,11 @@ double cli_now(void);
 const char *cli_stop_hint(const char *regularizer, int status, double h, const dth_model *m, const double *z,
                           double lambda, char *buf, size_t len);
 
+/* The step advice of a stopped run: "; a smaller step may pass: -s integrator.h=H/4", unless |h| lies
+ * below the conditioning limit of the vertex z (dth_step_floor at 1e-6: a smaller step is known less
+ * well there), which is then said instead, with a fixed-step method to use. Into buf. */
+const char *cli_smaller_step(const dth_model *m, const double *z, double h, char *buf, size_t len);
+
 /* Stop requests from SIGINT, SIGTERM and SIGHUP: install the handlers; the signal number or 0. */
 void cli_catch_signals(void);
 int cli_signal_received(void);

@@ -533,9 +533,11 @@ static int close_outputs(run_job *j)
 static void stop_hint(const run_job *j, char *hint, size_t len)
 {
     const dth_run_setup *rs = &j->rs;
-    if (j->S.k - j->r.k_begin <= 1 && !j->o.resume_path)
-        snprintf(hint, len, "; the first step failed: a smaller step may pass: -s integrator.h=%.6g", rs->opt.h / 4);
-    else if (j->is_dth)
+    if (j->S.k - j->r.k_begin <= 1 && !j->o.resume_path) {
+        char adv[400];
+        cli_smaller_step(rs->model, j->it ? dth_integrator_vertex(j->it) : NULL, rs->opt.h, adv, sizeof adv);
+        snprintf(hint, len, "; the first step failed: %s", adv + 2); /* (adv: "; advice") */
+    } else if (j->is_dth)
         cli_stop_hint(rs->regularize, j->rc, rs->opt.h, rs->model, dth_integrator_vertex(j->it),
                       dth_integrator_lambda(j->it), hint, len);
     else
@@ -563,7 +565,7 @@ static int report(const run_job *j)
         cli_error("interrupted at k=%ld, t=%.17g (the rows so far are kept)%s", S->k, S->t, crossing);
         return 128 + sig;
     } else if (rc > 0) {
-        char hint[256];
+        char hint[512];
         stop_hint(j, hint, sizeof hint);
         cli_error("stopped at k=%ld, t=%.17g: %s (%s)%s%s", S->k, S->t, dth_strerror(rc), emsg, crossing, hint);
         return CLI_STOPPED;

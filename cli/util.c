@@ -210,6 +210,22 @@ const char *cli_stop_hint(const char *regularizer, int status, double h, const d
         return buf;
     }
     free(work);
-    snprintf(buf, len, "; a smaller step may pass: -s integrator.h=%.6g", h / 4);
+    cli_smaller_step(m, z, h, buf, len);
+    return buf;
+}
+
+const char *cli_smaller_step(const dth_model *m, const double *z, double h, char *buf, size_t len)
+{
+    /* below the conditioning limit a smaller step is known less accurately, not better: no advice of h */
+    double hmin = 0;
+    double *work = m && z ? calloc(dth_model_work_size(m) + 1, sizeof *work) : NULL;
+    if (work && dth_step_floor(m, z, 1e-6, &hmin, work) != DTH_OK) hmin = 0;
+    free(work);
+    if (fabs(h) < hmin)
+        snprintf(buf, len, "; no step size helps: |h| = %.3g lies below the conditioning limit %.3g here (psi is "
+                           "round-off small, as near an equilibrium) and a smaller step is known less well; a fixed-step "
+                           "method integrates it: -s integrator.method=gauss4", fabs(h), hmin);
+    else
+        snprintf(buf, len, "; a smaller step may pass: -s integrator.h=%.6g", h / 4);
     return buf;
 }

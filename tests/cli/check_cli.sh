@@ -151,6 +151,23 @@ hint=$(sed -n "s/.*ceiling 6\/5 |psi\/psi'| = [0-9.e-]* of the physical root her
 "$DTH" run "$T/stiff.ini" -s integrator.h="$hint" -o "$T/stiff.csv" 2>"$T/stiff.err" || fail "the advised h = $hint fails: $(cat "$T/stiff.err")"
 ok "stiff step: the ceiling named, the advised h passes"
 
+# ---- the advice of a stopped run is one that works (issue 24): a pendulum within round-off of its
+# equilibrium (q = 1e-9) stops under any step below the conditioning limit; the old advice h/4 stopped
+# again, every time. Follow the advice: it must pass, or say that no step helps and name a method that does.
+"$DTH" run "$SC/pendulum.ini" -s initial.q=1e-9 -s integrator.h=0.0125 -o "$T/eq.csv" 2>"$T/eq.err"
+[ $? -eq 3 ] || fail "pendulum at its equilibrium: exit $? ($(cat "$T/eq.err"))"
+advised=$(sed -n 's/.*a smaller step may pass: -s integrator.h=\([0-9.e+-]*\)$/\1/p' "$T/eq.err")
+if [ -n "$advised" ]; then
+    "$DTH" run "$SC/pendulum.ini" -s initial.q=1e-9 -s integrator.h="$advised" -o "$T/eq.csv" 2>"$T/eq2.err" ||
+        fail "the advised h = $advised stops again: $(tail -1 "$T/eq2.err")"
+else
+    grep -q "no step size helps: |h| = 0.0125 lies below the conditioning limit .*-s integrator.method=gauss4$" "$T/eq.err" ||
+        fail "pendulum at its equilibrium: $(cat "$T/eq.err")"
+    "$DTH" run "$SC/pendulum.ini" -s initial.q=1e-9 -s integrator.h=0.0125 -s integrator.method=gauss4 -o "$T/eq.csv" \
+        2>"$T/eq2.err" || fail "the advised method: $(cat "$T/eq2.err")"
+fi
+ok "a stopped run's advice works"
+
 # (bad scene files: check_bad.sh)
 
 # ---- bad command lines and unwritable outputs
