@@ -633,20 +633,33 @@ int dth_args_list(const dth_model_args *a, const char *key, double *out, size_t 
     return dth__parse_list(v, out, max, count) ? dth_args_error(a, "parameter '%s': '%s' is not a list of at most %zu finite numbers", key, v, max) : DTH_OK;
 }
 
+/* One item of a list: the text from s to stop (a comma or the end), read as dth_parse_double reads a
+ * string, in place: an item may be as long as its line (a token buffer once cut it at 127). */
+static int parse_item(const char *s, const char *stop, double *out)
+{
+    while (s < stop && (*s == ' ' || *s == '\t')) s++;
+    if (s == stop) return -1;
+    char *end;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (end == s || end > stop) return -1;
+    while (end < stop && (*end == ' ' || *end == '\t')) end++;
+    if (end != stop || !isfinite(v)) return -1;
+    if (errno == ERANGE && fabs(v) > 1.0) return -1; /* overflow; underflow to a denormal is fine */
+    *out = v;
+    return 0;
+}
+
 int dth__parse_list(const char *v, double *out, size_t max, size_t *count)
 {
-    char tok[128];
     size_t k = 0;
     *count = 0;
     const char *s = v;
     for (;;) {
         const char *c = strchr(s, ',');
-        size_t len = c ? (size_t)(c - s) : strlen(s);
-        if (len >= sizeof tok) return -1;
-        memcpy(tok, s, len);
-        tok[len] = '\0';
+        const char *stop = c ? c : s + strlen(s);
         if (k >= max) return -1;
-        if (dth_parse_double(tok, &out[k])) return -1;
+        if (parse_item(s, stop, &out[k])) return -1;
         k++;
         if (!c) break;
         s = c + 1;

@@ -9,6 +9,7 @@
 #include <unistd.h>
 #include "cu_main.h"
 #include "dth/dth.h"
+#include "dth_internal.h" /* dth__parse_list */
 
 /* A scene file with the given text; path receives its name (remove it with unlink). */
 static void write_scene(const char *text, char *path, size_t len)
@@ -563,6 +564,42 @@ static void test_nul_and_line_limit(void)
     dth_scene_free(s);
 }
 
+/* A number may be as long as a line allows (issue 24): 190 digits in a list (as a file line, and as
+ * an override) read as the number they spell; one digit more than a line holds is a line error. */
+static void test_long_number(void)
+{
+    dth_registry *reg = registry();
+    char num[200], text[600], set[240], err[512];
+    snprintf(num, sizeof num, "0.5%0187d", 1); /* 0.5000...0001: 190 characters */
+    CU_ASSERT_FATAL(strlen(num) == 190);
+    for (int via_set = 0; via_set < 2; via_set++) {
+        snprintf(text, sizeof text, "[model]\nname = harmonic\n[initial]\nq = %s,\n  %s\np = 0, 0\n"
+                 "[integrator]\nh = 0.1\nsteps = 3\n", via_set ? "1" : num, via_set ? "2" : num);
+        dth_scene *s;
+        dth_run_setup rs;
+        CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+        CU_ASSERT_FATAL(dth_scene_load_mem(s, "long.ini", text, strlen(text), err, sizeof err) == DTH_OK);
+        snprintf(set, sizeof set, "initial.q = %s, 2", num);
+        if (via_set) CU_ASSERT_FATAL(dth_scene_set(s, set, err, sizeof err) == DTH_OK);
+        int rc = dth_scene_setup(s, reg, &rs, err, sizeof err);
+        CU_ASSERT_EQUAL(rc, DTH_OK);
+        if (rc) {
+            printf("  %s\n", err);
+        } else {
+            CU_ASSERT(rs.n == 2 && rs.q0[0] == 0.5 && rs.q0[1] == (via_set ? 2 : 0.5));
+            dth_run_setup_clear(&rs);
+        }
+        dth_scene_free(s);
+    }
+    double x[2];
+    size_t n;
+    CU_ASSERT(dth__parse_list(num, x, 2, &n) == 0 && n == 1 && x[0] == 0.5);
+    CU_ASSERT(dth__parse_list("1, 2x", x, 2, &n) != 0);  /* still whole items only */
+    CU_ASSERT(dth__parse_list("1,,2", x, 2, &n) != 0);
+    CU_ASSERT(dth__parse_list(" 1 , 2 ", x, 2, &n) == 0 && n == 2 && x[1] == 2);
+    dth_registry_free(reg);
+}
+
 /* Without [regularize] method=, DTH runs get the default regularizer `smooth` (a new scene crosses
  * psi = 0) and the baselines none; method = none keeps raw DTH. */
 static void test_default_regularizer(void)
@@ -686,6 +723,7 @@ static CU_TestInfo scene_tests[] = {
     {"bad override values name the override", test_bad_override_values},
     {"dth_scene_text loads back to the same entries (random overrides and files)", test_text_round_trip},
     {"a NUL byte is refused; the 197-character line limit, exactly", test_nul_and_line_limit},
+    {"a number as long as a line", test_long_number},
     {"default regularizer: smooth for DTH, none for baselines", test_default_regularizer},
     {"a registry without regularizers: a message, not a crash", test_registry_without_regularizers},
     {"the default regularizer refusing a key; [output] points and [events]", test_default_regularizer_bad_key_and_events},
