@@ -39,6 +39,10 @@ CLI_COMMANDS(CLI__DECL)
 /* "dth: " + message + newline on stderr. */
 void cli_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
+/* Flush what stdio holds for standard output: CLI_OK, or CLI_FAIL after "cannot write 'standard
+ * output': reason" (a full disk, a closed pipe). */
+int cli_flush_stdout(void);
+
 /* Print the usage of every subcommand to stdout or stderr. */
 void cli_usage(int to_stderr);
 /* The options of dth run (its --help; also part of dth --help). */

@@ -105,7 +105,7 @@ int cli_cmd_roots(int argc, char **argv)
         cli_error("note: the scan covers lambda in [%.6g, %.6g] only, not all of --range %g (it reaches as far as the "
                   "decoupled solve continues and its grid resolves from this vertex): roots outside are not listed",
                   s.lo, s.hi, L);
-    status = fflush(stdout) ? CLI_FAIL : CLI_OK;
+    status = cli_flush_stdout();
 done:
     dth_rootfinder_free(rf);
     dth_integrator_free(it);

@@ -1232,10 +1232,11 @@ static int results(sweep_cmd *c)
 {
     if (c->rank != 0) return CLI_OK;
     if (!c->out_path && cli_out_open(&c->o, NULL)) return CLI_FAIL;
-    if (write_summary(&c->sw, &c->o) || cli_out_finish(&c->o)) {
+    if (write_summary(&c->sw, &c->o)) {
         cli_error("cannot write '%s': %s", c->out_path ? c->out_path : "standard output", strerror(c->o.err));
         return CLI_FAIL;
     }
+    if (cli_out_finish(&c->o)) return CLI_FAIL; /* (it said why) */
     return report_runs(c);
 }
 

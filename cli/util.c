@@ -24,6 +24,14 @@ void cli_error(const char *fmt, ...)
     va_end(ap);
 }
 
+int cli_flush_stdout(void)
+{
+    errno = 0;
+    if (fflush(stdout) == 0 && !ferror(stdout)) return CLI_OK;
+    cli_error("cannot write 'standard output': %s", strerror(errno ? errno : EIO));
+    return CLI_FAIL;
+}
+
 dth_registry *cli_registry(void)
 {
     dth_registry *r = NULL;

@@ -204,6 +204,18 @@ expect2 "output is a directory" "$DTH" run "$SC/pendulum.ini" -o "$T"
 rc=$?
 [ $rc -eq 1 ] || fail "/dev/full: exit $rc, want 1"
 grep -q "^dth: cannot write '/dev/full'" "$T/full.err" || fail "/dev/full message: $(cat "$T/full.err")"
+# standard output on a full device (issue 24): every subcommand exits 1 with one line naming the reason
+# (sweep said "Success", roots, models and the help texts exited 1 or 0 silently)
+if [ -w /dev/full ]; then
+    for args in "run $SC/pendulum.ini -s integrator.steps=3" "sweep $SC/pendulum.ini --vary initial.q=0:1:2 -s integrator.steps=3" \
+                "roots $SC/pendulum.ini" models regularizers --help --version "run --help" "sweep --help" "map --help" \
+                "roots --help" "models --help"; do
+        "$DTH" $args >/dev/full 2>"$T/full.err"
+        rc=$?
+        [ $rc -eq 1 ] && [ "$(cat "$T/full.err")" = "dth: cannot write 'standard output': No space left on device" ] ||
+            fail "dth $args >/dev/full: exit $rc: $(cat "$T/full.err")"
+    done
+fi
 ok "bad command lines"
 
 # ---- other subcommands
