@@ -90,6 +90,10 @@ static int takes_value(const char *a)
 /* The option a (one that takes a value) with its value v. */
 static int option_value(run_opts *o, const char *a, const char *v)
 {
+    if (strcmp(a, "-s") && !v[0]) { /* a file name: an empty one would be a hidden temporary in . */
+        cli_error("%s: the file name is empty", a);
+        return CLI_USAGE;
+    }
     if (!strcmp(a, "-s")) o->sets[o->nsets++] = v;
     else if (!strcmp(a, "-o")) o->out_opt = v;
     else if (!strcmp(a, "--checkpoint")) o->ckpt_path = v;

@@ -856,6 +856,10 @@ static char *read_file(const char *path, size_t *len)
 static int option_value(sweep_cmd *c, const char *a, const char *v)
 {
     sweep *sw = &c->sw;
+    if ((!strcmp(a, "-o") || !strcmp(a, "--list")) && !v[0]) {
+        cli_error("%s: the file name is empty", a);
+        return CLI_USAGE;
+    }
     if (!strcmp(a, "-s")) {
         sw->sets[sw->nsets++] = v;
     } else if (!strcmp(a, "-o")) {

@@ -78,6 +78,11 @@ int cli_out_open_from(cli_out *o, const char *path, const char *origin)
     }
     o->last_flush = cli_now();
     if (!path) return 0;
+    if (!path[0]) { /* its temporary would be ".tmp.PID.XXXXXX" in the working folder, renamed onto nothing */
+        cli_error("%s%scannot write '': the file name is empty", pre, sep);
+        cli_out_abort(o);
+        return -1;
+    }
     struct stat st;
     int exists = stat(path, &st) == 0;
     if (exists && S_ISDIR(st.st_mode)) {

@@ -204,6 +204,23 @@ expect2 "output is a directory" "$DTH" run "$SC/pendulum.ini" -o "$T"
 rc=$?
 [ $rc -eq 1 ] || fail "/dev/full: exit $rc, want 1"
 grep -q "^dth: cannot write '/dev/full'" "$T/full.err" || fail "/dev/full message: $(cat "$T/full.err")"
+# an empty file name is refused before the run (issue 24: -o '' ran the whole run into ./.tmp.PID.*, then
+# failed to rename it: exit 1)
+mkdir -p "$T/empty"
+DTHA=$(cd "$(dirname "$DTH")" && pwd)/$(basename "$DTH") # absolute: these run in the empty folder
+for opt in -o --events --checkpoint --resume; do
+    (cd "$T/empty" && "$DTHA" run "$SC/pendulum.ini" -s integrator.steps=200 -s events.section=p1 -o y.csv $opt '' \
+        >/dev/null 2>"$T/empty.err")
+    rc=$?
+    [ $rc -eq 2 ] && [ "$(cat "$T/empty.err")" = "dth: $opt: the file name is empty" ] ||
+        fail "run $opt '': exit $rc: $(cat "$T/empty.err")"
+done
+for opt in -o --list; do
+    (cd "$T/empty" && "$DTHA" sweep "$SC/pendulum.ini" --vary initial.q=0:1:2 -s integrator.steps=200 $opt '' 2>"$T/empty.err")
+    rc=$?
+    [ $rc -eq 2 ] && grep -q -- "^dth: $opt: the file name is empty" "$T/empty.err" || fail "sweep $opt '': exit $rc: $(cat "$T/empty.err")"
+done
+[ -z "$(ls -A "$T/empty")" ] || fail "an empty file name left files: $(ls -A "$T/empty")"
 # standard output on a full device (issue 24): every subcommand exits 1 with one line naming the reason
 # (sweep said "Success", roots, models and the help texts exited 1 or 0 silently)
 if [ -w /dev/full ]; then
