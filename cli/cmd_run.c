@@ -506,7 +506,7 @@ static int run_all(run_job *j)
     /* temporaries of runs that were killed: once this run's own checkpoint stands (a resume's rows
      * are in this run's temporary), or at once without checkpoints */
     if (!j->werr && (o->ckpt_path || !o->resume_path))
-        run_clean_stale(j->path, j->ev_path, o->ckpt_path, o->resume_path ? &j->res.c : NULL);
+        run_clean_stale(j->path, j->ev_path, o->ckpt_path, o->resume_path, o->resume_path ? &j->res.c : NULL);
     if (j->werr) j->rc = DTH_OK;
     else drive(j, &cfg);
     if (o->roundtrip && !j->werr && j->rc == DTH_OK) roundtrip(j, &cfg);
@@ -528,7 +528,7 @@ static int close_outputs(run_job *j)
     }
     if (run_outputs_finish(r)) return CLI_FAIL;
     /* the resumed run's files are complete */
-    if (j->o.resume_path && !j->o.ckpt_path) run_clean_stale(j->path, j->ev_path, NULL, &j->res.c);
+    if (j->o.resume_path && !j->o.ckpt_path) run_clean_stale(j->path, j->ev_path, NULL, j->o.resume_path, &j->res.c);
     return GO_ON;
 }
 

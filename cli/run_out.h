@@ -86,8 +86,9 @@ void run_out_free(run_out *r);
  * it names are kept if the run fails. */
 int run_on_checkpoint(void *user, const dth_run_state *st);
 /* Remove the temporaries that killed runs left next to the outputs and the checkpoint, and next to
- * the outputs a resumed checkpoint names (c may be NULL). */
-void run_clean_stale(const char *path, const char *ev_path, const char *ckpt_path, const cli_ckpt *c);
+ * the checkpoint a resume read and the outputs it names (resume_path and c may be NULL). */
+void run_clean_stale(const char *path, const char *ev_path, const char *ckpt_path, const char *resume_path,
+                     const cli_ckpt *c);
 /* The rows the checkpointed run c had made final, into the new outputs: from its temporary file if
  * it was killed (or failed), else from the file it finished; the bytes must hash as recorded. 0 or
  * -1 (printed). */
