@@ -104,6 +104,24 @@ void cli_out_abort(cli_out *o);
  * longer running, except `except` (may be NULL). Returns how many were removed. */
 int cli_clean_stale(const char *path, const char *except);
 
+/* --model-lib FILE:SYMBOL (cli/modlib.c): model types from shared objects, loaded into a registry. */
+enum { CLI_MAX_MODLIBS = 16 };
+typedef struct cli_modlibs {
+    const char *args[CLI_MAX_MODLIBS]; /* the option values */
+    int nargs;
+    void *h[CLI_MAX_MODLIBS];          /* the loaded objects (dlopen) */
+    int n;
+} cli_modlibs;
+/* Take one option value (checked: FILE:SYMBOL, at most 16). 0, or -1 (printed). */
+int cli_modlib_add(cli_modlibs *l, const char *v);
+/* The FILE of value i into buf. */
+const char *cli_modlib_file(const cli_modlibs *l, int i, char *buf, size_t len);
+/* Load every object and register its model table in reg (a FILE without a slash that exists here is
+ * ./FILE; else the library path is searched). 0, or the exit status (printed, naming the path tried). */
+int cli_modlib_load(cli_modlibs *l, dth_registry *reg);
+/* Unload them (after the registry and every model of them is freed). */
+void cli_modlib_close(cli_modlibs *l);
+
 /* Create the missing folders of a file's path (mkdir -p of its folder). -1 if one could not be made. */
 int cli_make_parents(const char *path);
 /* An absolute form of path without symbolic links in its folder (realpath of the folder + the

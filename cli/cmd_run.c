@@ -21,7 +21,7 @@
 void cli_usage_run(FILE *f)
 {
     fprintf(f, "usage: dth run SCENE.ini [-s section.key=value]... [-o FILE] [--events FILE] [--roundtrip]\n"
-               "                [--progress[=SECONDS]] [--no-model-check]\n"
+               "                [--progress[=SECONDS]] [--no-model-check] [--model-lib FILE.so:SYMBOL]...\n"
                "                [--checkpoint FILE [--checkpoint-every N]]\n"
                "       dth run --resume CHECKPOINT [-s section.key=value]... [-o FILE] [--checkpoint ...]\n"
                "  -s section.key=value  override a scene key (applied after the file, in order)\n"
@@ -33,6 +33,8 @@ void cli_usage_run(FILE *f)
                "                        (without --progress, a terminal shows a percentage; other stderr nothing)\n"
                "  --events FILE         write the [events] rows to FILE (default: OUT-events.csv next to -o OUT.csv)\n"
                "  --no-model-check      skip the check of the model's derivatives at the start\n"
+               "  --model-lib F:SYM     load a model type from a shared object: SYM names its const dth_model_type\n"
+               "                        (F without a slash: the file F here if there is one, else the library path)\n"
                "  --checkpoint FILE     save the full state to FILE (crash-safely) every N steps (default\n"
                "                        1000) and when the run ends; the CSV is flushed to disk first\n"
                "  --checkpoint-every N  the N of --checkpoint: steps between checkpoints (an integer >= 1)\n"
@@ -51,6 +53,7 @@ typedef struct run_opts {
     long ckpt_every;
     int roundtrip, want_progress, model_check;
     double progress_s;
+    cli_modlibs libs;  /* --model-lib */
 } run_opts;
 
 /* What one dth run holds (released by job_free), and how its run went. */
@@ -81,7 +84,8 @@ enum { GO_ON = -1 };
 /* 1 for the options that take a value. */
 static int takes_value(const char *a)
 {
-    static const char *const opts[] = {"-s", "-o", "--checkpoint", "--checkpoint-every", "--resume", "--events"};
+    static const char *const opts[] = {"-s", "-o", "--checkpoint", "--checkpoint-every", "--resume", "--events",
+                                       "--model-lib"};
     for (size_t i = 0; i < sizeof opts / sizeof *opts; i++)
         if (!strcmp(a, opts[i])) return 1;
     return 0;
@@ -99,6 +103,7 @@ static int option_value(run_opts *o, const char *a, const char *v)
     else if (!strcmp(a, "--checkpoint")) o->ckpt_path = v;
     else if (!strcmp(a, "--resume")) o->resume_path = v;
     else if (!strcmp(a, "--events")) o->ev_opt = v;
+    else if (!strcmp(a, "--model-lib") && cli_modlib_add(&o->libs, v)) return CLI_USAGE;
     else if (!strcmp(a, "--checkpoint-every")) {
         char *end;
         o->ckpt_every = strtol(v, &end, 10);
@@ -364,6 +369,13 @@ static int check_clashes(const run_job *j)
     int st = cli_check_clash("the output", path, out_in, sizeof out_in / sizeof *out_in);
     if (!st) st = cli_check_clash("events", ev_path, ev_in, sizeof ev_in / sizeof *ev_in);
     if (!st) st = cli_check_clash("the checkpoint", ckpt_path, ckpt_in, 1);
+    /* and no output over a model library */
+    char lib[4096];
+    for (int i = 0; !st && i < j->o.libs.nargs; i++) {
+        const cli_input in[] = {{cli_modlib_file(&j->o.libs, i, lib, sizeof lib), "a model library (--model-lib)"}};
+        st = cli_check_clash("the output", path, in, 1) || cli_check_clash("events", ev_path, in, 1) ||
+             cli_check_clash("the checkpoint", ckpt_path, in, 1) ? CLI_USAGE : 0;
+    }
     return st ? st : GO_ON;
 }
 
@@ -597,6 +609,7 @@ static void job_free(run_job *j)
     dth_run_setup_clear(&j->rs);
     dth_scene_free(j->scene);
     dth_registry_free(j->reg);
+    cli_modlib_close(&j->o.libs); /* after every model of theirs is freed */
 }
 
 /* The command, with room in `sets` for the -s overrides (argc entries). */
@@ -615,7 +628,8 @@ static int run_cmd(int argc, char **argv, const char **sets)
     if (st != GO_ON) return st;
     if (!(j.reg = cli_registry())) return CLI_FAIL;
     /* input: everything is validated before any output is created */
-    st = load_input(&j);
+    st = cli_modlib_load(&j.o.libs, j.reg);
+    st = st ? st : load_input(&j);
     if (st == GO_ON) st = check_setup(&j);
     if (st == GO_ON) st = check_model(&j);
     if (st == GO_ON) st = start_integrator(&j);

@@ -9,7 +9,6 @@
  * written in order, so the output is the same bytes for any number of threads and ranks.
  */
 #include <ctype.h>
-#include <dlfcn.h>
 #include <errno.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -799,7 +798,6 @@ static int mpi_runs(sweep *sw, int rank, int size, int dynamic, long chunk)
 /* What each step of the command returns to let it go on; else it returns the exit status, having
  * printed why. */
 enum { GO_ON = -1 };
-enum { MAX_LIBS = 16 };
 
 /* One dth sweep: its options, the loaded model libraries, the summary's file, the ranks. */
 typedef struct sweep_cmd {
@@ -807,9 +805,7 @@ typedef struct sweep_cmd {
     const char *out_path, *list_path;
     int dynamic, stats, model_check;
     long chunk;
-    const char *lib_args[MAX_LIBS]; /* the --model-lib values, loaded once the registry exists */
-    void *libs[MAX_LIBS];
-    int nlib_args, nlibs;
+    cli_modlibs libs;               /* --model-lib, loaded once the registry exists */
     dth_registry *reg;
     cli_out o;                      /* the summary */
     int rank, size, mpi;
@@ -894,13 +890,8 @@ static int option_value(sweep_cmd *c, const char *a, const char *v)
             cli_error("--chunk: '%s' is not a positive integer", v);
             return CLI_USAGE;
         }
-    } else { /* --model-lib FILE:SYMBOL */
-        const char *colon = strrchr(v, ':');
-        if (!colon || colon == v || !colon[1] || c->nlib_args >= MAX_LIBS) {
-            cli_error("--model-lib: '%s' is not FILE.so:SYMBOL%s", v, c->nlib_args >= MAX_LIBS ? " (at most 16)" : "");
-            return CLI_USAGE;
-        }
-        c->lib_args[c->nlib_args++] = v;
+    } else if (cli_modlib_add(&c->libs, v)) { /* --model-lib FILE:SYMBOL */
+        return CLI_USAGE;
     }
     return GO_ON;
 }
@@ -1003,15 +994,13 @@ static long traj_run_of(const sweep *sw, const char *path)
 static int check_clashes(sweep_cmd *c)
 {
     sweep *sw = &c->sw;
-    cli_input in[2 + MAX_LIBS];
-    char lib[MAX_LIBS][4096];
+    cli_input in[2 + CLI_MAX_MODLIBS];
+    char lib[CLI_MAX_MODLIBS][4096];
     size_t n = 0;
     in[n++] = (cli_input){sw->scene_path, "the scene file"};
     in[n++] = (cli_input){c->list_path, "the list (--list)"};
-    for (int i = 0; i < c->nlib_args; i++) {
-        snprintf(lib[i], sizeof lib[i], "%.*s", (int)(strrchr(c->lib_args[i], ':') - c->lib_args[i]), c->lib_args[i]);
-        in[n++] = (cli_input){lib[i], "a model library (--model-lib)"};
-    }
+    for (int i = 0; i < c->libs.nargs; i++)
+        in[n++] = (cli_input){cli_modlib_file(&c->libs, i, lib[i], sizeof lib[i]), "a model library (--model-lib)"};
     if (cli_check_clash("the summary", c->out_path, in, n)) return CLI_USAGE;
     long run = traj_run_of(sw, c->out_path);
     if (run >= 0) {
@@ -1033,26 +1022,8 @@ static int load_models(sweep_cmd *c)
 {
     sweep *sw = &c->sw;
     if (!(c->reg = cli_registry())) return CLI_FAIL;
-    for (int i = 0; i < c->nlib_args; i++) {
-        const char *v = c->lib_args[i], *colon = strrchr(v, ':');
-        char file[4096];
-        snprintf(file, sizeof file, "%.*s", (int)(colon - v), v);
-        void *h = dlopen(file, RTLD_NOW | RTLD_LOCAL);
-        if (!h) {
-            cli_error("--model-lib: cannot load '%s': %s", file, dlerror());
-            return CLI_USAGE;
-        }
-        c->libs[c->nlibs++] = h;
-        const dth_model_type *t = dlsym(h, colon + 1);
-        if (!t || !t->name) {
-            cli_error("--model-lib: '%s' has no model table '%s'", file, colon + 1);
-            return CLI_USAGE;
-        }
-        if (dth_registry_add_model(c->reg, t)) {
-            cli_error("--model-lib: cannot register model '%s' from '%s' (a duplicate name?)", t->name, file);
-            return CLI_USAGE;
-        }
-    }
+    int st = cli_modlib_load(&c->libs, c->reg);
+    if (st) return st;
     sw->reg = c->reg;
     sw->rec = calloc((size_t)sw->nruns * R_LEN, sizeof *sw->rec);
     if (!sw->rec) {
@@ -1289,6 +1260,6 @@ int cli_cmd_sweep(int argc, char **argv)
     if (c.o.buf) cli_out_abort(&c.o);
     sweep_free(&c.sw);
     dth_registry_free(c.reg);
-    for (int i = 0; i < c.nlibs; i++) dlclose(c.libs[i]);
+    cli_modlib_close(&c.libs);
     return st;
 }
