@@ -105,7 +105,8 @@ static void usage_sweep(FILE *f)
             "  -s K=value        override a key of every run (before the varied ones)\n"
             "  -o FILE           the summary CSV (default: standard output)\n"
             "  --trajectories P  also write each run's trajectory to P-RUN.csv (the scene's [output] points, every,\n"
-            "                    dt; the columns of dth run without diagnostics)\n"
+            "                    dt; the columns of dth run without diagnostics), and its [events] to\n"
+            "                    P-RUN-events.csv (without it the events are counted only)\n"
             "  --no-megno        skip MEGNO (it costs a tangent map per step)\n"
             "  --no-model-check  skip the check of the model's derivatives at the first run's initial state\n"
             "  --model-lib F:SYM load a model type from a shared object: SYM names its const dth_model_type\n"
@@ -391,8 +392,8 @@ typedef struct runctx {
     double E0, eerr;
     double inv0[SWEEP_MAX_INV], drift[SWEEP_MAX_INV], inv[SWEEP_MAX_INV];
     int inv_ok;
-    cli_out out;           /* the trajectory file */
-    char *path, *line;
+    cli_out out, ev;       /* the trajectory file and its events file */
+    char *path, *evpath, *line;
     int werr;
 } runctx;
 
@@ -456,12 +457,47 @@ static int on_sample(void *user, const dth_sample *s)
     return 0;
 }
 
-static char *traj_path(const sweep *sw, long i)
+/* --trajectories P: run i's trajectory file P-RUN.csv (ev = 0) or its events file P-RUN-events.csv
+ * (ev = 1, the name dth run gives the events of -o P-RUN.csv). */
+static char *traj_path(const sweep *sw, long i, int ev)
 {
-    size_t l = strlen(sw->traj) + 32;
+    size_t l = strlen(sw->traj) + 40;
     char *p = malloc(l);
-    if (p) snprintf(p, l, "%s-%0*ld.csv", sw->traj, sw->traj_width, i);
+    if (p) snprintf(p, l, "%s-%0*ld%s.csv", sw->traj, sw->traj_width, i, ev ? "-events" : "");
     return p;
+}
+
+/* An event row (--trajectories with [events]): the columns of dth run's events file. */
+static int on_event(void *user, const dth_sample *s)
+{
+    runctx *c = user;
+    const dth_run_setup *rs = c->rs;
+    size_t n = c->n, N = c->N;
+    const double *z = s->z;
+    double Hp;
+    if (dth_model_eval(rs->model, z, DTH_EVAL_H, &Hp, NULL, NULL) != DTH_OK) Hp = NAN;
+    char *p = c->line;
+    p += dth_fmt_long(s->index, p);
+    p += (size_t)sprintf(p, ",%s,", rs->event_names[s->event]);
+    p += dth_fmt_long(s->direction, p);
+    *p++ = ',';
+    p += dth_fmt_long(s->k, p);
+    *p++ = ',';
+    p += dth_fmt_g17(z[n], p);
+    for (size_t i = 0; i < n; i++) *p++ = ',', p += dth_fmt_g17(z[i], p);
+    for (size_t i = 0; i < n; i++) *p++ = ',', p += dth_fmt_g17(z[n + 1 + i], p);
+    *p++ = ',';
+    p += dth_fmt_g17(z[N - 1], p);
+    *p++ = ',';
+    p += dth_fmt_g17(z[N - 1] + Hp, p);
+    *p++ = ',';
+    p += dth_fmt_g17(Hp, p);
+    if (cli_out_line(&c->ev, c->line, (size_t)(p - c->line))) {
+        c->werr = 1;
+        return DTH_EIO;
+    }
+    cli_out_maybe_flush(&c->ev);
+    return 0;
 }
 
 /* The integrator (method = dth) or the baseline of the run, at the initial state. */
@@ -499,16 +535,29 @@ static int reference_values(runctx *c, const dth_run_setup *rs)
 static int open_trajectory(runctx *c, long i, dth_run_config *cfg)
 {
     const dth_run_setup *rs = c->rs;
-    c->path = traj_path(c->sw, i);
-    c->line = malloc(32 * (c->N + 8));
-    if (!c->path || !c->line) return DTH_ENOMEM;
+    c->path = traj_path(c->sw, i, 0);
+    c->evpath = rs->nevents ? traj_path(c->sw, i, 1) : NULL;
+    size_t cap = 32 * (c->N + 8) + 16; /* a row of numbers, or an event row with its name */
+    for (size_t j = 0; j < rs->nevents; j++) cap = cap > 32 * (c->N + 8) + strlen(rs->event_names[j]) ? cap : cap + 64;
+    c->line = malloc(cap);
+    if (!c->path || !c->line || (rs->nevents && !c->evpath)) return DTH_ENOMEM;
     if (cli_out_open(&c->out, c->path)) return DTH_EIO;
+    if (c->evpath && cli_out_open(&c->ev, c->evpath)) return DTH_EIO;
     char *p = c->line;
     p += sprintf(p, "k,t,lambda");
     for (size_t j = 0; j < rs->n; j++) p += sprintf(p, ",q%zu", j + 1);
     for (size_t j = 0; j < rs->n; j++) p += sprintf(p, ",p%zu", j + 1);
     p += sprintf(p, ",wp,H,E%s", rs->regularizer ? ",ordinary" : "");
     if (cli_out_line(&c->out, c->line, (size_t)(p - c->line))) c->werr = 1;
+    if (c->evpath) {
+        p = c->line;
+        p += sprintf(p, "i,event,direction,k,t");
+        for (size_t j = 0; j < rs->n; j++) p += sprintf(p, ",q%zu", j + 1);
+        for (size_t j = 0; j < rs->n; j++) p += sprintf(p, ",p%zu", j + 1);
+        p += sprintf(p, ",wp,H,E");
+        if (cli_out_line(&c->ev, c->line, (size_t)(p - c->line))) c->werr = 1;
+        cfg->on_event = on_event;
+    }
     cfg->points = rs->points;
     cfg->every = rs->every;
     cfg->dt = rs->dt;
@@ -550,7 +599,7 @@ static void run_one(const sweep *sw, long i, double *rec)
     dth_allocator al = {count_alloc, count_free, &cnt};
     runctx c;
     memset(&c, 0, sizeof c);
-    c.out.fd = -1;
+    c.out.fd = c.ev.fd = -1;
     c.sw = sw;
     c.rs = &rs;
     dth_run_state S;
@@ -584,9 +633,14 @@ static void run_one(const sweep *sw, long i, double *rec)
     if (c.out.fd >= 0 || c.out.buf) {
         if (rc == DTH_EIO || cli_out_finish(&c.out)) rec[R_STATUS] = DTH_EIO;
     }
+    if (c.ev.fd >= 0 || c.ev.buf) {
+        if (rec[R_STATUS] == DTH_EIO || cli_out_finish(&c.ev)) rec[R_STATUS] = DTH_EIO;
+    }
 done:
     if (c.out.buf) cli_out_abort(&c.out);
+    if (c.ev.buf) cli_out_abort(&c.ev);
     free(c.path);
+    free(c.evpath);
     free(c.line);
     dth_megno_free(c.meg);
     dth_integrator_free(c.it);
@@ -969,16 +1023,19 @@ static int read_inputs(sweep_cmd *c)
     return GO_ON;
 }
 
-/* The run whose trajectory file (--trajectories P: P-RUN.csv, RUN of traj_width digits) is `path`,
- * or -1: compared by absolute names (the folders may not exist yet: then as given). */
-static long traj_run_of(const sweep *sw, const char *path)
+/* The run whose trajectory file (--trajectories P: P-RUN.csv, RUN of traj_width digits) or events
+ * file (P-RUN-events.csv) is `path`, or -1: compared by absolute names (the folders may not exist
+ * yet: then as given). */
+static long traj_run_of(const sweep *sw, const char *path, const char **what)
 {
     if (!sw->traj || !path) return -1;
     char *ap = cli_abspath(path), *at = cli_abspath(sw->traj);
     const char *p = ap && at ? ap : path, *t = ap && at ? at : sw->traj;
     size_t tl = strlen(t), pl = strlen(p), w = (size_t)sw->traj_width;
     long run = -1;
-    if (pl == tl + 1 + w + 4 && !strncmp(p, t, tl) && p[tl] == '-' && !strcmp(p + tl + 1 + w, ".csv")) {
+    const char *tail = pl >= tl + 1 + w ? p + tl + 1 + w : "";
+    if (!strncmp(p, t, tl) && p[tl] == '-' && (!strcmp(tail, ".csv") || !strcmp(tail, "-events.csv"))) {
+        *what = !strcmp(tail, ".csv") ? "the trajectory" : "the events file";
         run = 0;
         for (size_t k = 0; k < w && run >= 0; k++)
             run = isdigit((unsigned char)p[tl + 1 + k]) ? 10 * run + (p[tl + 1 + k] - '0') : -1;
@@ -1002,15 +1059,16 @@ static int check_clashes(sweep_cmd *c)
     for (int i = 0; i < c->libs.nargs; i++)
         in[n++] = (cli_input){cli_modlib_file(&c->libs, i, lib[i], sizeof lib[i]), "a model library (--model-lib)"};
     if (cli_check_clash("the summary", c->out_path, in, n)) return CLI_USAGE;
-    long run = traj_run_of(sw, c->out_path);
+    const char *what = "";
+    long run = traj_run_of(sw, c->out_path, &what);
     if (run >= 0) {
-        cli_error("refusing to write the summary to '%s': it is the trajectory of run %ld (--trajectories %s)",
-                  c->out_path, run, sw->traj);
+        cli_error("refusing to write the summary to '%s': it is %s of run %ld (--trajectories %s)", c->out_path, what,
+                  run, sw->traj);
         return CLI_USAGE;
     }
     for (size_t i = 0; i < n; i++)
-        if ((run = traj_run_of(sw, in[i].path)) >= 0) {
-            cli_error("refusing to write the trajectory of run %ld (--trajectories %s) to '%s': it is %s", run, sw->traj,
+        if ((run = traj_run_of(sw, in[i].path, &what)) >= 0) {
+            cli_error("refusing to write %s of run %ld (--trajectories %s) to '%s': it is %s", what, run, sw->traj,
                       in[i].path, in[i].what);
             return CLI_USAGE;
         }

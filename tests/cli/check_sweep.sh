@@ -110,6 +110,20 @@ cmp -s "$T/tr/run-0.csv" "$T/r0.csv" || fail "trajectory of run 0 differs from d
     -o "$T/rot.csv" 2>/dev/null || fail "rotation sweep"
 "$DTH" run "$SC/pendulum.ini" -s initial.q=0 -s integrator.t_end=10 -s initial.p=2.2000000000000002 >"$T/rr.csv" 2>/dev/null
 cmp -s "$T/rot-1.csv" "$T/rr.csv" || fail "rotation trajectory (with the ordinary column) differs from dth run's"
+# events (issue 25): with --trajectories each run's events go to P-RUN-events.csv, byte for byte dth run's
+# events file; the summary counts them
+"$DTH" sweep "$SC/pendulum.ini" --vary initial.q=0.5:1.5:3 -s events.section=p1 -s events.section_direction=both \
+    --trajectories "$T/ev/r" -o "$T/ev.csv" 2>"$T/ev.err" || fail "sweep with events: $(cat "$T/ev.err")"
+for i in 0 1 2; do
+    q=$(sed -n "$((i + 2))p" "$T/ev.csv" | cut -d, -f2)
+    "$DTH" run "$SC/pendulum.ini" -s events.section=p1 -s events.section_direction=both -s initial.q="$q" \
+        -o "$T/ev/run$i.csv" 2>/dev/null
+    cmp -s "$T/ev/run$i-events.csv" "$T/ev/r-$i-events.csv" || fail "run $i's events differ from dth run's"
+    cmp -s "$T/ev/run$i.csv" "$T/ev/r-$i.csv" || fail "run $i's trajectory differs from dth run's"
+    [ "$(sed -n "$((i + 2))p" "$T/ev.csv" | cut -d, -f9)" = "$(($(wc -l <"$T/ev/r-$i-events.csv") - 1))" ] ||
+        fail "run $i: the summary's events column against $(($(wc -l <"$T/ev/r-$i-events.csv") - 1)) rows"
+done
+[ "$(head -1 "$T/ev/r-0-events.csv")" = "i,event,direction,k,t,q1,p1,wp,H,E" ] || fail "events header: $(head -1 "$T/ev/r-0-events.csv")"
 # MEGNO ends at the first regularized step: megno_t is short, the run is not
 awk -F, 'NR > 1 && !($3 == "ok" && $5 == 10 && $7 > 0 && $12 < 3) { print; bad = 1 } END { exit bad }' "$T/rot.csv" >"$T/aw" ||
     fail "rotation: MEGNO should end at the first crossing: $(cat "$T/aw")"
