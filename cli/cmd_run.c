@@ -578,7 +578,11 @@ static int report(const run_job *j)
                   MAX_SAMPLES_PER_STEP);
         return CLI_USAGE;
     } else if (sig) {
-        cli_error("interrupted at k=%ld, t=%.17g (the rows so far are kept)%s", S->k, S->t, crossing);
+        char resume[1200] = "";
+        if (r->ckpt_written)
+            snprintf(resume, sizeof resume, "; to continue: dth run --resume %s (its checkpoint of step %ld)",
+                     j->o.ckpt_path, r->ckpt_k);
+        cli_error("interrupted at k=%ld, t=%.17g (the rows so far are kept)%s%s", S->k, S->t, crossing, resume);
         return 128 + sig;
     } else if (rc > 0) {
         char hint[512];

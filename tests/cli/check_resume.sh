@@ -76,6 +76,18 @@ rc=$?
 grep -q '^dth: interrupted at k=' "$T/hup.err" || fail "SIGHUP message: $(cat "$T/hup.err")"
 [ -s "$T/hup.csv" ] || fail "SIGHUP: no file"
 ls "$T" | grep -q '^hup\.csv\.tmp' && fail "SIGHUP: a temporary file is left"
+# with --checkpoint the message says how to continue (issue 25), and that continues it
+"$DTH" run "$P" -s integrator.steps=100000000 -o "$T/int.csv" --checkpoint "$T/int.ckpt" 2>"$T/int.err" &
+pid=$!
+sleep 1
+kill -INT $pid
+wait $pid
+rc=$?
+[ $rc -eq 130 ] || fail "SIGINT with --checkpoint: exit $rc, want 130"
+k=$(sed -n "s/.*; to continue: dth run --resume .*int\.ckpt (its checkpoint of step \([0-9]*\))$/\1/p" "$T/int.err")
+[ -n "$k" ] || fail "SIGINT with --checkpoint: no resume advice: $(cat "$T/int.err")"
+"$DTH" run --resume "$T/int.ckpt" -s integrator.steps=$((k + 10)) 2>"$T/int2.err" >/dev/null &&
+    [ "$(tail -1 "$T/int.csv" | cut -d, -f1)" -ge $((k - 1)) ] || fail "the advised resume: $(cat "$T/int2.err")"
 # 5e5 rows per step: the request is seen between rows, not after the step
 "$DTH" run "$P" -s integrator.t_end=1e5 -s output.dt=1e-7 -o "$T/dense.csv" 2>"$T/dense.err" &
 pid=$!
