@@ -82,6 +82,8 @@ typedef struct sweep {
     int nkeys;
     int is_list;
     char ***list;            /* --list: row r, key j -> the value text */
+    const char *list_path;
+    long *list_line;         /* --list: row r's line in the file */
     long nruns;
     const dth_registry *reg;
     int megno;               /* follow MEGNO (DTH runs) */
@@ -231,6 +233,7 @@ static int split_csv(const char *line, char **out, int max)
 
 static int read_list(sweep *sw, const char *path)
 {
+    sw->list_path = path;
     FILE *f = fopen(path, "r");
     if (!f) {
         cli_error("cannot read '%s': %s", path, strerror(errno));
@@ -271,14 +274,17 @@ static int read_list(sweep *sw, const char *path)
         if (rows == rcap) {
             rcap = rcap ? 2 * rcap : 64;
             char ***l = realloc(sw->list, (size_t)rcap * sizeof *l);
-            if (!l) {
+            if (l) sw->list = l;
+            long *ll = l ? realloc(sw->list_line, (size_t)rcap * sizeof *ll) : NULL;
+            if (ll) sw->list_line = ll;
+            if (!l || !ll) {
                 for (int j = 0; j < nf; j++) free(fields[j]);
                 cli_error("out of memory");
                 rc = -1;
                 break;
             }
-            sw->list = l;
         }
+        sw->list_line[rows] = lineno;
         sw->list[rows] = malloc((size_t)nf * sizeof **sw->list);
         if (!sw->list[rows]) {
             for (int j = 0; j < nf; j++) free(fields[j]);
@@ -317,8 +323,9 @@ static void value_text(const sweep *sw, long i, int j, char *buf, size_t cap)
     dth_fmt_g17(cli_grid_at(&sw->keys[j].g, (i / stride) % sw->keys[j].g.n), buf);
 }
 
-/* Set key k to text v in the scene (element k->elem of its list, or the whole value). */
-static int set_key(dth_scene *s, const vkey *k, const char *v, char *err, size_t errlen)
+/* Set key k to text v in the scene (element k->elem of its list, or the whole value); `from` names
+ * where the value comes from in messages ("--vary K=V", "LIST:LINE"). */
+static int set_key(dth_scene *s, const vkey *k, const char *v, const char *from, char *err, size_t errlen)
 {
     size_t cap = strlen(v) + 256;
     const char *old = k->elem ? dth_scene_get(s, k->sec, k->key) : NULL;
@@ -357,7 +364,7 @@ static int set_key(dth_scene *s, const vkey *k, const char *v, char *err, size_t
             rc = DTH_EINVAL;
         }
     }
-    if (!rc) rc = dth_scene_set(s, a, err, errlen);
+    if (!rc) rc = dth_scene_set_from(s, a, from, err, errlen);
     free(a);
     return rc;
 }
@@ -371,8 +378,13 @@ static int run_setup(const sweep *sw, long i, const dth_allocator *alloc, dth_sc
     if (!rc) rc = dth_scene_load_mem(*scene, sw->scene_path, sw->text, sw->textlen, err, errlen);
     for (int j = 0; !rc && j < sw->nsets; j++) rc = dth_scene_set(*scene, sw->sets[j], err, errlen);
     for (int j = 0; !rc && j < sw->nkeys; j++) {
+        const vkey *k = &sw->keys[j];
+        char from[1200];
         value_text(sw, i, j, v, sizeof v);
-        rc = set_key(*scene, &sw->keys[j], v, err, errlen);
+        if (sw->is_list) snprintf(from, sizeof from, "%s:%ld", sw->list_path, sw->list_line[i]);
+        else if (k->elem) snprintf(from, sizeof from, "--vary %s.%s[%d]=%s", k->sec, k->key, k->elem, v);
+        else snprintf(from, sizeof from, "--vary %s.%s=%s", k->sec, k->key, v);
+        rc = set_key(*scene, k, v, from, err, errlen);
     }
     if (!rc) rc = dth_scene_setup(*scene, sw->reg, rs, err, errlen);
     if (rc == DTH_ENOMEM) snprintf(err, errlen, "out of memory");
@@ -877,6 +889,7 @@ static void sweep_free(sweep *sw)
         }
         free(sw->list);
     }
+    free(sw->list_line);
     free(sw->rec);
 }
 

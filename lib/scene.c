@@ -21,6 +21,7 @@
 typedef struct entry {
     char *section, *key, *value, *origin;
     size_t vlen, vcap; /* length of value and its allocation (continuation lines grow it) */
+    int override;      /* set by dth_scene_set(_from), not read from a file */
 } entry;
 
 struct dth_scene {
@@ -105,6 +106,7 @@ static void put(dth_scene *s, entry *x)
     e->vlen = x->vlen;
     e->vcap = x->vcap;
     e->origin = x->origin;
+    e->override = x->override;
     dth_free(s->alloc, x->section);
     dth_free(s->alloc, x->key);
 }
@@ -239,7 +241,7 @@ static int handler(void *user, const char *section, const char *name, const char
     }
     char origin[4096 + 32];
     snprintf(origin, sizeof origin, "%s:%d", c->path, c->lineno);
-    entry x;
+    entry x = {0};
     if (reserve(c->tmp, 1) || make_entry(c->tmp->alloc, section, strlen(section), name, strlen(name),
                                          value, strlen(value), origin, &x)) {
         c->nomem = 1;
@@ -470,14 +472,24 @@ static void trim(const char **b, const char **e)
 
 int dth_scene_set(dth_scene *s, const char *assignment, char *err, size_t errlen)
 {
+    return dth_scene_set_from(s, assignment, NULL, err, errlen);
+}
+
+int dth_scene_set_from(dth_scene *s, const char *assignment, const char *from, char *err, size_t errlen)
+{
     if (!s || !assignment) {
         dth__set_err(err, errlen, "invalid arguments to dth_scene_set");
         return DTH_EINVAL;
     }
+    /* what the override is called in messages: the caller's name for it, else "-s ASSIGNMENT"
+     * (either cut after 80 characters) */
+    char label[80 + 8];
+    if (from) snprintf(label, sizeof label, "%.*s%s", AS_CUT(from));
+    else snprintf(label, sizeof label, "-s %.*s%s", AS_CUT(assignment));
     const char *eq = strchr(assignment, '=');
     const char *dot = eq ? memchr(assignment, '.', (size_t)(eq - assignment)) : NULL;
     if (!eq || !dot) {
-        dth__set_err(err, errlen, "-s %.*s%s: expected section.key=value", AS_CUT(assignment));
+        dth__set_err(err, errlen, "%s: expected section.key=value", label);
         return DTH_EPARSE;
     }
     const char *sb = assignment, *se = dot, *kb = dot + 1, *ke = eq, *vb = eq + 1,
@@ -486,7 +498,7 @@ int dth_scene_set(dth_scene *s, const char *assignment, char *err, size_t errlen
     trim(&kb, &ke);
     trim(&vb, &ve);
     if (sb == se || kb == ke) {
-        dth__set_err(err, errlen, "-s %.*s%s: expected section.key=value", AS_CUT(assignment));
+        dth__set_err(err, errlen, "%s: expected section.key=value", label);
         return DTH_EPARSE;
     }
     /* only what a scene file could hold (a checkpoint saves the scene as a file) */
@@ -506,20 +518,13 @@ int dth_scene_set(dth_scene *s, const char *assignment, char *err, size_t errlen
         dth_free(s->alloc, val);
     }
     if (why) {
-        dth__set_err(err, errlen, "-s %.*s%s: a scene file cannot hold this (%s)", AS_CUT(assignment), why);
+        dth__set_err(err, errlen, "%s: a scene file cannot hold this (%s)", label, why);
         return DTH_EPARSE;
     }
-    /* the override names itself in messages, cut after 80 characters */
-    size_t olen = 80 + 8;
-    char *origin = dth_calloc(s->alloc, olen, 1);
+    /* the override names itself in messages */
     entry x = {0};
-    int rc = origin ? DTH_OK : DTH_ENOMEM;
-    if (!rc) {
-        snprintf(origin, olen, "-s %.*s%s", AS_CUT(assignment));
-        rc = make_entry(s->alloc, sb, (size_t)(se - sb), kb, (size_t)(ke - kb), vb, (size_t)(ve - vb),
-                        origin, &x);
-    }
-    dth_free(s->alloc, origin);
+    int rc = make_entry(s->alloc, sb, (size_t)(se - sb), kb, (size_t)(ke - kb), vb, (size_t)(ve - vb), label, &x);
+    x.override = 1;
     if (!rc) rc = reserve(s, 1);
     if (rc) {
         if (x.section) entry_free(s->alloc, &x);
@@ -1009,7 +1014,7 @@ static int check_keys(setup_ctx *c, const dth_model_type *type, dth_run_setup *r
     return DTH_OK;
 }
 
-static int is_override(const entry *e) { return strncmp(e->origin, "-s ", 3) == 0; }
+static int is_override(const entry *e) { return e->override; }
 
 /* Checks that involve several keys. */
 static int check_cross(setup_ctx *c, dth_run_setup *rs)

@@ -564,6 +564,37 @@ static void test_nul_and_line_limit(void)
     dth_scene_free(s);
 }
 
+/* dth_scene_set_from (issue 25): the caller names the override's source, in messages and in
+ * dth_scene_origin; it is an override all the same (one of steps/t_end replaces a file's other). */
+static void test_set_from(void)
+{
+    dth_registry *reg = registry();
+    dth_scene *s;
+    char err[512] = "";
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    const char *text = BASE_PEND "t_end = 5\n";
+    CU_ASSERT_FATAL(dth_scene_load_mem(s, "f.ini", text, strlen(text), err, sizeof err) == DTH_OK);
+    CU_ASSERT(dth_scene_set_from(s, "integrator.hh=1", "--vary integrator.hh=1", err, sizeof err) == DTH_OK);
+    CU_ASSERT_STRING_EQUAL(dth_scene_origin(s, "integrator", "hh"), "--vary integrator.hh=1");
+    dth_run_setup rs;
+    CU_ASSERT_EQUAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT(strncmp(err, "--vary integrator.hh=1: integrator.hh: unknown key", 50) == 0);
+    CU_ASSERT(dth_scene_set_from(s, "integratorhh=1", "list.csv:3", err, sizeof err) == DTH_EPARSE);
+    CU_ASSERT_STRING_EQUAL(err, "list.csv:3: expected section.key=value");
+    CU_ASSERT(dth_scene_set(s, "integrator.hh=2", err, sizeof err) == DTH_OK); /* the -s form as before */
+    CU_ASSERT_STRING_EQUAL(dth_scene_origin(s, "integrator", "hh"), "-s integrator.hh=2");
+    dth_scene_free(s);
+    /* steps from the caller replaces the file's t_end, as a -s does */
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    CU_ASSERT_FATAL(dth_scene_load_mem(s, "f.ini", text, strlen(text), err, sizeof err) == DTH_OK);
+    CU_ASSERT(dth_scene_set_from(s, "integrator.steps=7", "row 3", err, sizeof err) == DTH_OK);
+    CU_ASSERT_EQUAL_FATAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_OK);
+    CU_ASSERT(!rs.has_t_end && rs.steps == 7);
+    dth_run_setup_clear(&rs);
+    dth_scene_free(s);
+    dth_registry_free(reg);
+}
+
 /* A number may be as long as a line allows (issue 24): 190 digits in a list (as a file line, and as
  * an override) read as the number they spell; one digit more than a line holds is a line error. */
 static void test_long_number(void)
@@ -724,6 +755,7 @@ static CU_TestInfo scene_tests[] = {
     {"dth_scene_text loads back to the same entries (random overrides and files)", test_text_round_trip},
     {"a NUL byte is refused; the 197-character line limit, exactly", test_nul_and_line_limit},
     {"a number as long as a line", test_long_number},
+    {"overrides named by their caller (dth_scene_set_from)", test_set_from},
     {"default regularizer: smooth for DTH, none for baselines", test_default_regularizer},
     {"a registry without regularizers: a message, not a crash", test_registry_without_regularizers},
     {"the default regularizer refusing a key; [output] points and [events]", test_default_regularizer_bad_key_and_events},

@@ -174,6 +174,12 @@ expect2 "$SC/pendulum.ini" --list "$T/dup.csv"
 grep -q "column 2 (initial.q\[1\]) sets what column 1 (initial.q) sets" "$T/e.err" || fail "element of a varied list: $(cat "$T/e.err")"
 expect2 "$SC/pendulum.ini" --vary initial.q=0:1:2 --vary initial.q=1:2:2
 grep -q "^dth: --vary 2 (initial.q) sets what --vary 1 (initial.q) sets" "$T/e.err" || fail "--vary twice: $(cat "$T/e.err")"
+# a varied key's messages name where it was varied (issue 25: they said "-s ...")
+expect2 "$SC/pendulum.ini" --vary initial.qq=0:1:2
+grep -q "^dth: --vary initial.qq=0: initial.qq: unknown key" "$T/e.err" || fail "--vary origin: $(cat "$T/e.err")"
+printf 'initial.q,integrator.hh\n0.5,0.05\n' >"$T/hh2.csv"
+expect2 "$SC/pendulum.ini" --list "$T/hh2.csv"
+grep -q "^dth: $T/hh2.csv:2: integrator.hh: unknown key" "$T/e.err" || fail "--list origin: $(cat "$T/e.err")"
 "$DTH" sweep --help | grep -q "megno_t" || fail "--help does not describe the columns"
 ok "usage errors"
 

@@ -59,6 +59,13 @@ DTH_API int dth_scene_load_mem(dth_scene *s, const char *name, const char *text,
  * @return DTH_OK, DTH_EPARSE (message names the override and what is wrong), DTH_ENOMEM.
  */
 DTH_API int dth_scene_set(dth_scene *s, const char *assignment, char *err, size_t errlen);
+/**
+ * dth_scene_set for a caller whose overrides come from elsewhere than a -s option: `from` names the
+ * assignment's source in messages and in dth_scene_origin (e.g. "--vary initial.q=0.5",
+ * "list.csv:3", "set={'initial.q': ...}"; cut after 80 characters). NULL: "-s ASSIGNMENT", as
+ * dth_scene_set. @return as dth_scene_set.
+ */
+DTH_API int dth_scene_set_from(dth_scene *s, const char *assignment, const char *from, char *err, size_t errlen);
 /** Value of section.key, or NULL. */
 DTH_API const char *dth_scene_get(const dth_scene *s, const char *section, const char *key);
 /** Where section.key was set: "FILE:LINE" or "-s section.key=value"; NULL if absent. */
