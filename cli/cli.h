@@ -36,6 +36,9 @@ enum {
 CLI_COMMANDS(CLI__DECL)
 #undef CLI__DECL
 
+/* The plural ending of a count: "%ld step%s", n, CLI_S(n). */
+#define CLI_S(n) ((n) == 1 ? "" : "s")
+
 /* "dth: " + message + newline on stderr. */
 void cli_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 

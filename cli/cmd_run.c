@@ -493,7 +493,7 @@ static void roundtrip(run_job *j, dth_run_config *cfg)
         e = fmax(e, fabs(z[i] - zstart[i]));
         sc = fmax(sc, fabs(zstart[i]));
     }
-    fprintf(stderr, "dth: round trip of 2 x %ld steps: max |z - z_0| = %.3g (relative %.3g)\n", k1, e,
+    fprintf(stderr, "dth: round trip of 2 x %ld step%s: max |z - z_0| = %.3g (relative %.3g)\n", k1, CLI_S(k1), e,
             sc > 0 ? e / sc : e);
 }
 
@@ -568,9 +568,13 @@ static int report(const run_job *j)
     const dth_run_state *S = &j->S;
     int rc = j->rc, sig = r->sig && rc == DTH_ESTOPPED && !r->too_many ? r->sig : 0;
     char crossing[160] = "";
-    if (S->crossings || S->regularized)
-        snprintf(crossing, sizeof crossing, "; %ld psi = 0 crossings, %ld regularized steps, largest step ratio "
-                 "at a crossing %.3g", S->crossings, S->regularized, S->max_ratio);
+    if (S->crossings || S->regularized) {
+        /* (the step ratio around a crossing exists only where there was one) */
+        int w = snprintf(crossing, sizeof crossing, "; %ld psi = 0 crossing%s, %ld regularized step%s", S->crossings,
+                         CLI_S(S->crossings), S->regularized, CLI_S(S->regularized));
+        if (S->crossings && w > 0 && (size_t)w < sizeof crossing)
+            snprintf(crossing + w, sizeof crossing - (size_t)w, ", largest step ratio at a crossing %.3g", S->max_ratio);
+    }
     const char *emsg = j->it ? dth_integrator_errmsg(j->it) : dth_fixed_errmsg(j->fx);
     if (r->too_many) {
         cli_error("stopped at k=%ld, t=%.17g: output.dt = %.3g asks for more than %d rows within one step (a larger "
@@ -594,10 +598,10 @@ static int report(const run_job *j)
         return CLI_FAIL;
     }
     if (r->progress == 1 || S->regularized)
-        fprintf(stderr, "dth: %ld steps to t = %.17g, %ld rows to %s%s\n", S->k, S->t_stop, S->samples,
-                j->path ? j->path : "standard output", crossing);
+        fprintf(stderr, "dth: %ld step%s to t = %.17g, %ld row%s to %s%s\n", S->k, CLI_S(S->k), S->t_stop, S->samples,
+                CLI_S(S->samples), j->path ? j->path : "standard output", crossing);
     if (r->has_ev && (r->progress == 1 || S->stop == DTH_RUN_EVENT))
-        fprintf(stderr, "dth: %ld events to %s%s\n", S->events, j->ev_path,
+        fprintf(stderr, "dth: %ld event%s to %s%s\n", S->events, CLI_S(S->events), j->ev_path,
                 S->stop == DTH_RUN_EVENT ? " (the run ended at a terminal event)" : "");
     return CLI_OK;
 }

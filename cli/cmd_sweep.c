@@ -359,8 +359,8 @@ static int set_key(dth_scene *s, const vkey *k, const char *v, const char *from,
         }
         a[n] = '\0';
         if (!found) {
-            snprintf(err, errlen, "%s.%s[%d]: the scene's %s.%s has %d values", k->sec, k->key, k->elem, k->sec,
-                     k->key, idx);
+            snprintf(err, errlen, "%s.%s[%d]: the scene's %s.%s has %d value%s", k->sec, k->key, k->elem, k->sec,
+                     k->key, idx, CLI_S(idx));
             rc = DTH_EINVAL;
         }
     }
@@ -1232,9 +1232,9 @@ static void print_stats(const sweep_cmd *c)
 #ifdef _OPENMP
     threads = omp_get_max_threads();
 #endif
-    fprintf(stderr, "dth sweep: %ld runs in %.3f s: %.1f runs/s (%d thread%s x %d rank%s, %s); library heap of "
+    fprintf(stderr, "dth sweep: %ld run%s in %.3f s: %.1f runs/s (%d thread%s x %d rank%s, %s); library heap of "
             "one run: peak %.0f bytes (largest), %.0f (mean); summary record %zu bytes per run\n",
-            sw->nruns, c->t_work, (double)sw->nruns / fmax(c->t_work, 1e-9), threads, threads == 1 ? "" : "s",
+            sw->nruns, CLI_S(sw->nruns), c->t_work, (double)sw->nruns / fmax(c->t_work, 1e-9), threads, threads == 1 ? "" : "s",
             c->size, c->size == 1 ? "" : "s", sw->megno ? "MEGNO on" : "MEGNO off", mx, sum / (double)sw->nruns,
             (size_t)R_LEN * sizeof(double));
 }

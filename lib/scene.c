@@ -921,7 +921,8 @@ static int build_events(setup_ctx *c, dth_run_setup *rs)
         long idx;
         parse_long(c->section->value + 1, 1, 1000000000L, &idx);
         if ((size_t)idx > n)
-            return bad(c->err, c->errlen, c->section, "'%s': the model has %zu degrees of freedom", c->section->value, n);
+            return bad(c->err, c->errlen, c->section, "'%s': the model has %zu degree%s of freedom", c->section->value, n,
+                       n == 1 ? "" : "s");
         dth_event_spec *sp = &rs->event_specs[i];
         sp->index = c->section->value[0] == 'q' ? (size_t)idx - 1 : n + (size_t)idx;
         if (c->section_value) dth_parse_double(c->section_value->value, &sp->value);
@@ -1026,7 +1027,8 @@ static int check_cross(setup_ctx *c, dth_run_setup *rs)
     }
     size_t np = count_items(c->p->value);
     if (np != rs->n)
-        return bad(c->err, c->errlen, c->p, "%zu values, but initial.q has %zu (%s)", np, rs->n, c->q->origin);
+        return bad(c->err, c->errlen, c->p, "%zu value%s, but initial.q has %zu (%s)", np, np == 1 ? "" : "s", rs->n,
+                   c->q->origin);
     if (!c->h) {
         dth__set_err(c->err, c->errlen, "%s: missing [integrator] h= (the first step; its sign sets the direction)", src);
         return DTH_EINVAL;
@@ -1232,8 +1234,8 @@ int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *
                 if (names_key(merr, kv[i].key)) at = kv_entry[i];
             rc = bad(err, errlen, at, "model '%s': %s", type->name, merr);
         } else if (dth_model_dof(rs.model) != rs.n) {
-            rc = bad(err, errlen, c.q, "model '%s' has %zu degrees of freedom, but %zu q values are given",
-                     type->name, dth_model_dof(rs.model), rs.n);
+            rc = bad(err, errlen, c.q, "model '%s' has %zu degree%s of freedom, but %zu q value%s given", type->name,
+                     dth_model_dof(rs.model), dth_model_dof(rs.model) == 1 ? "" : "s", rs.n, rs.n == 1 ? " is" : "s are");
         } else if ((rs.opt.linsolve == DTH_LINSOLVE_BANDED || rs.opt.linsolve == DTH_LINSOLVE_BANDED_LU) &&
                    !dth__model_banded(rs.model)) {
             rc = bad(err, errlen, c.linsolve, "'%s' needs a model with a banded Hessian (model '%s' has a dense one)",

@@ -713,7 +713,7 @@ static void test_default_regularizer_bad_key_and_events(void)
         {"regularize.ste'p=1", "regularize.ste'p"},
         {"output.points=midpoints", NULL},
         {"events.section=p1", NULL},
-        {"events.section=p2", "the model has 1 degrees of freedom"},
+        {"events.section=p2", "the model has 1 degree of freedom"},
         {"events.distance_dofs=", "needs [events] distance="},
         {"events.time=1,nan", "not a comma-separated list"},
         {"events.frobnicate=1", "unknown key (known in [events]"},

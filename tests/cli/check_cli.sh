@@ -168,6 +168,16 @@ else
 fi
 ok "a stopped run's advice works"
 
+# ---- messages count in words (issue 25): no "1 events", no step ratio "at a crossing" without a crossing
+"$DTH" run "$SC/pendulum.ini" -s initial.q=1e-9 -o "$T/eq.csv" 2>"$T/eq.err"
+grep -q "; 0 psi = 0 crossings, 300 regularized steps$" "$T/eq.err" || fail "no crossing: $(cat "$T/eq.err")"
+"$DTH" run "$SC/pendulum.ini" -s output.points=vertices -s events.distance=0.5 -s events.distance_direction=down \
+    -s events.distance_terminal=yes -o "$T/term.csv" 2>"$T/term.err"
+grep -q "^dth: 1 event to .*term-events.csv (the run ended at a terminal event)$" "$T/term.err" || fail "1 event: $(cat "$T/term.err")"
+"$DTH" sweep "$SC/pendulum.ini" --vary initial.q=1:1:1 -s integrator.steps=2 --stats 2>"$T/st.err" >/dev/null
+grep -q "^dth sweep: 1 run in " "$T/st.err" || fail "1 run: $(cat "$T/st.err")"
+ok "counts in words"
+
 # (bad scene files: check_bad.sh)
 
 # ---- bad command lines and unwritable outputs
