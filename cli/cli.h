@@ -160,6 +160,11 @@ double cli_grid_at(const cli_grid *g, long i);
  * initial state") and `skip` (how to skip the check): then the exit status, else 0. */
 int cli_check_model(const dth_run_setup *rs, const char *scene_path, const char *where, const char *skip);
 
+/* The fastest rate of the linearized flow at y = (q, t, p): omega = sqrt(spectral radius of
+ * (J H'')^2) over (q, p), by power iteration (for an oscillator its largest angular frequency, for
+ * an unstable direction its growth rate). 0, or -1 (above 200 degrees of freedom, a model error). */
+int cli_fastest_rate(const dth_model *m, const double *y, double *omega);
+
 /* Seconds on a monotonic clock. */
 double cli_now(void);
 

@@ -74,6 +74,7 @@ typedef struct run_job {
     char *ev_path;        /* the events CSV (NULL: none) */
     char origin[2][1100]; /* where the scene named the output and the events file (r.out_origin, r.ev_origin) */
     dth_run_state S;      /* the driver's state */
+    double omega;         /* the fastest rate of the linearized flow at the start (0: unknown) */
     int rc, werr;         /* the driver's status; an output could not be written */
 } run_job;
 
@@ -405,7 +406,10 @@ static void check_start(run_job *j)
     double *zstart = j->zstart, hmin;
     if (j->it) memcpy(zstart, dth_integrator_vertex(j->it), j->r.N * sizeof *zstart);
     else memcpy(zstart, dth_fixed_state(j->fx), (j->r.N - 1) * sizeof *zstart);
-    if (!j->is_dth || j->o.resume_path) return;
+    if (j->o.resume_path) return;
+    /* the fastest rate at the start, for a warning when the run ends (fast_rate) */
+    if (cli_fastest_rate(rs->model, zstart, &j->omega)) j->omega = 0;
+    if (!j->is_dth) return;
     if (dth_step_floor(rs->model, zstart, 1e-6, &hmin, j->r.work) == DTH_OK && fabs(rs->opt.h) < hmin)
         cli_error("warning: |h| = %.3g is below the conditioning limit %.3g at the start: the step size is "
                   "known only to about 1e-6 relative or worse (docs/performance.md)", fabs(rs->opt.h), hmin);
@@ -560,6 +564,33 @@ static void stop_hint(const run_job *j, char *hint, size_t len)
         hint[0] = '\0';
 }
 
+/* A step that cannot follow the fastest motion of the start: omega |h| > 1, fewer than 2 pi steps per
+ * period of the fastest oscillation (or more than an e-fold per step of a growing direction). Said
+ * when a run ends well (one that stops has its own advice). */
+static void fast_rate(const run_job *j)
+{
+    double h = j->rs.opt.h, om = j->omega;
+    if (!(om * fabs(h) > 1)) return;
+    cli_error("warning: |h| = %.3g is large for the motion at the start: omega |h| = %.3g > 1, fewer than 2 pi steps per "
+              "period of the fastest oscillation (omega = %.3g, the fastest rate of the linearized flow there), whose "
+              "phase then errs by more than 7 %% a step; a smaller step, e.g. -s integrator.h=%.3g (omega |h| = 0.5)",
+              fabs(h), om * fabs(h), om, copysign(0.5 / om, h));
+}
+
+/* A run that was mostly the regularizer's: more than half of at least 10 steps regularized by one
+ * that only carries the crossings (smooth; not one that replaces every step by design, prescribed).
+ * Those steps are not symplectic: a warning, with a smaller step. */
+static void regularized_share(const run_job *j)
+{
+    const dth_run_state *S = &j->S;
+    const dth_regularizer *reg = j->rs.regularizer;
+    if (!reg || dth_regularizer_get_type(reg)->replaces_all || S->k < 10 || 2 * S->regularized <= S->k) return;
+    cli_error("warning: %.0f %% of the steps (%ld of %ld) were changeover steps of the regularizer '%s', which are not "
+              "symplectic: the step is large for this trajectory; a smaller one keeps more of it on ordinary DTH steps, "
+              "e.g. -s integrator.h=%.6g", 100.0 * (double)S->regularized / (double)S->k, S->regularized, S->k,
+              dth_regularizer_get_type(reg)->name, j->rs.opt.h / 4);
+}
+
 /* How the run ended, on stderr (always when it could not go on, else for regularized runs and on
  * a terminal), and the exit status. */
 static int report(const run_job *j)
@@ -597,6 +628,8 @@ static int report(const run_job *j)
         cli_error("error at k=%ld, t=%.17g: %s (%s)", S->k, S->t, dth_strerror(rc), emsg);
         return CLI_FAIL;
     }
+    fast_rate(j);
+    regularized_share(j);
     if (r->progress == 1 || S->regularized)
         fprintf(stderr, "dth: %ld step%s to t = %.17g, %ld row%s to %s%s\n", S->k, CLI_S(S->k), S->t_stop, S->samples,
                 CLI_S(S->samples), j->path ? j->path : "standard output", crossing);

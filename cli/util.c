@@ -167,6 +167,47 @@ int cli_check_clash(const char *what, const char *path, const cli_input *in, siz
     return 0;
 }
 
+int cli_fastest_rate(const dth_model *m, const double *y, double *omega)
+{
+    size_t n = dth_model_dof(m), d = 2 * n + 1, k = 2 * n;
+    if (n > 200) return -1; /* a dense (2n+1)^2 Hessian */
+    double *hess = calloc(d * d + 3 * k, sizeof *hess);
+    if (!hess) return -1;
+    double *v = hess + d * d, *w = v + k, *x = w + k;
+    int rc = dth_model_eval(m, y, DTH_EVAL_HESS, NULL, NULL, hess);
+    /* the (q, p) block of H'' (y = (q, t, p): skip row and column n) applied to a (q, p) vector */
+#define HQP(i, j) hess[((i) < n ? (i) : (i) + 1) * d + ((j) < n ? (j) : (j) + 1)]
+    unsigned long long seed = 88172645463325252ULL; /* a fixed pseudo-random start: every mode in it */
+    for (size_t i = 0; i < k; i++) {
+        seed ^= seed << 13, seed ^= seed >> 7, seed ^= seed << 17;
+        v[i] = (double)(seed >> 11) / 9007199254740992.0 - 0.5;
+    }
+    double rho = 0;
+    for (int it = 0; !rc && it < 100; it++) {
+        /* v <- (J H'')^2 v, J (a, b) = (b, -a) on (q, p); rho its growth */
+        for (int half = 0; half < 2; half++) {
+            double *in = half ? x : v, *out = half ? v : x;
+            for (size_t i = 0; i < k; i++) {
+                double s = 0;
+                for (size_t j = 0; j < k; j++) s += HQP(i, j) * in[j];
+                w[i] = s;
+            }
+            for (size_t i = 0; i < n; i++) out[i] = w[n + i], out[n + i] = -w[i];
+        }
+        double norm = 0;
+        for (size_t i = 0; i < k; i++) norm += v[i] * v[i];
+        norm = sqrt(norm);
+        if (!(norm > 0) || !isfinite(norm)) break;
+        rho = norm;
+        for (size_t i = 0; i < k; i++) v[i] /= norm;
+    }
+#undef HQP
+    free(hess);
+    if (rc || !(rho > 0)) return -1;
+    *omega = sqrt(rho);
+    return 0;
+}
+
 int cli_check_model(const dth_run_setup *rs, const char *scene_path, const char *where, const char *skip)
 {
     if (rs->n > 200) return 0; /* its memory grows as (2n+1)^2 */

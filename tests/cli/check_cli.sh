@@ -178,6 +178,24 @@ grep -q "^dth: 1 event to .*term-events.csv (the run ended at a terminal event)$
 grep -q "^dth sweep: 1 run in " "$T/st.err" || fail "1 run: $(cat "$T/st.err")"
 ok "counts in words"
 
+# ---- warnings of a run that passes with a step too large for it (issue 25)
+# h = 3 on the harmonic oscillator (omega = sqrt 3): omega h = 5.2
+"$DTH" run "$SC/harmonic.ini" -s integrator.h=3 -o "$T/h3.csv" 2>"$T/h3.err" || fail "h = 3: exit $?"
+grep -q "^dth: warning: |h| = 3 is large for the motion at the start: omega |h| = 5.2 > 1, .*-s integrator.h=0.289 (omega |h| = 0.5)$" \
+    "$T/h3.err" || fail "h = 3: $(cat "$T/h3.err")"
+"$DTH" run "$SC/harmonic.ini" -s integrator.h=0.289 -o "$T/h3.csv" 2>"$T/h3.err" && [ ! -s "$T/h3.err" ] ||
+    fail "the advised h = 0.289: $(cat "$T/h3.err")"
+# Kepler e = 0.9 at h = 0.5: 83 % of the steps are the default regularizer's
+"$DTH" run "$SC/kepler-e09.ini" -s integrator.h=0.5 -o "$T/k5.csv" 2>"$T/k5.err" || fail "kepler h = 0.5: exit $?"
+grep -q "^dth: warning: 83 % of the steps (429 of 517) were changeover steps of the regularizer 'smooth', which are not symplectic: .*-s integrator.h=0.125$" \
+    "$T/k5.err" || fail "kepler h = 0.5: $(cat "$T/k5.err")"
+"$DTH" run "$SC/kepler-e09.ini" -s integrator.h=0.125 -o "$T/k5.csv" 2>"$T/k5.err"
+grep -q "warning" "$T/k5.err" && fail "kepler h = 0.125 (a third regularized): $(cat "$T/k5.err")"
+# a regularizer that replaces every step by design is no such case
+"$DTH" run "$SC/kepler-e09-prescribed.ini" -o "$T/kp.csv" 2>"$T/kp.err"
+grep -q "warning" "$T/kp.err" && fail "prescribed: $(cat "$T/kp.err")"
+ok "warnings: omega h > 1 at the start, most steps regularized"
+
 # (bad scene files: check_bad.sh)
 
 # ---- bad command lines and unwritable outputs
