@@ -158,6 +158,13 @@ int dth_model_new(const dth_model_type *utype, const dth_kv *kv, size_t nkv, siz
     dth_model_args args = {kv, nkv, n_hint, alloc, err, errlen};
     if (err && errlen) err[0] = '\0';
     int rc = type->create(&args, &m->self, &m->info);
+    if (rc == DTH_OK && !m->self && type->n_params > 0) {
+        /* a model with parameters keeps them in its instance: none is a bug of the model (its eval
+         * would read through NULL); stateless models without parameters may leave self NULL */
+        dth__set_err(err, errlen, "create succeeded without an instance (*self = NULL), but the model has "
+                     "parameters to keep in one: a bug in the model");
+        rc = DTH_EINVAL;
+    }
     if (rc == DTH_OK && (m->info.n == 0 || m->info.n > DTH__MAX_DOF)) {
         dth__set_err(err, errlen, "model '%s' reported %zu degrees of freedom (1 to 2^40 supported)", type->name,
                      m->info.n);
@@ -168,6 +175,18 @@ int dth_model_new(const dth_model_type *utype, const dth_kv *kv, size_t nkv, siz
         dth__set_err(err, errlen, "model '%s' reported %zu invariants (at most %zu supported)", type->name, ninv,
                      DTH__MAX_INVARIANTS);
         rc = DTH_EINVAL;
+    }
+    for (size_t i = 0; rc == DTH_OK && i < ninv; i++) {
+        /* the names are columns of CSV files: present, not empty, no separators or control characters */
+        const char *nm = type->invariant_name ? type->invariant_name(m->self, i) : NULL;
+        int ok = nm && nm[0];
+        for (const char *c = nm; ok && *c; c++) ok = *c != ',' && *c != '"' && (unsigned char)*c >= 0x20;
+        if (!ok) {
+            dth__set_err(err, errlen, "invariant %zu of %zu has %s (invariant_name returned %s%s%s)", i + 1, ninv,
+                         nm && nm[0] ? "a name that cannot be a CSV column" : "no name",
+                         nm ? "'" : "NULL", nm ? nm : "", nm ? "'" : "");
+            rc = DTH_EINVAL;
+        }
     }
     if (rc == DTH_OK && m->info.bandwidth >= 2 * m->info.n && (m->info.hess_kind == DTH_HESS_BANDED)) {
         dth__set_err(err, errlen, "model '%s' reported a Hessian bandwidth of %zu for %zu degrees of freedom",
@@ -765,20 +784,33 @@ int dth_args_list(const dth_model_args *a, const char *key, double *out, size_t 
     return dth__parse_list(v, out, max, count) ? dth_args_error(a, "parameter '%s': '%s' is not a list of at most %zu finite numbers", key, v, max) : DTH_OK;
 }
 
+/* One item of a list: the text from s to stop (a comma or the end), read as dth_parse_double reads a
+ * string, in place: an item may be as long as its line (a token buffer once cut it at 127). */
+static int parse_item(const char *s, const char *stop, double *out)
+{
+    while (s < stop && (*s == ' ' || *s == '\t')) s++;
+    if (s == stop) return -1;
+    char *end;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (end == s || end > stop) return -1;
+    while (end < stop && (*end == ' ' || *end == '\t')) end++;
+    if (end != stop || !isfinite(v)) return -1;
+    if (errno == ERANGE && fabs(v) > 1.0) return -1; /* overflow; underflow to a denormal is fine */
+    *out = v;
+    return 0;
+}
+
 int dth__parse_list(const char *v, double *out, size_t max, size_t *count)
 {
-    char tok[128];
     size_t k = 0;
     *count = 0;
     const char *s = v;
     for (;;) {
         const char *c = strchr(s, ',');
-        size_t len = c ? (size_t)(c - s) : strlen(s);
-        if (len >= sizeof tok) return -1;
-        memcpy(tok, s, len);
-        tok[len] = '\0';
+        const char *stop = c ? c : s + strlen(s);
         if (k >= max) return -1;
-        if (dth_parse_double(tok, &out[k])) return -1;
+        if (parse_item(s, stop, &out[k])) return -1;
         k++;
         if (!c) break;
         s = c + 1;

@@ -76,9 +76,9 @@ int dth_regularizer_new(const dth_regularizer_type *utype, const dth_kv *kv, siz
         dth_reg_args a = {kv, nkv, model, alloc, err, errlen};
         int rc = type->create(&a, &r->self);
         if (rc) {
-            if (r->self && type->destroy) type->destroy(r->self, alloc);
-            dth_free(alloc, r);
             if (err && errlen && !err[0]) snprintf(err, errlen, "regularizer '%s': %s", type->name, dth_strerror(rc));
+            if (r->self && type->destroy) type->destroy(r->self, alloc);
+            dth_free(alloc, r);             /* type points into r: the message is written first */
             return rc < 0 ? rc : DTH_EINVAL;
         }
     }

@@ -802,7 +802,8 @@ static int check_cross(setup_ctx *c, dth_run_setup *rs)
         return DTH_EINVAL;
     }
     if (c->x->np != rs->n)
-        return bad(c->err, c->errlen, p, "%zu values, but initial.q has %zu (%s)", c->x->np, rs->n, q->origin);
+        return bad(c->err, c->errlen, p, "%zu value%s, but initial.q has %zu (%s)", c->x->np, c->x->np == 1 ? "" : "s",
+                   rs->n, q->origin);
     if (!given(c, "integrator", "h")) {
         dth__set_err(c->err, c->errlen, "%s: missing [integrator] h= (the first step; its sign sets the direction)", src);
         return DTH_EINVAL;
@@ -832,8 +833,8 @@ static int make_model(setup_ctx *c, const dth_model_type *type, dth_run_setup *r
         return bad(c->err, c->errlen, at, "model '%s': %s", type->name, merr);
     }
     if (dth_model_dof(rs->model) != rs->n)
-        return bad(c->err, c->errlen, q, "model '%s' has %zu degrees of freedom, but %zu q values are given",
-                   type->name, dth_model_dof(rs->model), rs->n);
+        return bad(c->err, c->errlen, q, "model '%s' has %zu degree%s of freedom, but %zu q value%s given", type->name,
+                   dth_model_dof(rs->model), dth_model_dof(rs->model) == 1 ? "" : "s", rs->n, rs->n == 1 ? " is" : "s are");
     return DTH_OK;
 }
 
@@ -916,7 +917,8 @@ static int build_events(setup_ctx *c, dth_run_setup *rs)
     size_t i = 0;
     if (sec) {
         size_t idx = (size_t)labs(x->section);
-        if (idx > n) return bad(c->err, c->errlen, sec, "'%s': the model has %zu degrees of freedom", sec->value, n);
+        if (idx > n)
+            return bad(c->err, c->errlen, sec, "'%s': the model has %zu degree%s of freedom", sec->value, n, n == 1 ? "" : "s");
         dth_event_spec *sp = &rs->event_specs[i];
         sp->index = x->section > 0 ? idx - 1 : n + idx;
         sp->value = x->section_value;
@@ -962,8 +964,16 @@ static int setup_regularizer(const dth_scene *s, const dth_registry *reg, dth_ru
         }
     /* default: `land` for DTH (raw DTH, one replaced step per psi = 0 crossing), none for baselines */
     const char *def = strcmp(rs->method, "dth") ? "none" : "land";
-    const dth_regularizer_type *t = dth_registry_find_regularizer(reg, em ? em->value : def);
-    if (!t) {
+    const char *name = em ? em->value : def;
+    const dth_regularizer_type *t = dth_registry_find_regularizer(reg, name);
+    if (!t && !em && strcmp(name, "none")) {
+        /* a registry built without the regularizers (a program's own, holding models only) */
+        dth__set_err(err, errlen, "%s: [regularize]: the default regularizer '%s' is not in the registry (register "
+                     "it, e.g. with dth_registry_add_builtin, or give [regularize] method = none)",
+                     s->source ? s->source : "scene", def);
+        return DTH_EINVAL;
+    }
+    if (!t && strcmp(name, "none")) {
         char names[256];
         size_t len = 0;
         names[0] = '\0';
@@ -976,8 +986,8 @@ static int setup_regularizer(const dth_scene *s, const dth_registry *reg, dth_ru
                        "available: %s)", names);
         return bad(err, errlen, em, "unknown regularizer '%s' (available: %s)", em->value, names);
     }
-    snprintf(rs->regularize, sizeof rs->regularize, "%s", t->name);
-    if (!strcmp(t->name, "none")) {
+    snprintf(rs->regularize, sizeof rs->regularize, "%s", t ? t->name : "none");
+    if (!t || !strcmp(t->name, "none")) { /* none (raw DTH, the baselines' default) needs no registered type */
         for (size_t i = 0; i < s->n; i++)
             if (!strcmp(s->e[i].section, "regularize") && strcmp(s->e[i].key, "method"))
                 return bad(err, errlen, &s->e[i], "unknown key (regularizer 'none' takes no parameters)");

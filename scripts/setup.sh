@@ -13,7 +13,7 @@ builddir=${1:-build}
 packages=(gcc pkg-config meson ninja-build liblapacke-dev libopenblas-dev libcunit1-dev
           libinih-dev libgsl-dev gnuplot-nox libhdf5-dev
           python3-cffi python3-numpy python3-pytest python3-matplotlib python3-sympy python3-pandas
-          python3-mesonpy python3-venv python3-pip libopenmpi-dev openmpi-bin)
+          python3-mesonpy python3-venv python3-pip libopenmpi-dev openmpi-bin python3-h5py)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -177,6 +177,62 @@ static void test_check_verdict(void)
     dth_model_free(m);
 }
 
+/* ---- a model's contract checked by dth_model_new (issue 24): one with parameters must return an
+ * instance (a plugin that leaves *self NULL crashed in its own eval), and every invariant must have a
+ * name a CSV column can take (a NULL one became "(null)_drift"). Stateless models without parameters
+ * may leave self NULL (bad_type above). */
+static const dth_param_spec one_param[] = {{"k", "1", "a parameter"}};
+static const char *inv_names_given[2];
+static size_t two_inv(const void *self) { return (void)self, 2; }
+static const char *inv_name(const void *self, size_t i) { return (void)self, inv_names_given[i]; }
+static int inv_eval(const void *self, const double *y, double *out)
+{
+    (void)self;
+    out[0] = y[0];
+    out[1] = y[2];
+    return 0;
+}
+
+static void test_contract(void)
+{
+    dth_model *m = NULL;
+    char err[256] = "";
+    /* parameters, but no instance */
+    dth_model_type t = bad_type;
+    t.name = "lost";
+    t.params = one_param;
+    t.n_params = 1;
+    CU_ASSERT_EQUAL(dth_model_new(&t, NULL, 0, 1, NULL, &m, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT(m == NULL);
+    CU_ASSERT(strstr(err, "create succeeded without an instance (*self = NULL)") != NULL);
+    /* invariants: a missing name, an empty one, one with a comma; two good ones pass */
+    dth_model_type u = bad_type;
+    u.n_invariants = two_inv;
+    u.invariants = inv_eval;
+    u.invariant_name = inv_name;
+    const char *cases[][2] = {{"q", NULL}, {"", "p"}, {"q", "p,1"}, {"q", "p"}};
+    const char *want[] = {"invariant 2 of 2 has no name (invariant_name returned NULL)",
+                          "invariant 1 of 2 has no name (invariant_name returned '')",
+                          "invariant 2 of 2 has a name that cannot be a CSV column (invariant_name returned 'p,1')", NULL};
+    for (int i = 0; i < 4; i++) {
+        inv_names_given[0] = cases[i][0];
+        inv_names_given[1] = cases[i][1];
+        err[0] = '\0';
+        int rc = dth_model_new(&u, NULL, 0, 1, NULL, &m, err, sizeof err);
+        CU_ASSERT_EQUAL(rc, want[i] ? DTH_EINVAL : DTH_OK);
+        if (want[i]) {
+            CU_ASSERT(strstr(err, want[i]) != NULL);
+        } else {
+            CU_ASSERT_STRING_EQUAL(dth_model_invariant_name(m, 1), "p");
+        }
+        dth_model_free(m);
+        m = NULL;
+    }
+    u.invariant_name = NULL; /* invariants without the name callback */
+    CU_ASSERT_EQUAL(dth_model_new(&u, NULL, 0, 1, NULL, &m, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT(strstr(err, "invariant 1 of 2 has no name") != NULL);
+}
+
 /* psi' = [psi, H] = grad psi . J grad H, computed by differencing psi along the flow. */
 static void check_dpsi(const dth_model *m)
 {
@@ -448,6 +504,7 @@ static CU_TestInfo conformance[] = {
 };
 static CU_TestInfo params[] = {
     {"bad parameters are rejected naming the key", test_bad_params},
+    {"an instance for a model with parameters; a CSV name for each invariant", test_contract},
     {"pendulum psi and psi' match the paper", test_pendulum_psi},
     CU_TEST_INFO_NULL,
 };

@@ -9,6 +9,7 @@
 #include <unistd.h>
 #include "cu_main.h"
 #include "dth/dth.h"
+#include "dth_internal.h" /* dth__parse_list */
 
 /* A scene file with the given text; path receives its name (remove it with unlink). */
 static void write_scene(const char *text, char *path, size_t len)
@@ -563,6 +564,73 @@ static void test_nul_and_line_limit(void)
     dth_scene_free(s);
 }
 
+/* dth_scene_set_from (issue 25): the caller names the override's source, in messages and in
+ * dth_scene_origin; it is an override all the same (one of steps/t_end replaces a file's other). */
+static void test_set_from_vary(void)
+{
+    dth_registry *reg = registry();
+    dth_scene *s;
+    char err[512] = "";
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    const char *text = BASE_PEND "t_end = 5\n";
+    CU_ASSERT_FATAL(dth_scene_load_mem(s, "f.ini", text, strlen(text), err, sizeof err) == DTH_OK);
+    CU_ASSERT(dth_scene_set_from(s, "--vary integrator.hh=1", "integrator.hh=1", err, sizeof err) == DTH_OK);
+    CU_ASSERT_STRING_EQUAL(dth_scene_origin(s, "integrator", "hh"), "--vary integrator.hh=1");
+    dth_run_setup rs;
+    CU_ASSERT_EQUAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT(strncmp(err, "--vary integrator.hh=1: integrator.hh: unknown key", 50) == 0);
+    CU_ASSERT(dth_scene_set_from(s, "list.csv:3", "integratorhh=1", err, sizeof err) == DTH_EPARSE);
+    CU_ASSERT_STRING_EQUAL(err, "list.csv:3: expected section.key=value");
+    CU_ASSERT(dth_scene_set(s, "integrator.hh=2", err, sizeof err) == DTH_OK); /* the -s form as before */
+    CU_ASSERT_STRING_EQUAL(dth_scene_origin(s, "integrator", "hh"), "-s integrator.hh=2");
+    dth_scene_free(s);
+    /* steps from the caller replaces the file's t_end, as a -s does */
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    CU_ASSERT_FATAL(dth_scene_load_mem(s, "f.ini", text, strlen(text), err, sizeof err) == DTH_OK);
+    CU_ASSERT(dth_scene_set_from(s, "row 3", "integrator.steps=7", err, sizeof err) == DTH_OK);
+    CU_ASSERT_EQUAL_FATAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_OK);
+    CU_ASSERT(!rs.has_t_end && rs.steps == 7);
+    dth_run_setup_clear(&rs);
+    dth_scene_free(s);
+    dth_registry_free(reg);
+}
+
+/* A number may be as long as a line allows (issue 24): 190 digits in a list (as a file line, and as
+ * an override) read as the number they spell; one digit more than a line holds is a line error. */
+static void test_long_number(void)
+{
+    dth_registry *reg = registry();
+    char num[200], text[600], set[240], err[512];
+    snprintf(num, sizeof num, "0.5%0187d", 1); /* 0.5000...0001: 190 characters */
+    CU_ASSERT_FATAL(strlen(num) == 190);
+    for (int via_set = 0; via_set < 2; via_set++) {
+        snprintf(text, sizeof text, "[model]\nname = harmonic\n[initial]\nq = %s,\n  %s\np = 0, 0\n"
+                 "[integrator]\nh = 0.1\nsteps = 3\n", via_set ? "1" : num, via_set ? "2" : num);
+        dth_scene *s;
+        dth_run_setup rs;
+        CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+        CU_ASSERT_FATAL(dth_scene_load_mem(s, "long.ini", text, strlen(text), err, sizeof err) == DTH_OK);
+        snprintf(set, sizeof set, "initial.q = %s, 2", num);
+        if (via_set) CU_ASSERT_FATAL(dth_scene_set(s, set, err, sizeof err) == DTH_OK);
+        int rc = dth_scene_setup(s, reg, &rs, err, sizeof err);
+        CU_ASSERT_EQUAL(rc, DTH_OK);
+        if (rc) {
+            printf("  %s\n", err);
+        } else {
+            CU_ASSERT(rs.n == 2 && rs.q0[0] == 0.5 && rs.q0[1] == (via_set ? 2 : 0.5));
+            dth_run_setup_clear(&rs);
+        }
+        dth_scene_free(s);
+    }
+    double x[2];
+    size_t n;
+    CU_ASSERT(dth__parse_list(num, x, 2, &n) == 0 && n == 1 && x[0] == 0.5);
+    CU_ASSERT(dth__parse_list("1, 2x", x, 2, &n) != 0);  /* still whole items only */
+    CU_ASSERT(dth__parse_list("1,,2", x, 2, &n) != 0);
+    CU_ASSERT(dth__parse_list(" 1 , 2 ", x, 2, &n) == 0 && n == 2 && x[1] == 2);
+    dth_registry_free(reg);
+}
+
 /* Without [regularize] method=, DTH runs get the default regularizer `land` (a new scene crosses
  * psi = 0) and the baselines none; method = none keeps raw DTH; the retired `smooth` is named as such. */
 static void test_default_regularizer(void)
@@ -606,6 +674,42 @@ static void test_default_regularizer(void)
     dth_registry_free(reg);
 }
 
+/* A program's own registry holding a model but no regularizer: the default regularizer (smooth, for
+ * DTH) cannot be found, which is a message naming it and the fix, not a crash; none (the fix, and a
+ * baseline's default) needs no registered type. */
+static void test_registry_without_regularizers(void)
+{
+    dth_registry *reg = NULL;
+    CU_ASSERT_FATAL(dth_registry_new(NULL, &reg) == DTH_OK);
+    CU_ASSERT_FATAL(dth_registry_add_model(reg, &dth_model_harmonic) == DTH_OK);
+    static const char *base = "[model]\nname = harmonic\n[initial]\nq = 1\np = 0\n[integrator]\nh = 0.1\nsteps = 3\n";
+    char err[512] = "";
+    dth_scene *s;
+    dth_run_setup rs;
+    memset(&rs, 0, sizeof rs);
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    CU_ASSERT_FATAL(dth_scene_load_mem(s, "own.ini", base, strlen(base), err, sizeof err) == DTH_OK);
+    CU_ASSERT_EQUAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT(strstr(err, "own.ini: [regularize]: the default regularizer 'land' is not in the registry") != NULL);
+    CU_ASSERT(strstr(err, "method = none") != NULL);
+    CU_ASSERT(rs.model == NULL); /* untouched on failure */
+    /* the fix the message names, and a baseline (default none) */
+    const char *fixes[] = {"regularize.method=none", "integrator.method=rk4"};
+    for (int i = 0; i < 2; i++) {
+        dth_scene *t;
+        CU_ASSERT_FATAL(dth_scene_new(NULL, &t) == DTH_OK);
+        CU_ASSERT_FATAL(dth_scene_load_mem(t, "own.ini", base, strlen(base), err, sizeof err) == DTH_OK);
+        CU_ASSERT_FATAL(dth_scene_set(t, fixes[i], err, sizeof err) == DTH_OK);
+        CU_ASSERT_EQUAL_FATAL(dth_scene_setup(t, reg, &rs, err, sizeof err), DTH_OK);
+        CU_ASSERT_STRING_EQUAL(rs.regularize, "none");
+        CU_ASSERT(rs.regularizer == NULL);
+        dth_run_setup_clear(&rs);
+        dth_scene_free(t);
+    }
+    dth_scene_free(s);
+    dth_registry_free(reg);
+}
+
 /* The default regularizer (no method= line) refusing a parameter whose name its message does not
  * quote: an error naming the override, not a NULL entry (found by fuzz_override). Also the new
  * [output] points and [events] keys: resolved, and bad values named. */
@@ -620,7 +724,7 @@ static void test_default_regularizer_bad_key_and_events(void)
         {"regularize.ste'p=1", "regularize.ste'p"},
         {"output.points=midpoints", NULL},
         {"events.section=p1", NULL},
-        {"events.section=p2", "the model has 1 degrees of freedom"},
+        {"events.section=p2", "the model has 1 degree of freedom"},
         {"events.distance_dofs=", "needs [events] distance="},
         {"events.time=1,nan", "not a comma-separated list"},
         {"events.frobnicate=1", "unknown key (known in [events]"},
@@ -740,7 +844,10 @@ static CU_TestInfo scene_tests[] = {
     {"bad override values name the override", test_bad_override_values},
     {"dth_scene_text loads back to the same entries (random overrides and files)", test_text_round_trip},
     {"a NUL byte is refused; the 197-character line limit, exactly", test_nul_and_line_limit},
+    {"a number as long as a line", test_long_number},
+    {"overrides named by their caller: --vary, list rows (dth_scene_set_from)", test_set_from_vary},
     {"default regularizer: land for DTH, none for baselines", test_default_regularizer},
+    {"a registry without regularizers: a message, not a crash", test_registry_without_regularizers},
     {"the default regularizer refusing a key; [output] points and [events]", test_default_regularizer_bad_key_and_events},
     {"an override named by its caller (dth_scene_set_from); dth_scene_check_entry", test_set_from},
     {"what a resume may change (dth_scene_resume_check)", test_resume_rule},

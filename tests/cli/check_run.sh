@@ -145,7 +145,7 @@ grep -q "terminal event" "$T/ev.err" || fail "terminal event message: $(cat "$T/
 "$DTH" run "$SC/pendulum.ini" -s events.section=q1 >/dev/null 2>"$T/ev.err"
 [ $? -eq 2 ] && grep -q "give the events file" "$T/ev.err" || fail "events to stdout: $(cat "$T/ev.err")"
 "$DTH" run "$SC/pendulum.ini" -s events.section=q2 -o "$T/ev/x.csv" 2>"$T/ev.err"
-[ $? -eq 2 ] && grep -q "events.section: 'q2': the model has 1 degrees of freedom" "$T/ev.err" || fail "section q2: $(cat "$T/ev.err")"
+[ $? -eq 2 ] && grep -q "events.section: 'q2': the model has 1 degree of freedom" "$T/ev.err" || fail "section q2: $(cat "$T/ev.err")"
 "$DTH" run "$SC/pendulum.ini" -s events.section_value=1 -o "$T/ev/x.csv" 2>"$T/ev.err"
 [ $? -eq 2 ] && grep -q "needs \[events\] section=" "$T/ev.err" || fail "orphan section_value: $(cat "$T/ev.err")"
 "$DTH" run "$SC/pendulum.ini" -s events.section=p1 -o "$T/ev/same.csv" --events "$T/ev/same.csv" 2>"$T/ev.err"
