@@ -18,9 +18,9 @@
  *   C. A 2-D chain of 3 masses through psi = 0: energy and angular momentum Lz.
  * Prints markdown tables (wall times are of the stepping calls only, measured side by side in this
  * run: use ratios) and writes CSV files for scripts/plot-symplectic.sh.
- * Usage: bench_symplectic [scale] [--out DIR] [--only PARTS]   (scale 1: the figures of
- * docs/regularization.md, about 7 minutes; 0.01: a smoke run of a few seconds; DIR defaults to
- * bench-out; PARTS: letters of A, B, C, default all)
+ * Usage: bench_symplectic [scale] [--out DIR] [--only PARTS] [--land KEY=VALUE]   (scale 1: the figures
+ * of docs/regularization.md, about 7 minutes; 0.01: a smoke run of a few seconds; DIR defaults to
+ * bench-out; PARTS: letters of A, B, C, default all; --land: a parameter of land's, e.g. clock=no)
  */
 #include <errno.h>
 #include <float.h>
@@ -37,6 +37,8 @@
 enum { MAXN = 32 };
 
 static const char *const methods[] = {"none", "land", "prescribed", "gauss4", "midpoint", "midpoint-proj"};
+static dth_kv land_kv[1]; /* --land KEY=VALUE */
+static size_t land_nkv;
 enum { NMETH = sizeof methods / sizeof methods[0] };
 
 /* ---- one run of one method: DTH (with a regularizer) or a fixed-step baseline ---- */
@@ -84,7 +86,8 @@ static int runner_open(runner *r, const dth_model *m, const char *method, double
                                          : !strcmp(method, "land") ? &dth_reg_land
                                                                      : &dth_reg_prescribed;
         dth_kv kv[] = {{"alpha", "0"}};
-        rc = dth_regularizer_new(ty, kv, ty == &dth_reg_prescribed, m, NULL, &r->reg, err, sizeof err);
+        if (ty == &dth_reg_land) rc = dth_regularizer_new(ty, land_kv, land_nkv, m, NULL, &r->reg, err, sizeof err);
+        else rc = dth_regularizer_new(ty, kv, ty == &dth_reg_prescribed, m, NULL, &r->reg, err, sizeof err);
         if (!rc) {
             dth_options o;
             dth_options_default(&o);
@@ -146,7 +149,7 @@ static int runner_step(runner *r)
     /* energy: DTH's midpoints carry -wp exactly; its vertices carry the O(h^2) offset psi lambda^2/8 */
     const double *y = runner_y(r);
     r->evert = fmax(r->evert, fabs(energy(r->m, y) - r->E0) / fabs(r->E0));
-    if (r->it) {
+    if (r->dth) { /* baselines have no midpoint (dth_integrator_midpoint: NULL) */
         const double *zb = dth_integrator_midpoint(r->it);
         r->emid = fmax(r->emid, fabs(zb[2 * r->n + 1] + energy(r->m, zb)) / fabs(r->E0));
     }
@@ -436,7 +439,7 @@ static void part_fput(double scale, const char *dir)
             if (k < NMETH)
                 for (size_t j = 0; j < N; j++) fprintf(ms, "%s,%s,%zu,%.6e\n", label, names[k], j + 1, o->Ebar[j] / E);
         }
-        printf("\nsmooth's last state equals none's bit for bit: %s\n\n", memcmp(out[0].yend, out[1].yend, (2 * N + 1) * sizeof(double)) ? "no" : "yes");
+        printf("\nland's last state equals none's bit for bit: %s\n\n", memcmp(out[0].yend, out[1].yend, (2 * N + 1) * sizeof(double)) ? "no" : "yes");
         fflush(stdout);
     }
     fclose(ts);
@@ -678,7 +681,7 @@ static void part_sections(double scale, const char *dir)
         }
         int same = P[0].n == P[1].n && rr[0].steps == rr[1].steps && !memcmp(P[0].x, P[1].x, P[0].n * sizeof(double)) &&
                    !memcmp(P[0].p, P[1].p, P[0].n * sizeof(double)) && !memcmp(P[0].t, P[1].t, P[0].n * sizeof(double));
-        printf("\nsmooth's section points equal none's bit for bit: %s\n\n", same ? "yes" : "no");
+        printf("\nland's section points equal none's bit for bit: %s\n\n", same ? "yes" : "no");
         fflush(stdout);
         for (int k = 0; k < NMETH; k++) pts_free(&P[k]);
         pts_free(&ref);
@@ -787,10 +790,16 @@ int main(int argc, char **argv)
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--out") && i + 1 < argc) dir = argv[++i];
         else if (!strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
-        else scale = atof(argv[i]);
+        else if (!strcmp(argv[i], "--land") && i + 1 < argc && strchr(argv[i + 1], '=')) {
+            static char key[64];
+            const char *kv = argv[++i], *eq = strchr(kv, '=');
+            snprintf(key, sizeof key, "%.*s", (int)(eq - kv), kv);
+            land_kv[0] = (dth_kv){key, eq + 1};
+            land_nkv = 1;
+        } else scale = atof(argv[i]);
     }
     if (!(scale > 0)) {
-        fprintf(stderr, "usage: bench_symplectic [scale > 0] [--out DIR] [--only PARTS (letters of A, B, C)]\n");
+        fprintf(stderr, "usage: bench_symplectic [scale > 0] [--out DIR] [--only PARTS (letters of A, B, C)] [--land KEY=VALUE]\n");
         return 2;
     }
     if (mkdir(dir, 0777) && errno != EEXIST) {
@@ -798,6 +807,7 @@ int main(int argc, char **argv)
         return 1;
     }
     printf("# bench_symplectic %g: what losing symplecticity costs\n\n", scale);
+    if (land_nkv) printf("land's parameter: %s = %s\n\n", land_kv[0].key, land_kv[0].value);
     check_models();
     if (strchr(only, 'A')) part_fput(scale, dir);
     if (strchr(only, 'B')) part_sections(scale, dir);
