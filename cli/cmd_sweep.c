@@ -28,6 +28,7 @@
 #define SWEEP_MAX_RUNS 100000000L
 #define SWEEP_MAX_KEYS 16
 #define SWEEP_MAX_INV 8
+#define SWEEP_MEGNO_SHARE 0.5 /* MEGNO and lyapunov only from a window of at least this share of the run */
 
 /* One varied key: section.key, or section.key[i] (element i, 1-based, of a comma-separated list). */
 typedef struct vkey {
@@ -117,9 +118,12 @@ static void usage_sweep(FILE *f)
             "  --stats           print the wall time, runs per second and the library's heap per run to stderr\n"
             "summary columns: run, the varied keys, status (ok or the status name), steps, t (where the run ended),\n"
             "  energy_error (largest |E - E0|/|E0| over the step midpoints; vertices for baseline methods),\n"
-            "  NAME_drift per invariant (largest |I - I0|/|I0| over the vertices), psi_crossings, regularized_share,\n"
+            "  NAME_drift per invariant (largest |I - I0| over the vertices relative to the largest |I|, I0 at the\n"
+            "  first vertex),\n"
+            "  psi_crossings, regularized_share,\n"
             "  events, megno, lyapunov, megno_t (the time MEGNO followed: the indicators end at the first\n"
-            "  regularized step, which has no tangent map; see lib/include/dth/chaos.h). Empty: not available.\n"
+            "  regularized step, which has no tangent map; see lib/include/dth/chaos.h; megno and lyapunov are\n"
+            "  empty when megno_t is under half of the run). Empty: not available.\n"
             "threads: OMP_NUM_THREADS; ranks: mpirun -n N dth sweep ... (meson feature mpi). The output is the same\n"
             "bytes for any number of threads and ranks. Exit 0 when every run could be set up (a trajectory that\n"
             "stops early is a status in its row), 2 for bad input, 1 for a hard error, 128 + signal when\n"
@@ -401,8 +405,10 @@ typedef struct runctx {
     size_t n, N, ninv;
     long k_done;           /* steps accounted for */
     double E0, eerr;
-    double inv0[SWEEP_MAX_INV], drift[SWEEP_MAX_INV], inv[SWEEP_MAX_INV];
+    /* per invariant: the first vertex's value, the largest |I - I0| and |I| over the vertices */
+    double inv0[SWEEP_MAX_INV], drift[SWEEP_MAX_INV], inv[SWEEP_MAX_INV], inv_max[SWEEP_MAX_INV];
     int inv_ok;
+    double t_first;        /* the first vertex's time (MEGNO's window is judged against the run from it) */
     cli_out out, ev;       /* the trajectory file and its events file */
     char *path, *evpath, *line;
     int werr;
@@ -423,7 +429,10 @@ static int account(runctx *c)
     if (!zm) zm = z; /* a baseline has no midpoints */
     if (zm && dth_model_eval(c->rs->model, zm, DTH_EVAL_H, &H, NULL, NULL) == DTH_OK) c->eerr = fmax(c->eerr, rel(H, c->E0));
     if (c->inv_ok && dth_model_invariants(c->rs->model, z, c->inv) == DTH_OK)
-        for (size_t j = 0; j < c->ninv; j++) c->drift[j] = fmax(c->drift[j], rel(c->inv[j], c->inv0[j]));
+        for (size_t j = 0; j < c->ninv; j++) {
+            c->drift[j] = fmax(c->drift[j], fabs(c->inv[j] - c->inv0[j]));
+            c->inv_max[j] = fmax(c->inv_max[j], fabs(c->inv[j]));
+        }
     if (c->meg && !c->megno_rc) c->megno_rc = dth_megno_update(c->meg, c->it);
     return 0;
 }
@@ -519,19 +528,18 @@ static int start_stepper(runctx *c, const dth_run_setup *rs)
     return rc;
 }
 
-/* The reference energy and invariants at the initial condition. */
+/* The reference energy and invariants, from the started stepper: the energy its midpoints conserve
+ * (DTH: -wp; a vertex start's differs from H at the initial state by the offset that encodes the
+ * step) or its first vertex's (baselines), and the invariants at the first vertex, where the later
+ * vertices are compared (a midpoint start's initial state is a midpoint, half a step off them). */
 static int reference_values(runctx *c, const dth_run_setup *rs)
 {
-    double *y = calloc(c->N, sizeof *y);
-    if (!y) return DTH_ENOMEM;
-    memcpy(y, rs->q0, rs->n * sizeof *y);
-    y[rs->n] = rs->t0;
-    memcpy(y + rs->n + 1, rs->p0, rs->n * sizeof *y);
-    if (dth_model_eval(rs->model, y, DTH_EVAL_H, &c->E0, NULL, NULL) != DTH_OK) c->E0 = NAN;
+    c->E0 = dth_integrator_energy(c->it);
+    c->t_first = dth_integrator_vertex(c->it)[rs->n];
     c->ninv = dth_model_n_invariants(rs->model);
     if (c->ninv > SWEEP_MAX_INV) c->ninv = SWEEP_MAX_INV;
-    c->inv_ok = c->ninv > 0 && dth_model_invariants(rs->model, y, c->inv0) == DTH_OK;
-    free(y);
+    c->inv_ok = c->ninv > 0 && dth_model_invariants(rs->model, dth_integrator_vertex(c->it), c->inv0) == DTH_OK;
+    for (size_t j = 0; c->inv_ok && j < c->ninv; j++) c->inv_max[j] = fabs(c->inv0[j]);
     return DTH_OK;
 }
 
@@ -580,12 +588,18 @@ static void record(runctx *c, int rc, const dth_run_state *S, double *rec)
     rec[R_REG] = S->k > 0 ? (double)S->regularized / (double)S->k : 0;
     rec[R_EVENTS] = (double)S->events;
     rec[R_NINV] = c->inv_ok ? (double)c->ninv : 0;
-    for (size_t j = 0; c->inv_ok && j < c->ninv; j++) rec[R_INV + j] = c->drift[j];
+    /* relative to the largest |I| along the run: an invariant whose first value is near 0 (a Runge-Lenz
+     * component at an apside) is not divided by that 0 */
+    for (size_t j = 0; c->inv_ok && j < c->ninv; j++)
+        rec[R_INV + j] = c->inv_max[j] > 0 ? c->drift[j] / c->inv_max[j] : c->drift[j];
     if (c->meg && !c->megno_rc) {
+        /* MEGNO over a short window says nothing about the orbit (an integrable pendulum reads > 4
+         * over a few steps): the indicators are left empty below half of the run, megno_t says why */
         dth_megno_result m;
         dth_megno_get(c->meg, &m);
-        rec[R_MEGNO] = m.megno;
-        rec[R_LYAP] = m.lyapunov;
+        double span = fabs(rec[R_T] - c->t_first);
+        rec[R_MEGNO] = m.span >= SWEEP_MEGNO_SHARE * span ? m.megno : NAN;
+        rec[R_LYAP] = m.span >= SWEEP_MEGNO_SHARE * span ? m.lyapunov : NAN;
         rec[R_MEGT] = m.span;
     }
 }
