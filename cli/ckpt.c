@@ -25,7 +25,11 @@ static const unsigned char MAGIC[8] = {'D', 'T', 'H', 'R', 'U', 'N', 'C', 'K'};
 enum { VERSION = 4, HEAD = 12 };
 
 /* The one table: every field of the blob and where it lives in a cli_ckpt. */
-#define OUT_FIELDS(o)                                                                                                      {#o ".path", offsetof(cli_ckpt, o.path), DTH_FIELD_STR, DTH_CHECK_ANY, 1},                                               {#o ".tmp", offsetof(cli_ckpt, o.tmp), DTH_FIELD_STR, DTH_CHECK_ANY, 1},                                             {#o ".bytes", offsetof(cli_ckpt, o.bytes), DTH_FIELD_U64, DTH_CHECK_ANY, 1},                                         {#o ".hash", offsetof(cli_ckpt, o.hash), DTH_FIELD_U64, DTH_CHECK_ANY, 1}
+#define OUT_FIELDS(o) \
+    {#o ".path", offsetof(cli_ckpt, o.path), DTH_FIELD_STR, DTH_CHECK_ANY, 1}, \
+    {#o ".tmp", offsetof(cli_ckpt, o.tmp), DTH_FIELD_STR, DTH_CHECK_ANY, 1}, \
+    {#o ".bytes", offsetof(cli_ckpt, o.bytes), DTH_FIELD_U64, DTH_CHECK_ANY, 1}, \
+    {#o ".hash", offsetof(cli_ckpt, o.hash), DTH_FIELD_U64, DTH_CHECK_ANY, 1}
 static const dth_field fields[] = {
     {"scene.hash", offsetof(cli_ckpt, scene_hash), DTH_FIELD_U64, DTH_CHECK_ANY, 1},
     OUT_FIELDS(out),
@@ -236,33 +240,11 @@ int cli_ckpt_read(const char *path, void **buf, size_t *len, const char **scene,
     return 0;
 }
 
-/* ---- what a resume may change */
-
-static int may_change(const char *sec, const char *key)
-{
-    return (!strcmp(sec, "integrator") && (!strcmp(key, "steps") || !strcmp(key, "t_end"))) ||
-           (!strcmp(sec, "output") && !strcmp(key, "file")) || (!strcmp(sec, "events") && !strcmp(key, "file"));
-}
+/* ---- what a resume may change: the library's rule (scene.h) */
 
 int cli_ckpt_check_scene(const dth_scene *saved, const dth_scene *now, char *err, size_t errlen)
 {
-    const dth_scene *sc[2] = {saved, now};
-    for (int pass = 0; pass < 2; pass++)
-        for (size_t i = 0; i < dth_scene_count(sc[pass]); i++) {
-            const char *sec, *key, *val;
-            dth_scene_entry(sc[pass], i, &sec, &key, &val, NULL);
-            const char *other = dth_scene_get(sc[1 - pass], sec, key);
-            if (may_change(sec, key) || (other && !strcmp(other, val))) continue;
-            const char *was = pass ? other : val, *is = pass ? val : other;
-            const char *org = dth_scene_origin(now, sec, key);
-            snprintf(err, errlen,
-                     "%s: %s.%s = %s%s%s would change the checkpointed run (it ran %s%s%s): a resume may change "
-                     "only integrator.steps, integrator.t_end, output.file and events.file",
-                     org ? org : "--resume", sec, key, is ? "'" : "", is ? is : "(unset)", is ? "'" : "",
-                     was ? "with '" : "without it", was ? was : "", was ? "'" : "");
-            return -1;
-        }
-    return 0;
+    return dth_scene_resume_check(saved, now, 0, "--resume", err, errlen) ? -1 : 0;
 }
 
 int cli_ckpt_check_length(const cli_ckpt *c, const dth_run_setup *rs, char *err, size_t errlen)

@@ -3,7 +3,7 @@
  * libFuzzer target: what a restore reads (dth_checkpoint_restore_run, dth_checkpoint_run_state, dth
  * run's "cli" blob). The first byte chooses, modulo 3:
  *   0: field values. Checkpoints of six configurations (the DTH step with no regularizer, with
- *      `smooth` and with `prescribed`, a vertex start of a two-dof oscillator, the baselines
+ *      `land` and with `prescribed`, a vertex start of a two-dof oscillator, the baselines
  *      midpoint and verlet; the second byte) after 0, 1, 4 or 25 steps of dth_run (the third), with
  *      the run state. The rest is a list of patches of 11 bytes: u16 which number (of every field
  *      value of every section, found by the documented layout), u8 how (the input's bits, an
@@ -51,7 +51,7 @@ static void conf_new(int c, conf *x)
     memset(x, 0, sizeof *x);
     FUZZ_CHECK(dth_model_new(c == 3 ? &dth_model_harmonic : &dth_model_pendulum, c == 3 ? two : NULL, c == 3,
                              c == 3 ? 0 : 1, NULL, &x->m, NULL, 0) == DTH_OK);
-    const dth_regularizer_type *rt = c == 1 ? &dth_reg_smooth : c == 2 ? &dth_reg_prescribed : NULL;
+    const dth_regularizer_type *rt = c == 1 ? &dth_reg_land : c == 2 ? &dth_reg_prescribed : NULL;
     if (rt) FUZZ_CHECK(dth_regularizer_new(rt, NULL, 0, x->m, NULL, &x->reg, NULL, 0) == DTH_OK);
     dth_options o;
     dth_options_default(&o);

@@ -2,7 +2,7 @@
 /*
  * libFuzzer target: arbitrary numbers (NaN, Inf, huge, denormal: raw IEEE-754 bit patterns from
  * the input) as model parameters, options and initial conditions, then a few DTH steps (paper,
- * Theorem "DTH Equations") with a regularizer attached (none, smooth or prescribed: the byte after
+ * Theorem "DTH Equations") with a regularizer attached (none, land or prescribed: the byte after
  * the initial conditions), then a few more through the run driver dth_run (the next byte: how many,
  * which samples), whose checkpoint callback saves the integrator and the run state and restores
  * them into a second integrator. Invariants: nothing crashes; a call that returns DTH_OK leaves a
@@ -200,7 +200,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         p0[i] = num(&s);
     }
     /* the regularizer (and a second instance for the restored copy), the driver's steps */
-    static const dth_regularizer_type *const regs[3] = {NULL, &dth_reg_smooth, &dth_reg_prescribed};
+    static const dth_regularizer_type *const regs[3] = {NULL, &dth_reg_land, &dth_reg_prescribed};
     const dth_regularizer_type *rt = regs[byte(&s) % 3];
     unsigned drive = byte(&s);
     dth_regularizer *reg = NULL, *reg2 = NULL;

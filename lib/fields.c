@@ -75,8 +75,8 @@ static int check_i64(const dth_field *f, int64_t x)
     case DTH__C_NHIST: return x >= 0 && x <= 3;
     case DTH__C_PSISTEP: return x >= -2 && x <= DTH__MAX_COUNT;
     case DTH__C_BRANCH: return x >= DTH_BRANCH_NONE && x <= DTH_BRANCH_REG;
-    case DTH__C_FLAGS: return x >= 0 && x <= (DTH_STEP_REGULARIZED | DTH_STEP_CROSSING);
-    case DTH__C_STOP: return x >= DTH_RUN_RUNNING && x <= DTH_RUN_FAILED;
+    case DTH__C_FLAGS: return x >= 0 && x <= (DTH_STEP_REGULARIZED | DTH_STEP_CROSSING | DTH_STEP_RESET | DTH_STEP_CLOCK);
+    case DTH__C_STOP: return x >= DTH_RUN_RUNNING && x <= DTH_RUN_SAMPLES;
     default: return 1;
     }
 }
@@ -101,8 +101,8 @@ static const char *check_doc(int check)
     case DTH__C_RATIO: return "0, or a ratio from 1 to 1e100";
     case DTH__C_RESID: return "a residual >= 0 (or NaN)";
     case DTH__C_BRANCH: return "a dth_branch (0 to 5)";
-    case DTH__C_FLAGS: return "DTH_STEP_* flags (0 to 3)";
-    case DTH__C_STOP: return "a dth_run_stop (0 to 4)";
+    case DTH__C_FLAGS: return "DTH_STEP_* flags (0 to 15)";
+    case DTH__C_STOP: return "a dth_run_stop (0 to 5)";
     default: return "a value in the range of its type";
     }
 }

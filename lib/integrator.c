@@ -44,9 +44,11 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt_in, dth_in
     it->alloc = o.alloc;
     it->n = dth_model_dof(model);
     it->N = 2 * it->n + 2;
+    it->h = o.h;
     rc = it->type->create(model, &o, &it->state);
+    if (!rc && o.estimate) rc = dth__estimate_init(&it->est, model, o.alloc);
     if (rc) {
-        dth_free(o.alloc, it);
+        dth_integrator_free(it);
         return rc;
     }
     *out = it;
@@ -56,20 +58,38 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt_in, dth_in
 void dth_integrator_free(dth_integrator *it)
 {
     if (!it) return;
-    it->type->destroy(it->state);
+    if (it->state) it->type->destroy(it->state);
+    dth__estimate_free(&it->est);
     dth_free(it->alloc, it);
+}
+
+/* The shadow of the error estimate from the state y (q, t, p) to the vertex's time. */
+static int estimate_from(dth_integrator *it, const double *y)
+{
+    if (!it->est.on) return DTH_OK;
+    const double *z = it->type->vertex(it->state);
+    int rc = dth__estimate_start(&it->est, y, z[it->n]);
+    /* no estimate where the shadow cannot start (the model fails at its first point): it says NaN */
+    return rc == DTH_ENOMEM ? rc : DTH_OK;
 }
 
 int dth_integrator_start(dth_integrator *it, const double *q0, const double *p0, double t0)
 {
     if (!it) return DTH_EINVAL;
-    return it->type->start(it->state, q0, p0, t0);
+    int rc = it->type->start(it->state, q0, p0, t0);
+    if (rc || !it->est.on) return rc;
+    double *y = it->est.xs; /* the initial state, (q0, t0, p0) */
+    memcpy(y, q0, it->n * sizeof *y);
+    y[it->n] = t0;
+    memcpy(y + it->n + 1, p0, it->n * sizeof *y);
+    return estimate_from(it, y);
 }
 
 int dth_integrator_set_vertex(dth_integrator *it, const double *z, double lambda)
 {
     if (!it) return DTH_EINVAL;
-    return it->type->set_vertex(it->state, z, lambda);
+    int rc = it->type->set_vertex(it->state, z, lambda);
+    return rc ? rc : estimate_from(it, z);
 }
 
 int dth_integrator_step(dth_integrator *it, dth_step_info *info)
@@ -77,8 +97,23 @@ int dth_integrator_step(dth_integrator *it, dth_step_info *info)
     dth_step_info tmp;
     if (!info) info = &tmp;
     memset(info, 0, sizeof *info);
+    info->lerr = NAN;
     if (!it) return DTH_EINVAL;
-    return it->type->step(it->state, info);
+    int rc = it->type->step(it->state, info);
+    if (!rc && it->est.on) dth__estimate_step(&it->est, it->type->vertex(it->state)[it->n]);
+    return rc;
+}
+
+int dth_integrator_error(dth_integrator *it, double *eq, double *ep)
+{
+    if (!it || !eq || !ep) return DTH_EINVAL;
+    return dth__estimate_at(&it->est, it->type->vertex(it->state), eq, ep);
+}
+
+int dth_integrator_error_at(dth_integrator *it, const double *z, double *eq, double *ep)
+{
+    if (!it || !z || !eq || !ep) return DTH_EINVAL;
+    return dth__estimate_at(&it->est, z, eq, ep);
 }
 
 void dth_integrator_reverse(dth_integrator *it)
@@ -114,4 +149,5 @@ struct dth__dth *dth__integrator_core(dth_integrator *it)
 }
 
 int dth__integrator_wp_fixed(const dth_integrator *it) { return it->type->wp_fixed; }
+double dth__integrator_h(const dth_integrator *it) { return it->h; }
 int dth__integrator_has_midpoints(const dth_integrator *it) { return it->type->midpoints; }

@@ -90,10 +90,14 @@ static int run_rules(const dth_run_state *S, char *err, size_t errlen)
         if (!all_zero((const char *)S + f[i].offset, dth__field_size(&f[i])))
             return run_refuse(err, errlen, "field '%s' is set in a run that has not started (started = 0)", f[i].name);
     if (S->k0 > S->k) return run_refuse(err, errlen, "field 'k0' = %ld exceeds field 'k' = %ld", S->k0, S->k);
-    if (S->crossings > S->k || S->regularized > S->k)
-        return run_refuse(err, errlen, "field '%s' = %ld exceeds the steps taken, field 'k' = %ld",
-                          S->crossings > S->k ? "crossings" : "regularized",
-                          S->crossings > S->k ? S->crossings : S->regularized, S->k);
+    const struct {
+        const char *name;
+        long v;
+    } counts[] = {{"crossings", S->crossings}, {"regularized", S->regularized}, {"nonreversible", S->nonreversible}};
+    for (size_t i = 0; i < sizeof counts / sizeof counts[0]; i++)
+        if (counts[i].v > S->k)
+            return run_refuse(err, errlen, "field '%s' = %ld exceeds the steps taken, field 'k' = %ld", counts[i].name,
+                              counts[i].v, S->k);
     if (S->k == 0)
         for (size_t i = 0; i < nf; i++)
             if (!strncmp(f[i].name, "in.", 3) && !all_zero((const char *)S + f[i].offset, dth__field_size(&f[i])))

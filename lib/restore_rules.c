@@ -33,16 +33,19 @@ static int history(const dth__state *s, char *err, size_t errlen)
     if (!(s->lam_hint * s->dir > 0))
         return refuse(err, errlen, "field 'lam_hint' = %.17g points against field 'dir' = %g, the direction of travel",
                       s->lam_hint, s->dir);
-    if (s->have_prev) {
+    /* lam is the step that arrived (the incoming step of the branch test's range and of a regularizer's
+     * event): 0 only where none did; a replaced step with a fresh start (dth_reg_action.fresh) leaves it
+     * without a history to predict from (have_prev = 0) */
+    if (s->have_prev || s->lam != 0) {
         if (!(s->lam * s->dir > 0))
-            return refuse(err, errlen, "field 'lam' = %.17g is no step in the direction 'dir' = %g, yet 'have_prev' = 1",
-                          s->lam, s->dir);
+            return refuse(err, errlen, "field 'lam' = %.17g is no step in the direction 'dir' = %g%s", s->lam, s->dir,
+                          s->have_prev ? ", yet 'have_prev' = 1" : "");
         if (s->steps < 1 || !s->have_mid)
-            return refuse(err, errlen, "field 'have_prev' = 1 with 'steps' = %ld and 'have_mid' = %d", s->steps, s->have_mid);
-    } else if (s->lam != 0 || s->nhist != 0) {
-        return refuse(err, errlen, "field '%s' = %.17g without a step held ('have_prev' = 0)", s->lam != 0 ? "lam" : "nhist",
-                      s->lam != 0 ? s->lam : (double)s->nhist);
+            return refuse(err, errlen, "field '%s' with 'steps' = %ld and 'have_mid' = %d",
+                          s->have_prev ? "have_prev' = 1" : "lam' != 0", s->steps, s->have_mid);
     }
+    if (!s->have_prev && s->nhist != 0)
+        return refuse(err, errlen, "field 'nhist' = %d without a step held ('have_prev' = 0)", s->nhist);
     if (s->nhist > s->steps)
         return refuse(err, errlen, "field 'nhist' = %d exceeds field 'steps' = %ld", s->nhist, s->steps);
     if ((s->nhist >= 2 && !(s->lam2 * s->dir > 0)) || (s->nhist >= 3 && !(s->lam3 * s->dir > 0)))

@@ -9,6 +9,7 @@
 #define DTH_STEPPER_H
 
 #include "dth/integrator.h"
+#include "estimate.h"
 #include "fields.h"
 
 /** A section of a stepper's state for the checkpoint codec: a field table over a struct. */
@@ -72,6 +73,8 @@ struct dth_integrator {
     const dth_model *model;
     const dth_allocator *alloc;
     size_t n, N;
+    double h;          /* dth_options.h as given (the step the user asked for) */
+    dth__estimate est; /* the error estimate (dth_options.estimate), est.on = 0 without */
 };
 
 extern const dth__stepper_type dth__stepper_dth;

@@ -100,7 +100,9 @@ static int exact(const void *self, const double *y0, double t, double *y)
         P = 2 * s / cosh(v);
     } else if (E < 1) {
         /* libration: sin(q/2) = k sn(u), P = 2 k cn(u), k^2 = (1 + E)/2 */
-        double mm = 0.5 * (1 + E), k = sqrt(mm), j = nearbyint(q0 / (2 * PI));
+        /* k^2 = (1 + E)/2 = sin^2(q0/2) + P0^2/4, without the cancellation of 1 + E (1 - cos q0
+         * rounds to 0 below |q0| ~ 1e-8, which made every small libration a rest point) */
+        double sh = sin(0.5 * q0), mm = sh * sh + 0.25 * P0 * P0, k = sqrt(mm), j = nearbyint(q0 / (2 * PI));
         if (!(mm > 0)) { /* at rest at the bottom */
             y[0] = q0; y[1] = t; y[2] = y0[2];
             return 0;

@@ -590,7 +590,7 @@ static void test_documented_layout(void)
         printf("  [DTH_SOURCE_ROOT not set: the document is not compared]\n");
     }
     documented_checkpoint(NULL, doc);
-    documented_checkpoint(&dth_reg_smooth, doc);
+    documented_checkpoint(&dth_reg_land, doc);
     documented_checkpoint(&dth_reg_prescribed, doc);
     free(doc);
 }

@@ -143,6 +143,7 @@ typedef struct dth_options {
     dth_regularizer *regularizer;
     dth_linsolve linsolve;
     dth_finish finish;
+    int estimate;
 } dth_options;
 typedef enum dth_branch {
     DTH_BRANCH_NONE = 0, DTH_BRANCH_MINUS = 1, DTH_BRANCH_PLUS = 2, DTH_BRANCH_GHOST = 3,
@@ -155,8 +156,9 @@ typedef struct dth_step_info {
     dth_branch branch;
     unsigned flags;
     int proj_iters;
+    double lerr;
 } dth_step_info;
-enum { DTH_STEP_REGULARIZED = 1, DTH_STEP_CROSSING = 2 };
+enum { DTH_STEP_REGULARIZED = 1, DTH_STEP_CROSSING = 2, DTH_STEP_RESET = 4, DTH_STEP_CLOCK = 8 };
 typedef struct dth_integrator dth_integrator;
 int dth_options_check(const dth_model *model, dth_options *opt, char *err, size_t errlen);
 int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integrator **out);
@@ -174,6 +176,8 @@ long dth_integrator_steps(const dth_integrator *it);
 size_t dth_integrator_dim(const dth_integrator *it);
 const char *dth_integrator_errmsg(const dth_integrator *it);
 int dth_integrator_tangent(dth_integrator *it, double *M);
+int dth_integrator_error(dth_integrator *it, double *eq, double *ep);
+int dth_integrator_error_at(dth_integrator *it, const double *z, double *eq, double *ep);
 typedef enum dth_region { DTH_REGION_NONE = 0, DTH_REGION_I = 1, DTH_REGION_II = 2, DTH_REGION_III = 3 } dth_region;
 typedef struct dth_diag {
     double H;
@@ -206,6 +210,7 @@ typedef struct dth_sample {
     const double *za, *zb;
     int event;
     int direction;
+    double err_q, err_p;
 } dth_sample;
 typedef int (*dth_sample_fn)(void *user, const dth_sample *s);
 typedef int (*dth_event_fn)(void *user, size_t n, const double *z, double *g);
@@ -222,8 +227,10 @@ typedef struct dth_event_spec {
     size_t ndofs;
 } dth_event_spec;
 typedef enum dth_run_stop {
-    DTH_RUN_RUNNING = 0, DTH_RUN_END = 1, DTH_RUN_EVENT = 2, DTH_RUN_CALLBACK = 3, DTH_RUN_FAILED = 4
+    DTH_RUN_RUNNING = 0, DTH_RUN_END = 1, DTH_RUN_EVENT = 2, DTH_RUN_CALLBACK = 3, DTH_RUN_FAILED = 4,
+    DTH_RUN_SAMPLES = 5
 } dth_run_stop;
+#define DTH_RUN_MAX_SAMPLES_PER_STEP 1000000
 typedef struct dth_run_state {
     int started;
     int pending;
@@ -241,9 +248,16 @@ typedef struct dth_run_state {
     int prev_crossing;
     int stop;
     double t_stop;
+    double err_q, err_p;
+    double q_max, p_max;
+    double lam_max;
+    double t_lam_max;
+    long nonreversible;
+    double e_err, e_scale;
 } dth_run_state;
 void dth_run_state_init(dth_run_state *st);
 typedef struct dth_run_config {
+    size_t size;
     int has_t_end;
     double t_end;
     long steps;
@@ -263,9 +277,15 @@ typedef struct dth_run_config {
     int (*progress)(void *user, const dth_run_state *st);
     long progress_every;
     const dth_allocator *alloc;
+    double stop_error;
+    double step_ratio;
+    int local_error;
 } dth_run_config;
 void dth_run_config_default(dth_run_config *cfg);
+int dth_run_check(const dth_integrator *it, const dth_run_config *cfg, const dth_run_state *st, char *err,
+                  size_t errlen);
 int dth_run(dth_integrator *it, const dth_run_config *cfg, dth_run_state *st);
+int dth_event_coordinate(void *user, size_t n, const double *z, double *g);
 
 /* scene.h */
 typedef struct dth_scene dth_scene;
@@ -274,10 +294,17 @@ void dth_scene_free(dth_scene *s);
 int dth_scene_load(dth_scene *s, const char *path, char *err, size_t errlen);
 int dth_scene_load_mem(dth_scene *s, const char *name, const char *text, size_t len, char *err, size_t errlen);
 int dth_scene_set(dth_scene *s, const char *assignment, char *err, size_t errlen);
+int dth_scene_set_from(dth_scene *s, const char *from, const char *assignment, char *err, size_t errlen);
+int dth_scene_check_entry(const char *section, const char *key, const char *value, char *err, size_t errlen);
+const char *dth_scene_origin(const dth_scene *s, const char *section, const char *key);
 const char *dth_scene_get(const dth_scene *s, const char *section, const char *key);
 size_t dth_scene_count(const dth_scene *s);
 int dth_scene_entry(const dth_scene *s, size_t i, const char **section, const char **key, const char **value,
                     const char **origin);
+enum { DTH_RESUME_ROWS = 1 };
+int dth_scene_resume_may_change(const char *section, const char *key, unsigned flags);
+int dth_scene_resume_check(const dth_scene *saved, const dth_scene *now, unsigned flags, const char *what,
+                           char *err, size_t errlen);
 typedef struct dth_run_setup {
     dth_model *model;
     size_t n;
@@ -302,6 +329,8 @@ typedef struct dth_run_setup {
     char *events_file;
     const dth_allocator *alloc;
     dth_regularizer *regularizer;
+    double stop_error;
+    double warn_ratio;
 } dth_run_setup;
 int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *out, char *err, size_t errlen);
 void dth_run_setup_clear(dth_run_setup *rs);
@@ -363,6 +392,8 @@ typedef struct dth_megno_result {
     double t_stop;
 } dth_megno_result;
 int dth_megno_new(const dth_integrator *it, const double *delta0, const dth_allocator *alloc, dth_megno **out);
+int dth_megno_new_len(const dth_integrator *it, const double *delta0, size_t len, const dth_allocator *alloc,
+                      dth_megno **out);
 void dth_megno_free(dth_megno *g);
 int dth_megno_update(dth_megno *g, dth_integrator *it);
 void dth_megno_get(const dth_megno *g, dth_megno_result *r);

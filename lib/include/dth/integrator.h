@@ -112,6 +112,12 @@ typedef struct dth_options {
                                        (regularize.h); borrowed; NULL: raw DTH. DTH only. */
     dth_linsolve linsolve;      /**< linear solver of the Newton system (default AUTO) */
     dth_finish finish;          /**< how each step is finished (default DTH_FINISH_COMPENSATED) */
+    int estimate;               /**< 1: estimate the global error along the run (dth_integrator_error); a
+                                     shadow trajectory (classical Runge-Kutta of order 4 with the run's own
+                                     steps from the exact initial state, projected onto its energy for an
+                                     autonomous model) costs about 4 gradients and one projection per step
+                                     (16 to 36 % of a step on the smallest models). Default 0; scene files
+                                     turn it on ([integrator] estimate = yes, their default) */
 } dth_options;
 
 /** Fill `o` with defaults: size, method "dth", order 2, h = 0.01, midpoint start, max_iter = 30,
@@ -147,12 +153,19 @@ typedef struct dth_step_info {
     dth_branch branch; /**< which root was taken */
     unsigned flags;  /**< DTH_STEP_* flags */
     int proj_iters;  /**< baseline "midpoint-proj": iterations of its energy projection, else 0 */
+    double lerr;     /**< the run driver's estimate of the step's local error in q (dth_run_config.local_error:
+                          the defect of the step's cubic Hermite interpolant, (2/3) lambda |P'(1/2) - f(P(1/2))|),
+                          else NaN */
 } dth_step_info;
 
 /** dth_step_info.flags */
 enum {
     DTH_STEP_REGULARIZED = 1u, /**< a regularizer changed the vertex or replaced the step */
-    DTH_STEP_CROSSING = 2u     /**< psi changed sign across this step */
+    DTH_STEP_CROSSING = 2u,    /**< psi changed sign across this step */
+    DTH_STEP_RESET = 4u,       /**< the regularizer moved the new vertex off its segment (an offset reset):
+                                    the step is neither symplectic nor reversible */
+    DTH_STEP_CLOCK = 8u        /**< the regularizer corrected the new vertex's time (q, p, wp are the step's):
+                                    the extended map is not symplectic in t, nor reversible */
 };
 
 /** The integrator: a method (the DTH step or a fixed-step baseline, dth_options.method) with its
@@ -220,6 +233,20 @@ DTH_API size_t dth_integrator_dim(const dth_integrator *it);
 DTH_API const dth_model *dth_integrator_model(const dth_integrator *it);
 /** Detail of the last failure (a fixed string if none). */
 DTH_API const char *dth_integrator_errmsg(const dth_integrator *it);
+
+/**
+ * The estimated global error at the current vertex (dth_options.estimate): |q - q_exact| and
+ * |p - p_exact| (Euclidean over the q and p blocks), measured against a shadow trajectory (the
+ * classical Runge-Kutta method of order 4 with the run's own steps from the exact initial state,
+ * projected onto the initial energy for an autonomous model). Within a few per cent of the true
+ * error on integrable orbits (docs/performance.md, "The error estimate"); NaN where the shadow left
+ * the model's domain.
+ * @return DTH_OK, DTH_EUNSUPPORTED (no estimate: dth_options.estimate = 0), DTH_EINVAL.
+ */
+DTH_API int dth_integrator_error(dth_integrator *it, double *eq, double *ep);
+/** The same at a point z (2n+2 values) of the trajectory near the current vertex, at its time z[n]
+ *  (a dense output point of the last step): the shadow carried there by one Runge-Kutta step. */
+DTH_API int dth_integrator_error_at(dth_integrator *it, const double *z, double *eq, double *ep);
 
 /**
  * Tangent map of the last step, M = d z_{k+1} / d z_k ((2n+2)^2, row-major), by implicit

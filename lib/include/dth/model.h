@@ -236,7 +236,9 @@ DTH_API int dth_model_psi(const dth_model *m, const double *y, double *psi, doub
 typedef struct dth_model_check_report {
     double grad_err;  /**< largest relative mismatch of the gradient with central differences */
     size_t grad_idx;  /**< where it occurs */
-    double hess_err;  /**< largest relative mismatch of the Hessian with differences of the gradient */
+    double hess_err;  /**< largest mismatch of the Hessian with differences of the gradient, each entry
+                           relative to its own scale: max(sqrt(|H_ii H_jj|), |H_ij|, 1e-3 x the largest
+                           entry of its (q, t, p) block) */
     size_t hess_i, hess_j;
     double sym_err;   /**< largest |H_ij - H_ji| relative to the Hessian's scale */
     double third_err; /**< relative mismatch of `third` with differences (0 if not provided) */
@@ -250,8 +252,13 @@ typedef struct dth_model_check_report {
 /**
  * Compare a model's derivatives with finite differences at y, so a user can validate a model
  * before trusting runs, and give a verdict: `pass` and a one-line `message` naming the worst
- * entry and the threshold. Mismatches around 1e-7 or below are differencing noise; anything
- * above the threshold DTH_MODEL_CHECK_TOL = 1e-5 is a bug in the model. Memory: 3 (2n+1)^2 doubles.
+ * entry and the threshold. The differences are taken at two step sizes per coordinate and
+ * Richardson-extrapolated, the step shrinking while the two disagree, so that the check scales with
+ * the model's own magnitudes (an exact Hessian passes also where it is large and varies fast, e.g.
+ * a Kepler pericentre at e = 0.9999); each entry is judged against its own scale (so a wrong entry
+ * of a small block is not hidden by a large one). Mismatches around 1e-7 or below are differencing
+ * noise; anything above the threshold DTH_MODEL_CHECK_TOL = 1e-5 is a bug in the model. Memory:
+ * 3 (2n+1)^2 doubles.
  * @return DTH_OK (the report is filled, whatever the verdict), or the status of a failing
  * evaluation.
  */

@@ -30,6 +30,7 @@ extern "C" {
     X(DTH_EREFUSED, 8, "the regularizer refused to carry the trajectory on")                    \
     X(DTH_ESTEPSIZE, 9, "the step size left the allowed range")                                 \
     X(DTH_ESTOPPED, 10, "the run was stopped by the caller (a callback of the run driver)")      \
+    X(DTH_EACCURACY, 11, "the estimated error outgrew the run's bound (the steps are too large)") \
     X(DTH_EINVAL, -1, "invalid argument")                                                       \
     X(DTH_ENOMEM, -2, "out of memory")                                                          \
     X(DTH_ELAPACK, -3, "LAPACK reported an illegal argument")                                   \
