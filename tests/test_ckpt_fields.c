@@ -268,6 +268,53 @@ static void test_crafted_refused(void)
     CU_ASSERT(failures == 0);
 }
 
+/* Reversed before its first step, a midpoint start (its exact first step still pending) goes the
+ * other way from its vertex: the step to aim for points backward like the direction and h, so its
+ * checkpoint restores (dth__dth_reverse set lam_hint against the direction there) and the restored
+ * integrator takes the same backward steps as the one reversed. */
+static void start_finish(runner *r, dth_finish finish)
+{
+    memset(r, 0, sizeof *r);
+    CU_ASSERT_FATAL(dth_model_new(&dth_model_pendulum, NULL, 0, 1, NULL, &r->m, NULL, 0) == DTH_OK);
+    dth_options o;
+    dth_options_default(&o);
+    o.h = 0.05;
+    o.finish = finish;
+    CU_ASSERT_FATAL(dth_integrator_new(r->m, &o, &r->it) == DTH_OK);
+    double q = 1.0, p = 0.2;
+    CU_ASSERT_FATAL(dth_integrator_start(r->it, &q, &p, 0) == DTH_OK);
+}
+
+static void test_reverse_at_start(void)
+{
+    const dth_finish finishes[] = {DTH_FINISH_PLAIN, DTH_FINISH_COMPENSATED, DTH_FINISH_REVERSIBLE};
+    for (int i = 0; i < 3; i++) {
+        runner a, b;
+        start_finish(&a, finishes[i]);
+        start_finish(&b, finishes[i]);
+        double t0 = dth_integrator_vertex(a.it)[1];
+        dth_integrator_reverse(a.it);
+        CU_ASSERT(dth_integrator_direction(a.it) == -1.0);
+        size_t len;
+        unsigned char *buf = save_run(a.it, NULL, &len);
+        char err[400] = "";
+        CU_ASSERT(dth_checkpoint_restore(b.it, buf, len, err, sizeof err) == DTH_OK);
+        if (err[0]) printf("  [%s]\n", err);
+        int same = 1;
+        for (int k = 0; k < 5; k++) {
+            dth_step_info ia, ib;
+            CU_ASSERT(dth_integrator_step(a.it, &ia) == DTH_OK && dth_integrator_step(b.it, &ib) == DTH_OK);
+            CU_ASSERT(ia.lambda < 0);
+            same &= memcmp(dth_integrator_vertex(a.it), dth_integrator_vertex(b.it), 4 * sizeof(double)) == 0;
+        }
+        CU_ASSERT(same);
+        CU_ASSERT(dth_integrator_vertex(a.it)[1] < t0 - 0.2);
+        free(buf);
+        runner_free(&a);
+        runner_free(&b);
+    }
+}
+
 /* ---- byte order ---- */
 
 /* Rewrite the checkpoint b as a writer that copies its host's bytes on a big-endian host would
@@ -661,6 +708,8 @@ static void test_fields_codec(void)
 
 static CU_TestInfo fields_tests[] = {
     {"crafted values with the checksum recomputed: refused naming the field, nothing changed", test_crafted_refused},
+    {"a midpoint start reversed before its first step: its checkpoint restores, its steps go backward",
+     test_reverse_at_start},
     {"byte order: little-endian by construction; a big-endian writer's checkpoint refused by name", test_byte_order},
     {"the run driver's state saved and restored by the library; the run continues bit for bit", test_run_state},
     {"the run state's field list names every member of dth_run_state and dth_step_info", test_run_fields_cover},
