@@ -51,10 +51,12 @@ static int check_f64(int check, double x)
     case DTH__C_POSITIVE: return isfinite(x) && x > 0;
     case DTH__C_NONZERO: return isfinite(x) && x != 0;
     case DTH__C_UNIT: return x == 1.0 || x == -1.0;
-    case DTH__C_STEP: return fabs(x) <= DTH__MAX_STEP;
-    case DTH__C_HSTEP: return fabs(x) <= DTH__MAX_STEP && x != 0;
-    case DTH__C_TIME: return fabs(x) <= DTH__MAX_TIME;
-    case DTH__C_RATIO: return x == 0 || (x >= 1 && x <= DTH__MAX_STEP);
+    case DTH__C_STEP: return isfinite(x);
+    case DTH__C_HSTEP: return isfinite(x) && x != 0;
+    case DTH__C_TIME: return isfinite(x);
+    case DTH__C_RATIO: return x == 0 || x >= 1; /* a ratio of finite steps may overflow */
+    case DTH__C_MAG: return x >= 0;
+    case DTH__C_ERR: return isnan(x) || x >= 0;
     case DTH__C_RESID: return isnan(x) || (isfinite(x) && x >= 0);
     default: return isfinite(x);
     }
@@ -95,10 +97,12 @@ static const char *check_doc(int check)
     case DTH__C_SIGN: return "-1, 0 or 1";
     case DTH__C_NHIST: return "0 to 3";
     case DTH__C_PSISTEP: return "a step count from -2 to 2^53";
-    case DTH__C_STEP: return "a step of at most 1e100 in size";
-    case DTH__C_HSTEP: return "a nonzero step of at most 1e100 in size";
-    case DTH__C_TIME: return "a time of at most 1e300 in size";
-    case DTH__C_RATIO: return "0, or a ratio from 1 to 1e100";
+    case DTH__C_STEP: return "a finite step";
+    case DTH__C_HSTEP: return "a finite nonzero step";
+    case DTH__C_TIME: return "a finite time";
+    case DTH__C_RATIO: return "0, or a ratio >= 1";
+    case DTH__C_MAG: return "a size >= 0";
+    case DTH__C_ERR: return "a size >= 0 (or NaN)";
     case DTH__C_RESID: return "a residual >= 0 (or NaN)";
     case DTH__C_BRANCH: return "a dth_branch (0 to 5)";
     case DTH__C_FLAGS: return "DTH_STEP_* flags (0 to 15)";

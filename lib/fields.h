@@ -8,9 +8,10 @@
  *         state); F64: double; INT: int; UINT: unsigned; LONG: long
  *   check what a restored value must satisfy: the public DTH_CHECK_* (FINITE, NONNEG, BOOL, COUNT,
  *         ANY) and the library's own below: NONZERO (finite, != 0), UNIT (+1 or -1), SIGN (-1, 0,
- *         1), NHIST (0..3), PSISTEP (-2 .. 2^53), STEP (|x| <= DTH__MAX_STEP), HSTEP (STEP and != 0),
- *         TIME (|t| <= DTH__MAX_TIME), RATIO (0, or 1 .. DTH__MAX_STEP), RESID (finite >= 0 or NaN),
- *         BRANCH (a dth_branch), FLAGS (DTH_STEP_* bits), STOP (a dth_run_stop)
+ *         1), NHIST (0..3), PSISTEP (-2 .. 2^53), STEP (finite), HSTEP (finite, != 0), TIME
+ *         (finite), RATIO (0, or >= 1), RESID (finite >= 0 or NaN), BRANCH (a dth_branch), FLAGS
+ *         (DTH_STEP_* bits), STOP (a dth_run_stop), MAG (>= 0: a norm or a sum of sizes of finite
+ *         values, +inf where it overflowed), ERR (MAG or NaN: an estimate, NaN where there is none)
  */
 #ifndef DTH_INTERNAL_FIELDS_H
 #define DTH_INTERNAL_FIELDS_H
@@ -32,15 +33,15 @@ enum { DTH__K_VEC = DTH_FIELD_F64_PTR, DTH__K_F64 = DTH_FIELD_F64, DTH__K_INT = 
 enum { DTH__C_ANY = DTH_CHECK_ANY, DTH__C_FINITE = DTH_CHECK_FINITE, DTH__C_NONNEG = DTH_CHECK_NONNEG,
        DTH__C_POSITIVE = DTH_CHECK_POSITIVE, DTH__C_BOOL = DTH_CHECK_BOOL, DTH__C_COUNT = DTH_CHECK_COUNT,
        DTH__C_NONZERO = 32, DTH__C_UNIT, DTH__C_SIGN, DTH__C_NHIST, DTH__C_PSISTEP, DTH__C_STEP, DTH__C_HSTEP,
-       DTH__C_TIME, DTH__C_RATIO, DTH__C_RESID, DTH__C_BRANCH, DTH__C_FLAGS, DTH__C_STOP };
+       DTH__C_TIME, DTH__C_RATIO, DTH__C_RESID, DTH__C_BRANCH, DTH__C_FLAGS, DTH__C_STOP, DTH__C_MAG, DTH__C_ERR };
 
 /** The largest count a restored state may hold (steps, samples, vertex indices): 2^53, so that
  *  counting on, and the counts as doubles, stay exact and cannot overflow. */
 #define DTH__MAX_COUNT (INT64_C(1) << 53)
-/** The largest step |lambda| (and |h|) a restored state may hold: its cube is still finite. */
-#define DTH__MAX_STEP 1e100
-/** The largest |t| a restored run state may hold (its sum with a step is still finite). */
-#define DTH__MAX_TIME 1e300
+/* Steps and times are bounded by what the integrator accepts, no more: dth_options.h and
+ * dth_integrator_set_vertex's lambda may be any finite nonzero number, a start time any finite one
+ * (a step that overflows ends with a status, never a non-finite state: tests/test_failstate.c runs
+ * h = -1.06e270), so a restored step or time is any finite number. */
 
 /** Backwards compatible name: one member of a state struct. */
 typedef dth_field dth__field;

@@ -31,15 +31,15 @@
     X(prev_crossing, INT, BOOL, "the step that arrived was a crossing (in.flags says so too)")      \
     X(stop, INT, STOP, "dth_run_stop: why the last call returned")                                  \
     X(t_stop, F64, TIME, "samples are handed out for times after this one (t_first .. t)")        \
-    X(err_q, F64, RESID, "the estimated global error in q at the current vertex (NaN: none)")      \
-    X(err_p, F64, RESID, "the estimated global error in p at the current vertex (NaN: none)")      \
-    X(q_max, F64, NONNEG, "the largest |q| at the vertices so far")                                 \
-    X(p_max, F64, NONNEG, "the largest |p| at the vertices so far")                                 \
+    X(err_q, F64, ERR, "the estimated global error in q at the current vertex (NaN: none)")        \
+    X(err_p, F64, ERR, "the estimated global error in p at the current vertex (NaN: none)")        \
+    X(q_max, F64, MAG, "the largest |q| at the vertices so far (+inf: |q| overflowed)")            \
+    X(p_max, F64, MAG, "the largest |p| at the vertices so far")                                    \
     X(lam_max, F64, NONNEG, "the largest |lambda| of the steps so far")                             \
     X(t_lam_max, F64, TIME, "the time of the vertex that step arrived at")                          \
     X(nonreversible, LONG, COUNT, "steps flagged DTH_STEP_RESET or DTH_STEP_CLOCK (<= k)")          \
-    X(e_err, F64, NONNEG, "a baseline's energy error at the current vertex (0 for DTH)")            \
-    X(e_scale, F64, NONNEG, "the size of the energy's terms at the first vertex")
+    X(e_err, F64, MAG, "a baseline's energy error at the current vertex (0 for DTH)")               \
+    X(e_scale, F64, MAG, "the size of the energy's terms at the first vertex")
 
 #define DTH__STEP_INFO_FIELDS(X)                                                                    \
     X(lambda, F64, STEP, "time step taken")                                                         \
@@ -48,7 +48,7 @@
     X(branch, INT, BRANCH, "which root was taken (a dth_branch)")                                   \
     X(flags, UINT, FLAGS, "DTH_STEP_* flags")                                                       \
     X(proj_iters, INT, NONNEG, "iterations of the energy projection (midpoint-proj)")             \
-    X(lerr, F64, RESID, "the run driver's local error estimate of the step (NaN: none)")
+    X(lerr, F64, ERR, "the run driver's local error estimate of the step (NaN: none)")
 
 /* The mirror structs: the lists' members with the lists' types, in the lists' order. */
 #define DTH__CTYPE_STEP struct dth__step_info_mirror

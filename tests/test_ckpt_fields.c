@@ -104,12 +104,9 @@ static const craft crafts[] = {
     {NULL, NULL, "state", "steps", 0, SET_I, (INT64_C(1) << 53) + 1, 0, NULL, "'steps'"},
     {NULL, NULL, "state", "steps", 0, SET_I, 2, 0, NULL, "'nhist' = 3 exceeds field 'steps'"},
     {NULL, NULL, "state", "dir", 0, SET_F, 0, -1.0, NULL, "'dir'"},
-    {NULL, NULL, "state", "lam_hint", 0, SET_F, 0, 1e308, NULL, "'lam_hint'"},
     {NULL, NULL, "state", "lam_hint", 0, NEG_F, 0, 0, NULL, "'lam_hint'"},
-    {NULL, NULL, "state", "h", 0, SET_F, 0, 1e300, NULL, "'h'"},
     {NULL, NULL, "state", "lam", 0, SET_F, 0, 0, NULL, "'lam'"},
     {NULL, NULL, "state", "lam", 0, NEG_F, 0, 0, NULL, "'lam'"},
-    {NULL, NULL, "state", "lam", 0, SET_F, 0, 1e101, NULL, "'lam'"},
     {NULL, NULL, "state", "lam2", 0, SET_F, 0, 0, NULL, "'lam2'"},
     {NULL, NULL, "state", "lam3", 0, NEG_F, 0, 0, NULL, "'lam3'"},
     {NULL, NULL, "state", "pending_exact", 0, SET_I, 1, 0, NULL, "'pending_exact'"},
@@ -131,7 +128,6 @@ static const craft crafts[] = {
     {NULL, NULL, "run", "crossings", 0, ADD_I, 1000, 0, NULL, "'crossings'"},
     {NULL, NULL, "run", "regularized", 0, ADD_I, 1000, 0, NULL, "'regularized'"},
     {NULL, NULL, "run", "in.lambda", 0, SET_F, 0, 0, NULL, "'in.lambda'"},
-    {NULL, NULL, "run", "in.lambda", 0, SET_F, 0, 1e300, NULL, "'in.lambda'"},
     {NULL, NULL, "run", "in.residual", 0, SET_F, 0, -1.0, NULL, "'in.residual'"},
     {NULL, NULL, "run", "prev_crossing", 0, SET_I, 1, 0, NULL, "'prev_crossing'"},
     {NULL, NULL, "run", "max_ratio", 0, SET_F, 0, 0.5, NULL, "'max_ratio'"},
@@ -142,7 +138,6 @@ static const craft crafts[] = {
     /* a baseline's state */
     {"midpoint", NULL, "state", "E0", 0, ADD_F, 0, 1.0, NULL, "'E0'"},
     {"midpoint", NULL, "state", "steps", 0, SET_I, I64MAX, 0, NULL, "'steps'"},
-    {"gauss4", NULL, "state", "h", 0, SET_F, 0, 1e200, NULL, "'h'"},
 };
 /* Every entry above was restored (or resumed by dth run) without complaint by 7aa2192; these were
  * refused before too (by dth run's blob, by the regularizer's load_state) and still are. */
@@ -154,19 +149,27 @@ static const craft kept[] = {
     {NULL, "land", "regularizer", "C", 0, SET_F, 0, -1.0, NULL, "'C'"},
     {NULL, "land", "regularizer", "C_fixed", 0, SET_I, 2, 0, NULL, "'C_fixed'"},
     {NULL, "land", "regularizer", "dpsi_prev", 0, SET_F, 0, NAN, NULL, "'dpsi_prev'"},
+    /* steps are any finite number (what the integrator accepts), not infinite nor NaN, h not 0 */
+    {NULL, NULL, "state", "lam_hint", 0, SET_F, 0, INFINITY, NULL, "'lam_hint'"},
+    {NULL, NULL, "state", "h", 0, SET_F, 0, -INFINITY, NULL, "'h'"},
+    {NULL, NULL, "state", "h", 0, SET_F, 0, 0, NULL, "'h'"},
+    {NULL, NULL, "state", "lam", 0, SET_F, 0, NAN, NULL, "'lam'"},
+    {NULL, NULL, "run", "in.lambda", 0, SET_F, 0, INFINITY, NULL, "'in.lambda'"},
+    {"gauss4", NULL, "state", "h", 0, SET_F, 0, NAN, NULL, "'h'"},
 };
 /* The run state's members added since 7aa2192 (dth run's own blob checked them until the run state
  * moved into the library: its ranges are kept) and the regularizer land's rule between its fields. */
 static const craft added[] = {
-    {NULL, NULL, "run", "max_ratio", 0, SET_F, 0, INFINITY, NULL, "'max_ratio'"},
+    {NULL, NULL, "run", "max_ratio", 0, SET_F, 0, NAN, NULL, "'max_ratio'"},
     {NULL, NULL, "run", "nonreversible", 0, ADD_I, 1000, 0, NULL, "'nonreversible'"},
     {NULL, NULL, "run", "in.flags", 0, SET_I, 16, 0, NULL, "'in.flags'"},
     {NULL, NULL, "run", "stop", 0, SET_I, 6, 0, NULL, "'stop'"},
     {NULL, NULL, "run", "in.lerr", 0, SET_F, 0, -1.0, NULL, "'in.lerr'"},
-    {NULL, NULL, "run", "err_q", 0, SET_F, 0, INFINITY, NULL, "'err_q'"},
+    {NULL, NULL, "run", "err_q", 0, SET_F, 0, -1.0, NULL, "'err_q'"},
     {NULL, NULL, "run", "q_max", 0, SET_F, 0, -1.0, NULL, "'q_max'"},
     {NULL, NULL, "run", "e_scale", 0, SET_F, 0, NAN, NULL, "'e_scale'"},
     {NULL, NULL, "run", "t_lam_max", 0, SET_F, 0, INFINITY, NULL, "'t_lam_max'"},
+    {NULL, NULL, "run", "e_err", 0, SET_F, 0, -INFINITY, NULL, "'e_err'"},
     {NULL, "land", "regularizer", "acc", 0, SET_F, 0, INFINITY, NULL, "'acc'"},
 };
 
@@ -266,6 +269,90 @@ static void test_crafted_refused(void)
     CU_ASSERT(failures == 0);
     failures = crafted(added, sizeof added / sizeof added[0]);
     CU_ASSERT(failures == 0);
+}
+
+/* Steps are bounded by what the integrator accepts, any finite h: the state of the fuzzer's
+ * regression in test_failstate.c (h = -1.06e270 on a chain of near-zero couplings; lam_hint, h and
+ * the steps beyond 1e100) checkpoints at each vertex and after each failure, and restores into an
+ * integrator made with the same options (the earlier bound |step| <= 1e100 refused it). */
+static void test_extreme_steps(void)
+{
+    static const dth_kv kv[] = {{"preset", "chain"}, {"size", "2"}, {"dim", "1"}, {"k", "3.43519951892224e-310"},
+                                {"L", "3.2194903e-317"}, {"mass", "1.836709924525607e-39"}};
+    dth_model *m = NULL;
+    CU_ASSERT_FATAL(dth_model_new(&dth_model_coupled, kv, 6, 2, NULL, &m, NULL, 0) == DTH_OK);
+    dth_options o;
+    dth_options_default(&o);
+    o.h = -1.0565892344930458e+270;
+    o.K = 3.919106652168698e+202;
+    o.max_iter = 1;
+    dth_integrator *it = NULL, *c = NULL;
+    CU_ASSERT_FATAL(dth_integrator_new(m, &o, &it) == DTH_OK && dth_integrator_new(m, &o, &c) == DTH_OK);
+    double q[2] = {6.507473426500481e-307, 0.5}, p[2] = {0.5, 0.5};
+    CU_ASSERT_FATAL(dth_integrator_start(it, q, p, -2.723462048819236e+154) == DTH_OK);
+    long restored = 0, tried = 0;
+    for (int k = 0, failed = 0; k < 6 && failed < 2; k++) {
+        size_t len, l2;
+        unsigned char *b = save_run(it, NULL, &len);
+        char err[400] = "";
+        tried++;
+        int rc = dth_checkpoint_restore(c, b, len, err, sizeof err);
+        if (rc) printf("  [h = %g, step %d: %s]\n", o.h, k, err);
+        else restored++;
+        unsigned char *b2 = save_run(c, NULL, &l2);
+        CU_ASSERT(rc != DTH_OK || (l2 == len && memcmp(b, b2, len) == 0)); /* saves back the same bytes */
+        free(b);
+        free(b2);
+        if (failed || dth_integrator_step(it, NULL) != DTH_OK) failed++; /* a failure: its state once more, then stop */
+    }
+    CU_ASSERT(restored == tried && tried >= 2);
+    /* and a run state at a time beyond the old bound 1e300 (a vertex set there, with h = 1e290) */
+    dth_model *pend = NULL;
+    CU_ASSERT_FATAL(dth_model_new(&dth_model_pendulum, NULL, 0, 1, NULL, &pend, NULL, 0) == DTH_OK);
+    dth_integrator_free(c);
+    dth_options_default(&o);
+    o.h = 1e290;
+    CU_ASSERT_FATAL(dth_integrator_new(pend, &o, &c) == DTH_OK);
+    double z[4] = {1.0, 1e305, 0.2, 0};
+    CU_ASSERT_FATAL(dth_model_eval(pend, z, DTH_EVAL_H, &z[3], NULL, NULL) == DTH_OK);
+    z[3] = -z[3];
+    CU_ASSERT_FATAL(dth_integrator_set_vertex(c, z, o.h) == DTH_OK);
+    dth_run_state st;
+    dth_run_state_init(&st);
+    st.started = 1;
+    st.t = st.t_first = st.t_stop = dth_integrator_vertex(c)[1];
+    size_t len;
+    unsigned char *b = save_run(c, &st, &len);
+    dth_run_state got;
+    char err[400] = "";
+    CU_ASSERT(dth_checkpoint_restore_run(c, &got, b, len, err, sizeof err) == DTH_OK);
+    if (err[0]) printf("  [%s]\n", err);
+    CU_ASSERT(memcmp(&got, &st, sizeof st) == 0);
+    free(b);
+    /* a run whose |q| overflows although q is finite (the pendulum at q = 1e160: found by
+     * fuzz_integrator): q_max = +inf is a state the run driver reaches, and restores */
+    dth_integrator_free(c);
+    dth_options_default(&o);
+    o.h = 0.05;
+    CU_ASSERT_FATAL(dth_integrator_new(pend, &o, &c) == DTH_OK);
+    double qb = 1e160, pb = 0.2;
+    CU_ASSERT_FATAL(dth_integrator_start(c, &qb, &pb, 0) == DTH_OK);
+    dth_run_config rc;
+    dth_run_config_default(&rc);
+    rc.steps = 1;
+    dth_run_state_init(&st);
+    CU_ASSERT_FATAL(dth_run(c, &rc, &st) == DTH_OK);
+    CU_ASSERT(st.k == 1 && isinf(st.q_max));
+    b = save_run(c, &st, &len);
+    err[0] = '\0';
+    CU_ASSERT(dth_checkpoint_restore_run(c, &got, b, len, err, sizeof err) == DTH_OK);
+    if (err[0]) printf("  [%s]\n", err);
+    CU_ASSERT(memcmp(&got, &st, sizeof st) == 0);
+    free(b);
+    dth_integrator_free(it);
+    dth_integrator_free(c);
+    dth_model_free(pend);
+    dth_model_free(m);
 }
 
 /* Reversed before its first step, a midpoint start (its exact first step still pending) goes the
@@ -708,6 +795,8 @@ static void test_fields_codec(void)
 
 static CU_TestInfo fields_tests[] = {
     {"crafted values with the checksum recomputed: refused naming the field, nothing changed", test_crafted_refused},
+    {"steps and times: any finite value the integrator accepts restores (h = -1.06e270, t = 1e305, h = 1e290, |q| = inf)",
+     test_extreme_steps},
     {"a midpoint start reversed before its first step: its checkpoint restores, its steps go backward",
      test_reverse_at_start},
     {"byte order: little-endian by construction; a big-endian writer's checkpoint refused by name", test_byte_order},
