@@ -53,12 +53,22 @@ void dth__run_section(const dth_run_state *run, dth__section *out)
 /* ---- the state part: the method, the model, the options, the stepper's sections, the
  * regularizer's, the run's ---- */
 
+/* The error estimate's shadow trajectory (estimate.h): its position decides every later estimate, and
+ * with it the run's stop on its error (run.h, stop_error). */
+#define EST_ENTRY(name, kind, check, doc) DTH__FIELD(dth__estimate, name, kind, check),
+static const dth_field est_fields[] = {DTH__ESTIMATE_FIELDS(EST_ENTRY)};
+#undef EST_ENTRY
+
 size_t dth__ckpt_sections(const dth_integrator *it, dth__section *sec, void *scratch)
 {
     size_t k = 0;
     if (it->type->options_section) it->type->options_section(it->state, &sec[k++], scratch);
     else sec[k++] = (dth__section){"options", NULL, 0, scratch, 0};
-    return k + it->type->sections(it->state, sec + k);
+    k += it->type->sections(it->state, sec + k);
+    if (it->est.on)
+        sec[k++] = (dth__section){"estimate", est_fields, sizeof est_fields / sizeof est_fields[0],
+                                  (void *)(uintptr_t)&it->est, it->N};
+    return k;
 }
 
 struct dth_regularizer *dth__ckpt_reg(const dth_integrator *it)
@@ -90,7 +100,7 @@ void dth__put_section(dth__wr *w, const dth__section *sec)
 
 static void put_state(dth__wr *w, const dth_integrator *it, const dth_run_state *run)
 {
-    dth__section sec[DTH__MAX_SECTIONS + 1], rs;
+    dth__section sec[DTH__CKPT_MAX_SECTIONS], rs;
     double scratch[8];
     size_t ns = dth__ckpt_sections(it, sec, scratch);
     dth__put_str(w, it->type->name);
@@ -231,7 +241,7 @@ static int read_state(dth__rd *r, dth__ckpt *s, char *err, size_t errlen)
     s->n = dth__get_u64(r);
     s->nsec = dth__get_u32(r);
     s->pos_sec = r->pos;
-    if (r->bad || s->n == 0 || s->n > DTH__MAX_DOF || s->nsec > DTH__MAX_SECTIONS + 1) {
+    if (r->bad || s->n == 0 || s->n > DTH__MAX_DOF || s->nsec > DTH__CKPT_MAX_SECTIONS) {
         dth__set_err(err, errlen, "checkpoint state header is invalid");
         return DTH_EPARSE;
     }

@@ -15,6 +15,8 @@
 #include "wire.h"
 
 enum { DTH__CKPT_HEADER = 8 + 4 + 4 + 8, DTH__CKPT_TRAILER = 8, DTH__CKPT_MAX_NAME = 255 };
+/** Most state sections: the options, the stepper's, the error estimate's. */
+enum { DTH__CKPT_MAX_SECTIONS = 1 + DTH__MAX_SECTIONS + 1 };
 /** The byte-order mark after the version: 04 03 02 01 in the file (a u32, little-endian). */
 #define DTH__CKPT_BOM 0x01020304u
 
@@ -34,7 +36,9 @@ typedef struct dth__ckpt {
 
 /** Check the header, checksum and structure of buf; r is left after the state (at the blobs). */
 int dth__ckpt_verify(const void *buf, size_t len, dth__rd *r, dth__ckpt *s, char *err, size_t errlen);
-/** The options section and the state sections of `it` (sec[0] is the options), their count. */
+/** The options section, the state sections of `it` (sec[0] is the options) and, where it estimates
+ *  (dth_options.estimate), the error estimate's section "estimate" last; their count (at most
+ *  DTH__CKPT_MAX_SECTIONS). */
 size_t dth__ckpt_sections(const dth_integrator *it, dth__section *sec, void *scratch);
 /** The attached regularizer (NULL: none), its type name ("" for none), its state as a section. */
 struct dth_regularizer *dth__ckpt_reg(const dth_integrator *it);

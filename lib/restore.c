@@ -127,13 +127,29 @@ static int run_fits(const dth_integrator *it, const dth_run_state *S, char *err,
     return DTH_OK;
 }
 
+/* The error estimate's shadow, where it is valid, is a finite state at the vertex's time. */
+static int estimate_fits(const dth_integrator *it, char *err, size_t errlen)
+{
+    const dth__estimate *e = &it->est;
+    if (!e->on || !e->valid) return DTH_OK;
+    int finite = isfinite(e->E0);
+    for (size_t j = 0; j < e->N; j++) finite &= isfinite(e->x[j]) != 0;
+    double t = it->type->vertex(it->state)[it->n];
+    if (!finite || e->x[it->n] != t) {
+        dth__set_err(err, errlen, "checkpoint section 'estimate': field 'valid' = 1 with %s",
+                     finite ? "field 'x' at a time other than the integrator's vertex's" : "a non-finite 'x' or 'E0'");
+        return DTH_EPARSE;
+    }
+    return DTH_OK;
+}
+
 /* ---- everything read and checked, as reader positions ---- */
 
 typedef struct plan {
-    dth__section sec[DTH__MAX_SECTIONS + 1], reg, run;
+    dth__section sec[DTH__CKPT_MAX_SECTIONS], reg, run;
     size_t ns;
     double scratch[8];
-    size_t pos[DTH__MAX_SECTIONS + 1][DTH__MAX_FIELDS], regpos[DTH__MAX_FIELDS], runpos[DTH__MAX_FIELDS];
+    size_t pos[DTH__CKPT_MAX_SECTIONS][DTH__MAX_FIELDS], regpos[DTH__MAX_FIELDS], runpos[DTH__MAX_FIELDS];
 } plan;
 
 /* The method, model, dimension, options and regularizer must be the integrator's. */
@@ -166,8 +182,14 @@ static int read_all(dth_integrator *it, const dth__ckpt *s, dth__rd *q, dth_run_
     if (rc) return rc;
     p->ns = dth__ckpt_sections(it, p->sec, p->scratch);
     if (s->nsec != p->ns) {
-        dth__set_err(err, errlen, "checkpoint has %u state sections, this integrator %zu", (unsigned)s->nsec, p->ns);
-        return DTH_EPARSE;
+        /* the method is the same (same_kind): only the error estimate's section can differ */
+        int est = s->nsec + 1 == p->ns && it->est.on ? 1 : s->nsec == p->ns + 1 && !it->est.on ? -1 : 0;
+        dth__set_err(err, errlen, "checkpoint has %u state sections, this integrator %zu%s", (unsigned)s->nsec, p->ns,
+                     est > 0   ? " (its error estimate: the checkpoint was written without one, dth_options.estimate = 0)"
+                     : est < 0 ? " (the checkpoint holds an error estimate, dth_options.estimate = 1: this integrator "
+                                 "has none)"
+                               : "");
+        return est ? DTH_EINVAL : DTH_EPARSE;
     }
     q->pos = s->pos_sec;
     for (size_t i = 0; i < p->ns; i++) {
@@ -250,6 +272,7 @@ static int commit(dth_integrator *it, const dth__rd *q, const plan *p, const dth
         dth__set_err(err, errlen, "checkpoint state of method '%s': %s", it->type->name, msg);
         rc = DTH_EPARSE;
     }
+    if (!rc) rc = estimate_fits(it, err, errlen);
     if (!rc && run) rc = run_fits(it, run, err, errlen);
     if (rc) {
         load_snapshot(p, old, w.len);

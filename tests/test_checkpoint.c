@@ -510,9 +510,9 @@ static void documented_section(const unsigned char *b, size_t *pos, const char *
     }
 }
 
-/* A checkpoint of the pendulum with regularizer rt (NULL: none) and a run state, walked by the
- * document. */
-static void documented_checkpoint(const dth_regularizer_type *rt, const char *doc)
+/* A checkpoint of the pendulum with regularizer rt (NULL: none), the error estimate if est, and a run
+ * state, walked by the document. */
+static void documented_checkpoint(const dth_regularizer_type *rt, int est, const char *doc)
 {
     dth_model *m = make_model(&dth_model_pendulum);
     dth_regularizer *rg = NULL;
@@ -521,6 +521,7 @@ static void documented_checkpoint(const dth_regularizer_type *rt, const char *do
     dth_options_default(&o);
     o.h = 0.1;
     o.regularizer = rg;
+    o.estimate = est;
     dth_integrator *A = NULL;
     CU_ASSERT_FATAL(dth_integrator_new(m, &o, &A) == DTH_OK);
     double q = 1.0, p = 0.2;
@@ -549,7 +550,7 @@ static void documented_checkpoint(const dth_regularizer_type *rt, const char *do
     pos += 8;
     uint64_t nsec = le(b + pos, 4);
     pos += 4;
-    CU_ASSERT(nsec == 3);
+    CU_ASSERT(nsec == 3 + (uint64_t)est); /* options, state, policy; the estimate's */
     for (uint64_t sec = 0; sec < nsec; sec++) documented_section(b, &pos, doc, 1);
     /* the regularizer's name and its section, the run state's flag and section */
     size_t rl = (size_t)le(b + pos, 4);
@@ -589,9 +590,9 @@ static void test_documented_layout(void)
     } else {
         printf("  [DTH_SOURCE_ROOT not set: the document is not compared]\n");
     }
-    documented_checkpoint(NULL, doc);
-    documented_checkpoint(&dth_reg_land, doc);
-    documented_checkpoint(&dth_reg_prescribed, doc);
+    documented_checkpoint(NULL, 0, doc);
+    documented_checkpoint(&dth_reg_land, 1, doc);
+    documented_checkpoint(&dth_reg_prescribed, 0, doc);
     free(doc);
 }
 

@@ -3,9 +3,11 @@
  * Checkpoints that pass the checksum but not reason (issue 24): every crafted value in the table
  * below, patched by section and field name with the FNV-1a recomputed, is refused naming its field
  * and leaves the integrator and the run state untouched; the byte order (a big-endian writer's
- * checkpoint is refused by name); the run driver's state saved and restored by the library; the
- * run state's field list covers dth_run_state; regularizer tables of the old layout and bad field
- * lists are refused; the public field codec.
+ * checkpoint is refused by name); steps and times as the integrator accepts them; a start reversed
+ * before its first step; the run driver's state saved and restored by the library; a land run
+ * resumed at its crossings bit for bit, its error estimate with it; the run state's field list
+ * covers dth_run_state; regularizer tables of the old layout and bad field lists are refused; the
+ * public field codec.
  */
 #include <math.h>
 #include <stdint.h>
@@ -561,6 +563,184 @@ static void test_run_state(void)
     runner_free(&c);
 }
 
+/* ---- land through psi = 0: a run checkpointed at its crossings resumes bit for bit ---- */
+
+typedef struct srec {
+    int kind, event, direction;
+    long index, k;
+    double z[4], err_q, err_p, lambda;
+    unsigned flags;
+} srec;
+
+typedef struct trace {
+    srec r[4096];
+    long n;
+    unsigned flags_at[1024]; /* in.flags of the step that arrived at vertex k (checkpoint callback) */
+} trace;
+
+static int trace_sample(void *user, const dth_sample *s)
+{
+    trace *t = user;
+    if (t->n < 4096) {
+        srec *r = &t->r[t->n++];
+        memset(r, 0, sizeof *r); /* padding too: records are compared as bytes */
+        r->kind = (int)s->kind;
+        r->event = s->event;
+        r->direction = s->direction;
+        r->index = s->index;
+        r->k = s->k;
+        memcpy(r->z, s->z, sizeof r->z);
+        r->err_q = s->err_q;
+        r->err_p = s->err_p;
+        r->lambda = s->step->lambda;
+        r->flags = s->step->flags;
+    }
+    return 0;
+}
+
+static int trace_flags(void *user, const dth_run_state *st)
+{
+    trace *t = user;
+    if (st->k >= 0 && st->k < 1024) t->flags_at[st->k] = st->in.flags;
+    return 0;
+}
+
+static int below_p(void *user, size_t n, const double *z, double *g)
+{
+    (void)user;
+    *g = z[n + 1] - 1.9; /* p = 1.9: the rotation slows there, both ways */
+    return DTH_OK;
+}
+
+/* A land run (estimate and local error on, dense output at times, an event) to vertex `to`, from the
+ * run state st (fresh or restored) with integrator x. */
+static void land_leg(runner *x, trace *t, long to, int every_step)
+{
+    static const dth_event ev = {below_p, NULL, 0, 0};
+    dth_run_config c;
+    dth_run_config_default(&c);
+    c.steps = to;
+    c.points = DTH_POINTS_TIMES;
+    c.dt = 0.0371;
+    c.sample = trace_sample;
+    c.on_event = trace_sample;
+    c.events = &ev;
+    c.nevents = 1;
+    c.local_error = 1;
+    c.user = t;
+    if (every_step) {
+        c.checkpoint = trace_flags;
+        c.checkpoint_every = 1;
+    }
+    CU_ASSERT_FATAL(dth_run(x->it, &c, &x->st) == DTH_OK);
+}
+
+static void land_runner(runner *r)
+{
+    memset(r, 0, sizeof *r);
+    CU_ASSERT_FATAL(dth_model_new(&dth_model_pendulum, NULL, 0, 1, NULL, &r->m, NULL, 0) == DTH_OK);
+    CU_ASSERT_FATAL(dth_regularizer_new(&dth_reg_land, NULL, 0, r->m, NULL, &r->reg, NULL, 0) == DTH_OK);
+    dth_options o;
+    dth_options_default(&o);
+    o.h = 0.05;
+    o.start = DTH_START_VERTEX;
+    o.estimate = 1;
+    o.regularizer = r->reg;
+    CU_ASSERT_FATAL(dth_integrator_new(r->m, &o, &r->it) == DTH_OK);
+    double q = 0, p = 2.2;
+    CU_ASSERT_FATAL(dth_integrator_start(r->it, &q, &p, 0) == DTH_OK);
+    dth_run_state_init(&r->st);
+}
+
+static void test_land_crossings(void)
+{
+    enum { END = 400 };
+    static trace straight, resumed;
+    runner a;
+    memset(&straight, 0, sizeof straight);
+    land_runner(&a);
+    land_leg(&a, &straight, END, 1);
+    /* the vertices around the replaced (crossing) steps: the one before, the one each lands on, the
+     * one after it (the landing's reset vertex and the first ordinary step from it) */
+    long at[24];
+    size_t nat = 0;
+    for (long k = 2; k + 1 < END && nat + 3 <= sizeof at / sizeof at[0]; k++)
+        if (straight.flags_at[k] & DTH_STEP_REGULARIZED) {
+            CU_ASSERT(straight.flags_at[k] & DTH_STEP_RESET);
+            at[nat++] = k - 1, at[nat++] = k, at[nat++] = k + 1;
+        }
+    CU_ASSERT(nat >= 9); /* three crossings at least */
+    CU_ASSERT(a.st.crossings >= 3 && a.st.nonreversible > 0 && a.st.events > 0 && !isnan(a.st.err_q));
+    long differ = 0;
+    for (size_t i = 0; i < nat; i++) {
+        runner b, c;
+        memset(&resumed, 0, sizeof resumed);
+        land_runner(&b);
+        land_runner(&c);
+        land_leg(&b, &resumed, at[i], 0);
+        size_t len;
+        unsigned char *buf = save_run(b.it, &b.st, &len);
+        char err[400] = "";
+        int rc = dth_checkpoint_restore_run(c.it, &c.st, buf, len, err, sizeof err);
+        if (rc) printf("  [vertex %ld: %s]\n", at[i], err);
+        CU_ASSERT_FATAL(rc == DTH_OK);
+        land_leg(&c, &resumed, END, 0);
+        int same = resumed.n == straight.n && memcmp(resumed.r, straight.r, (size_t)straight.n * sizeof(srec)) == 0 &&
+                   memcmp(&c.st, &a.st, sizeof c.st) == 0;
+        if (!same) {
+            printf("  [resumed at vertex %ld (flags %u): differs]\n", at[i], straight.flags_at[at[i]]);
+            differ++;
+        }
+        free(buf);
+        runner_free(&b);
+        runner_free(&c);
+    }
+    printf("  [%zu resume points around %zu crossings, %ld samples and events each, %ld differ]\n", nat, nat / 3,
+           straight.n, differ);
+    CU_ASSERT(differ == 0);
+    /* the estimate's shadow goes only into an integrator that estimates: either way round refused,
+     * saying so, nothing changed */
+    runner plain;
+    runner_new(&plain, NULL, &dth_reg_land, 2.2);
+    size_t len, lw, lp, lb;
+    unsigned char *with = save_run(a.it, &a.st, &len), *without = save_run(plain.it, NULL, &lw);
+    unsigned char *before = save_run(plain.it, NULL, &lb);
+    char err[400] = "";
+    CU_ASSERT(dth_checkpoint_restore(plain.it, with, len, err, sizeof err) == DTH_EINVAL);
+    CU_ASSERT(strstr(err, "dth_options.estimate") != NULL);
+    unsigned char *after = save_run(plain.it, NULL, &lp);
+    CU_ASSERT(lp == lb && memcmp(before, after, lb) == 0);
+    err[0] = '\0';
+    CU_ASSERT(dth_checkpoint_restore(a.it, without, lw, err, sizeof err) == DTH_EINVAL);
+    CU_ASSERT(strstr(err, "dth_options.estimate") != NULL);
+    /* a shadow at another time than the vertex's is refused, the integrator left as it was */
+    walk_field f = {0};
+    CU_ASSERT_FATAL(walk_find_field(with, len, "estimate", "x", &f) && f.count == 4);
+    double tx;
+    uint64_t bits = walk_le(with + f.values + 8, 8);
+    memcpy(&tx, &bits, sizeof tx);
+    tx += 0.5;
+    memcpy(&bits, &tx, sizeof bits);
+    walk_put_le(with + f.values + 8, bits, 8);
+    walk_reseal(with, len);
+    size_t la0, la1;
+    unsigned char *a0 = save_run(a.it, &a.st, &la0);
+    dth_run_state got = a.st;
+    err[0] = '\0';
+    CU_ASSERT(dth_checkpoint_restore_run(a.it, &got, with, len, err, sizeof err) == DTH_EPARSE);
+    CU_ASSERT(strstr(err, "'estimate'") && strstr(err, "'x'"));
+    unsigned char *a1 = save_run(a.it, &a.st, &la1);
+    CU_ASSERT(la0 == la1 && memcmp(a0, a1, la0) == 0 && memcmp(&got, &a.st, sizeof got) == 0);
+    free(a0);
+    free(a1);
+    free(with);
+    free(without);
+    free(before);
+    free(after);
+    runner_free(&plain);
+    runner_free(&a);
+}
+
 /* The run state's field list names every member of dth_run_state and of its dth_step_info, as the
  * public headers declare them (a member that fits the padding moves no offset: this catches it). */
 static size_t members(const char *path, const char *open, const char *close, char names[][32], size_t max)
@@ -801,6 +981,9 @@ static CU_TestInfo fields_tests[] = {
      test_reverse_at_start},
     {"byte order: little-endian by construction; a big-endian writer's checkpoint refused by name", test_byte_order},
     {"the run driver's state saved and restored by the library; the run continues bit for bit", test_run_state},
+    {"land through psi = 0 (estimate, dense output, events): resumed at each crossing, bit for bit; the estimate "
+     "only where the integrator estimates",
+     test_land_crossings},
     {"the run state's field list names every member of dth_run_state and dth_step_info", test_run_fields_cover},
     {"regularizer tables: layout 2 refused, bad field lists named, state_loaded's veto", test_reg_tables},
     {"the public field codec: round trip, truncation, checks, strings, memory", test_fields_codec},

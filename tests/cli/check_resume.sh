@@ -99,12 +99,28 @@ fi
 # ---- the issue's reproduction: a rotating pendulum through psi = 0 (regularized), stopped at
 # step 2278 and resumed to 2400, against the straight run
 R="$SC/pendulum-rotation.ini"
-"$DTH" run "$R" -s integrator.steps=2400 -s output.diagnostics=yes -o "$T/rot.csv" 2>/dev/null
+"$DTH" run "$R" -s integrator.steps=2400 -s output.diagnostics=yes -o "$T/rot.csv" 2>"$T/rot.err"
 "$DTH" run "$R" -s integrator.steps=2278 -s output.diagnostics=yes -o "$T/rotp.csv" --checkpoint "$T/rot.ckpt" 2>/dev/null
 "$DTH" run --resume "$T/rot.ckpt" -s integrator.steps=2400 --checkpoint "$T/rot.ckpt" 2>/dev/null ||
     fail "rotation: resume"
 cmp -s "$T/rot.csv" "$T/rotp.csv" || fail "rotation: resumed at 2278 differs from the straight run"
 ok "rotating pendulum resumed at step 2278: byte-identical"
+# and at the vertices around one of land's crossings past 2000 (the row with ordinary = 0 is the
+# replaced step): the one before, the one it lands on (its offset reset), the one after
+col=$(head -n 1 "$T/rot.csv" | tr ',' '\n' | grep -n '^ordinary$' | cut -d: -f1)
+[ -n "$col" ] || fail "rotation: no column 'ordinary'"
+kc=$(awk -F, -v c="$col" 'NR > 1 && $c == 0 && $1 > 2000 { print $1; exit }' "$T/rot.csv")
+[ -n "$kc" ] || fail "rotation: no replaced (crossing) step past 2000"
+for k in $((kc - 1)) "$kc" $((kc + 1)); do
+    "$DTH" run "$R" -s integrator.steps="$k" -s output.diagnostics=yes -o "$T/rotc.csv" --checkpoint "$T/rotc.ckpt" \
+        2>/dev/null || fail "rotation: run to $k"
+    "$DTH" run --resume "$T/rotc.ckpt" -s integrator.steps=2400 2>"$T/rotc.err" || fail "rotation: resume at $k"
+    cmp -s "$T/rot.csv" "$T/rotc.csv" || fail "rotation: resumed at vertex $k (crossing step $kc) differs"
+    # the end line too: the counts and the error estimate continue (the estimate's shadow is restored)
+    [ "$(sed 's/ rows to [^;]*;/;/' "$T/rot.err")" = "$(sed 's/ rows to [^;]*;/;/' "$T/rotc.err")" ] ||
+        fail "rotation: resumed at vertex $k, the end line differs: $(cat "$T/rotc.err") against $(cat "$T/rot.err")"
+done
+ok "rotating pendulum resumed at vertices $((kc - 1)), $kc, $((kc + 1)) around a crossing: byte-identical, same end line"
 
 # ---- signals: SIGHUP like SIGTERM (exit 129, rows kept); a stop request inside the dense output
 "$DTH" run "$P" -s integrator.t_end=1e7 -o "$T/hup.csv" 2>"$T/hup.err" &
