@@ -546,8 +546,9 @@ AI int newton_n(dth__dth *it, const size_t nc, const dth__newton_ops *ops, doubl
     /* the offset within 2^12 eps S of round-off (S ~ |wp| + |H_phys(z_k)|, a switch, not a bound):
      * the iterations solve the compensated constraint too (eval_n); above it, nothing changes */
     if (it->opt.finish == DTH_FINISH_COMPENSATED) {
-        double wp = it->st.z[N - 1], rho = it->st.rho;
-        it->tiny = fabs(rho) < 4096 * DBL_EPSILON * (fabs(wp) + fabs(rho - wp));
+        /* the offset the constraint reads: H(z_k) + s (a composition's substep: its level s) */
+        double wp = it->st.z[N - 1], rho = it->st.rho, off = it->level != 0 ? rho + it->level : rho;
+        it->tiny = fabs(off) < 4096 * DBL_EPSILON * (fabs(wp) + fabs(rho - wp));
     }
     sol->iters = 0;
     sol->residual = NAN;

@@ -468,3 +468,9 @@ int dth_kicked_segment(const dth_model *model, const double *z, const double *zl
     if (residual) *residual = fabs(c.wp + c.H);
     return DTH_OK;
 }
+
+size_t dth__quad_invariant_basis(const dth_model *model, const double *y, const double *sc, double *G, double *ys,
+                                 double *tmp)
+{
+    return quad_invariant_basis(model, y, sc, G, ys, tmp);
+}

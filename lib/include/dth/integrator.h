@@ -97,8 +97,10 @@ typedef struct dth_options {
     size_t size;                /**< sizeof(dth_options), set by dth_options_default */
     const char *method;         /**< how to step: "dth" (NULL means "dth") or a fixed-step baseline of
                                      methods.h ("midpoint", "gauss4", "rk4", "verlet", "midpoint-proj") */
-    int order;                  /**< order of the DTH method (2); baselines have their own order and
-                                     take the default */
+    int order;                  /**< order of the DTH method: 2 (the default) or 4 (a composition of
+                                     level-shifted DTH steps, `table`); baselines have their own order and
+                                     take the default. 6 and 8 are refused: the construction measures order
+                                     4 with every 6th- and 8th-order table (docs/theory.md, "Order 4") */
     double h;                   /**< first step; its sign is the direction of travel (a baseline's step) */
     dth_start start;            /**< start mode (DTH only) */
     int has_wp;                 /**< vertex start: use `wp` exactly as the vertex's wp */
@@ -118,6 +120,13 @@ typedef struct dth_options {
                                      autonomous model) costs about 4 gradients and one projection per step
                                      (16 to 36 % of a step on the smallest models). Default 0; scene files
                                      turn it on ([integrator] estimate = yes, their default) */
+    const char *table;          /**< order 4: the composition's coefficient table, "suzuki4" (5 stages, the
+                                     default: NULL) or "yoshida4" (3 stages); also "yoshida6a", "kahanli6",
+                                     "kahanli8" (nominally of order 6, 6, 8: here order 4, see `order`) */
+    double band_time;           /**< order 4 with a regularizer: a psi = 0 crossing is entered where it is
+                                     less than band_time ahead in time (|psi / psi'| < band_time) as well as
+                                     two steps ahead (the default rule, band_time = 0): a band fixed in phase
+                                     space, which keeps order 4 through crossings at more band steps */
 } dth_options;
 
 /** Fill `o` with defaults: size, method "dth", order 2, h = 0.01, midpoint start, max_iter = 30,
