@@ -369,7 +369,7 @@ static int step_composite(dth__comp *c, dth_step_info *info)
     /* into the band from the vertex before this step, with the last step's tau */
     dth__comp_rewind(c, 1); /* info keeps the failed step's iterations */
     c->st.band = 1;
-    c->st.tau_b = c->st.lam != 0 ? c->st.lam : c->st.h;
+    c->st.tau_b = c->st.tau_b0 = c->st.lam != 0 ? c->st.lam : c->st.h;
     return dth__comp_band_step(c, 0, info);
 }
 

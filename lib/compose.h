@@ -33,6 +33,7 @@ const dth__table *dth__table_find(const char *name);
     X(zprev, VEC, FINITE, "the vertex before the current one (a resumed run's cut segment)")       \
     X(href, F64, FINITE, "H(z) at the start vertex: mirror centre of the levels, the band's projection target") \
     X(tau_b, F64, FINITE, "the band's step (0 outside a band)")                                     \
+    X(tau_b0, F64, FINITE, "the band's largest step (its entry step, halved where a band step failed)") \
     X(psi_est, F64, ANY, "psi read off the last composite step's first substep (8 rho_1 / lambda_1^2), NaN: none") \
     X(lam, F64, FINITE, "the last step's tau = sum of its substeps (0 before the first step)")     \
     X(h, F64, NONZERO, "the step option h as it stands (reverse flips it)")                        \
