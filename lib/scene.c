@@ -16,6 +16,7 @@
 #include <string.h>
 #include "dth/scene.h"
 #include "dth/methods.h"
+#include "compose.h"
 #include "dth_internal.h"
 
 typedef struct entry {
@@ -683,6 +684,7 @@ typedef struct setup_ctx {
     char *err;
     size_t errlen;
     const entry *q, *p, *t, *wp, *h, *steps, *t_end, *every, *dt, *start, *points, *method, *linsolve, *reversible;
+    const entry *order, *table, *band_time; /* [integrator] of order 4 (compose.c) */
     /* [events] */
     const entry *section, *section_value, *section_dir, *section_term, *time, *time_term, *dist, *dist_dofs,
         *dist_dir, *dist_term;
@@ -789,6 +791,22 @@ static int check_integrator(setup_ctx *c, dth_run_setup *rs, const entry *e)
         int rv;
         if (parse_bool(v, &rv)) return bad(c->err, c->errlen, e, "'%s' is not one of yes, no", v);
         rs->opt.finish = rv ? DTH_FINISH_REVERSIBLE : DTH_FINISH_COMPENSATED;
+    } else if (strcmp(k, "order") == 0) {
+        /* 2 or 4 (checked with the method once the model exists: dth_options_check's message) */
+        c->order = e;
+        int pr = parse_long(v, 1, 1000, &x);
+        if (pr) return bad_count(c, e, pr, 1, 1000);
+        rs->opt.order = (int)x;
+    } else if (strcmp(k, "table") == 0) {
+        /* order 4's coefficient table: its name in static storage (the setup may be copied) */
+        c->table = e;
+        const dth__table *t = dth__table_find(v);
+        if (!t) return bad(c->err, c->errlen, e, "'%s' is not one of suzuki4, yoshida4, yoshida6a, kahanli6, kahanli8", v);
+        rs->opt.table = t->name;
+    } else if (strcmp(k, "band_time") == 0) {
+        c->band_time = e;
+        if (dth_parse_double(v, &rs->opt.band_time) || rs->opt.band_time < 0)
+            return bad(c->err, c->errlen, e, "'%s' is not a finite time >= 0 (0: the default crossing rule)", v);
     } else if (strcmp(k, "linsolve") == 0) {
         c->linsolve = e;
         dth_linsolve ls;
@@ -799,7 +817,7 @@ static int check_integrator(setup_ctx *c, dth_run_setup *rs, const entry *e)
         rs->opt.linsolve = ls;
     } else {
         return bad(c->err, c->errlen, e,
-                   "unknown key (known in [integrator]: method, start, h, steps, t_end, max_iter, K, branch_check, reversible, linsolve)");
+                   "unknown key (known in [integrator]: method, start, h, steps, t_end, max_iter, K, branch_check, reversible, linsolve, order, table, band_time)");
     }
     return DTH_OK;
 }
@@ -1078,9 +1096,13 @@ static int check_cross(setup_ctx *c, dth_run_setup *rs)
         if (c->points_kind == DTH_POINTS_MIDPOINTS && !is_dth)
             return bad(c->err, c->errlen, c->points, "midpoints exist for method = dth only (%s)",
                        c->method ? c->method->origin : "method");
+        if (c->points_kind == DTH_POINTS_MIDPOINTS && rs->opt.order != 2)
+            return bad(c->err, c->errlen, c->points, "midpoints exist for order 2 only: order %d's substep midpoints lie on "
+                       "their levels, not on the energy surface (%s)", rs->opt.order, c->order ? c->order->origin : "order");
         rs->points = (dth_points)c->points_kind;
     } else {
-        rs->points = is_dth && rs->opt.start == DTH_START_MIDPOINT ? DTH_POINTS_MIDPOINTS : DTH_POINTS_VERTICES;
+        rs->points = is_dth && rs->opt.order == 2 && rs->opt.start == DTH_START_MIDPOINT ? DTH_POINTS_MIDPOINTS
+                                                                                        : DTH_POINTS_VERTICES;
     }
     return DTH_OK;
 }
@@ -1239,6 +1261,13 @@ int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *
                      "the reversible finish needs a dense Hessian, and model '%s' takes the banded solver here: "
                      "add integrator.linsolve = dense",
                      type->name);
+        } else if (c.order || c.table || c.band_time) {
+            /* the order, its table and band against the method and the model (dth_options_check) */
+            dth_options o = rs.opt;
+            char m[256];
+            const entry *at = c.order ? c.order : c.table ? c.table : c.band_time;
+            if (dth_options_check(rs.model, &o, m, sizeof m)) rc = bad(err, errlen, at, "%s", m);
+            else rc = check_start(&c, &rs, type->name);
         } else {
             rc = check_start(&c, &rs, type->name);
         }
