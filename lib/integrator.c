@@ -53,6 +53,7 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt_in, dth_in
     it->h = o.h;
     rc = it->type->create(model, &o, &it->state);
     if (!rc && o.estimate) rc = dth__estimate_init(&it->est, model, o.alloc);
+    if (!rc && o.estimate) it->est.rk6 = o.order >= 4; /* a shadow of higher order than the method */
     if (rc) {
         dth_integrator_free(it);
         return rc;
