@@ -150,6 +150,8 @@ static int create(const dth_model *model, const dth_options *opt, void **out)
     c->st.dir = opt->h > 0 ? 1.0 : -1.0;
     c->st.sigma = c->st.sign0 = 1;
     c->st.psi_est = NAN;
+    c->st.kx = -1;
+    c->st.d2psi = NAN;
     snprintf(c->errmsg, sizeof c->errmsg, "no error");
     *out = c;
     return DTH_OK;
@@ -173,6 +175,8 @@ static int begin(dth__comp *c, const double *z, double h)
     c->st.dir = h > 0 ? 1.0 : -1.0;
     c->st.sigma = c->st.sign0 = 1;
     c->st.psi_est = NAN;
+    c->st.kx = -1;
+    c->st.d2psi = NAN;
     c->st.pending = 1;
     return c->band_on ? dth__comp_start_band(c) : DTH_OK;
 }

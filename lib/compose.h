@@ -35,6 +35,9 @@ const dth__table *dth__table_find(const char *name);
     X(tau_b, F64, FINITE, "the band's step (0 outside a band)")                                     \
     X(tau_b0, F64, FINITE, "the band's largest step (its entry step, halved where a band step failed)") \
     X(psi_est, F64, ANY, "psi read off the last composite step's first substep (8 rho_1 / lambda_1^2), NaN: none") \
+    X(dpsi_x, F64, ANY, "psi' at the vertex of step kx (the entry test's curvature of psi)")     \
+    X(d2psi, F64, ANY, "psi'' from psi' at the vertices kx - 1 and kx (NaN: not known)")          \
+    X(kx, LONG, PSISTEP, "the step whose vertex had psi, psi' evaluated (-1: none)")             \
     X(lam, F64, FINITE, "the last step's tau = sum of its substeps (0 before the first step)")     \
     X(h, F64, NONZERO, "the step option h as it stands (reverse flips it)")                        \
     X(dir, F64, UNIT, "direction of travel")                                                        \

@@ -109,6 +109,28 @@ int dth__comp_start_step(dth__comp *c, dth_step_info *info)
     return DTH_OK;
 }
 
+/* psi' at vertex k, reached by a step of tau: psi'' from psi' at the vertex before where it was
+ * evaluated there too (else NaN). */
+static void record_psi(dth__comp *c, long k, double dpsi, double tau)
+{
+    if (c->st.kx == k) return;
+    c->st.d2psi = c->st.kx == k - 1 && tau != 0 ? (dpsi - c->st.dpsi_x) / tau : NAN;
+    c->st.dpsi_x = dpsi;
+    c->st.kx = k;
+}
+
+/* psi reaches 0 within |x| ahead in time: on its parabola where psi'' is known (psi falling fast but
+ * never crossing, as it does leaving a Kepler pericentre, is no crossing), else on its line. */
+static int zero_ahead(const dth__comp *c, double psi, double dpsi, double x)
+{
+    double d2 = c->st.d2psi, sg = sign_of(psi);
+    x = c->st.dir * fabs(x);
+    if (!isfinite(d2)) return psi * dpsi * c->st.dir < 0 && fabs(psi) < fabs(x * dpsi);
+    double lo = sg * (psi + dpsi * x + 0.5 * d2 * x * x), xv = d2 != 0 ? -dpsi / d2 : -x;
+    if (xv / x > 0 && xv / x < 1) lo = fmin(lo, sg * (psi + 0.5 * dpsi * xv)); /* its turning point */
+    return lo <= 0;
+}
+
 int dth__comp_health(dth__comp *c, const double *z0, double rho1, int *undo)
 {
     (void)z0;
@@ -126,9 +148,9 @@ int dth__comp_health(dth__comp *c, const double *z0, double rho1, int *undo)
         return DTH_OK;
     }
     for (int i = 0; i < c->m; i++) tau += c->nlam[i];
-    double D = fabs(psi / dpsi);
+    record_psi(c, c->st.steps + 1, dpsi, tau);
     int approaching = psi * dpsi * c->st.dir < 0;
-    if (approaching && (D < X_IN * fabs(tau) || D < c->opt.band_time)) {
+    if (zero_ahead(c, psi, dpsi, X_IN * tau) || (approaching && fabs(psi) < c->opt.band_time * fabs(dpsi))) {
         c->st.band = 1;
         c->st.tau_b = c->st.tau_b0 = tau;
     }
@@ -156,7 +178,7 @@ static int try_exit(dth__comp *c, double psi, double dpsi, dth_step_info *info)
     dth__dth *k = c->core;
     int sg = sign_of(psi), sigma = sg * c->st.sign0;
     double D = dpsi != 0 ? fabs(psi / dpsi) : INFINITY, tau_pred = c->st.have_levels ? tau_pred_at(c, psi) : c->st.h;
-    if (!sg || !(psi * dpsi * c->st.dir >= 0) || isnan(tau_pred)) return 0;
+    if (!sg || isnan(tau_pred) || zero_ahead(c, psi, dpsi, X_OUT * tau_pred)) return 0;
     if (!(D > X_OUT * fabs(tau_pred) && D > 1.5 * c->opt.band_time)) return 0;
     dth__comp_state st = c->st;
     dth_step_info in = *info;
@@ -218,6 +240,7 @@ int dth__comp_band_step(dth__comp *c, int exit, dth_step_info *info)
     info->flags |= DTH_STEP_REGULARIZED;
     rc = dth__comp_psi(c, c->core->st.z, &psi1, &dpsi1);
     if (rc) return rc;
+    record_psi(c, c->st.steps, dpsi1, c->st.lam);
     if (sign_of(psi1) != sign_of(psi)) info->flags |= DTH_STEP_CROSSING;
     return DTH_OK;
 }
