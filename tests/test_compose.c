@@ -638,6 +638,24 @@ static void test_estimate(void)
     dth_model_free(km);
 }
 
+/* dth_model_check's verdict says what the optional hdiff and third would save (issue 22 item 5): the
+ * Henon-Heiles user model has neither, Kepler both. */
+static void test_check_fallback(void)
+{
+    dth_model *hm = model(&example_henon_heiles, NULL, 0, 0), *km = model(&dth_model_kepler, NULL, 0, 0);
+    double y[5] = {0.1, 0.2, 0, 0.3, 0.1};
+    dth_model_check_report rep;
+    CU_ASSERT_EQUAL_FATAL(dth_model_check(hm, y, &rep), DTH_OK);
+    printf("\n  %s\n", rep.message);
+    CU_ASSERT(rep.pass);
+    CU_ASSERT(strstr(rep.message, "add hdiff, third: -8 gradients, -3 Hessians a step") != NULL);
+    y[0] = 0.5;
+    CU_ASSERT_EQUAL_FATAL(dth_model_check(km, y, &rep), DTH_OK);
+    CU_ASSERT(rep.pass && strstr(rep.message, "add ") == NULL);
+    dth_model_free(hm);
+    dth_model_free(km);
+}
+
 static CU_TestInfo tests[] = {
     {"order 4 at T = 10 and 100: pendulum, Kepler (both apsides), Henon-Heiles, a 3-D ring", test_order_fixed_times},
     {"order 4 on a non-autonomous model", test_order_forced},
@@ -651,6 +669,7 @@ static CU_TestInfo tests[] = {
     {"options: order 6/8 refused, tables, no midpoints", test_options},
     {"events on the quintic dense output", test_events},
     {"the error estimate of order 4", test_estimate},
+    {"dth_model_check says what hdiff and third would save", test_check_fallback},
     CU_TEST_INFO_NULL,
 };
 
