@@ -24,7 +24,9 @@
 extern "C" {
 #endif
 
-/** How the initial state (q0, p0, t0) is placed on the trajectory. */
+/** How the initial state (q0, p0, t0) is placed on the trajectory (order 2; with dth_options.order = 4
+ *  both mean the vertex z_0 = (q0, t0, p0) with wp = -H_phys there or the explicit wp, and the first
+ *  step is the start step of length h that makes the composition's levels). */
 typedef enum dth_start {
     /** (q0, t0, p0) is the first midpoint, wp = -H_phys: the first step is exactly h. */
     DTH_START_MIDPOINT = 0,
@@ -213,9 +215,11 @@ DTH_API void dth_integrator_reverse(dth_integrator *it);
 
 /** The current vertex z_k (length 2n+2). */
 DTH_API const double *dth_integrator_vertex(const dth_integrator *it);
-/** The midpoint of the last step (length 2n+2), or NULL before the first step. */
+/** The midpoint of the last step (length 2n+2), or NULL before the first step; always NULL for order 4
+ *  (its substeps' midpoints lie on their levels, not on H = 0). */
 DTH_API const double *dth_integrator_midpoint(const dth_integrator *it);
-/** The incoming (last) step lambda, 0 before the first step of a vertex start (a baseline: its h). */
+/** The incoming (last) step lambda, 0 before the first step of a vertex start (a baseline: its h; order
+ *  4: the composite step tau, the sum of its substeps). */
 DTH_API double dth_integrator_lambda(const dth_integrator *it);
 /** The direction of travel, +1 or -1 (NaN for NULL). */
 DTH_API double dth_integrator_direction(const dth_integrator *it);
@@ -255,8 +259,10 @@ DTH_API int dth_integrator_error_at(dth_integrator *it, const double *z, double 
 
 /**
  * Tangent map of the last step, M = d z_{k+1} / d z_k ((2n+2)^2, row-major), by implicit
- * differentiation of the bordered system, factored afresh at the converged midpoint.
- * @return DTH_OK; DTH_EINVAL before any step or after a regularizer's step (no tangent map);
+ * differentiation of the bordered system, factored afresh at the converged midpoint (order 4: the
+ * product of its substeps' maps; the midpoint rule's for its start and band steps).
+ * @return DTH_OK; DTH_EINVAL before any step or after a regularizer's step or an order-4 band exit
+ *         (no tangent map);
  *         the model's status.
  */
 DTH_API int dth_integrator_tangent(dth_integrator *it, double *M);
