@@ -100,14 +100,15 @@ static void destroy(void *s)
 static int carve(dth__comp *c)
 {
     size_t N = c->N, m = (size_t)c->m, mN = m * N;
-    size_t sizes[] = {N, m, m, m, mN, mN, mN, mN, mN, m, N, N, N, 3 * N, N, N, N, N, N, N * N, N * N,
+    size_t sizes[] = {N, m, m, m, m, mN, mN, mN, mN, mN, mN, m, N, N, N, 3 * N, N, N, N, N, N, N * N, N * N,
                       dth_model_work_size(c->model)};
     size_t nd = 0;
     for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) nd += sizes[i];
     c->block = dth_calloc(c->alloc, nd, sizeof(double));
     if (!c->block) return DTH_ENOMEM;
     double *p = c->block;
-    double **slots[] = {&c->st.zprev, &c->sg.levels, &c->sg.lam1, &c->sg.lam2, &c->hs.d1, &c->hs.d2, &c->hs.mids,
+    double **slots[] = {&c->st.zprev, &c->sg.levels, &c->sg.lam1, &c->sg.lam2, &c->sg.lam3, &c->hs.d1, &c->hs.d2,
+                        &c->hs.d3, &c->hs.mids,
                         &c->nd1, &c->nmids, &c->nlam, &c->sz, &c->szlo, &c->szbar, &c->sdp, &c->y, &c->ylo,
                         &c->d, &c->u, &c->g, &c->M1, &c->M2, &c->pw};
     for (size_t i = 0; i < sizeof slots / sizeof slots[0]; i++) {
@@ -224,13 +225,22 @@ static int set_vertex(void *s, const double *z, double lambda)
 
 /* ---- the composite step ---- */
 
-/* Substep i's seed: linear extrapolation of (d_i, lambda_i) over the last two steps, the last one, or
- * (no history) gamma_i tau_pred along the flow at the substep's vertex. NULL: a model failure. */
+/* Substep i's seed: quadratic extrapolation of (d_i, lambda_i) over the last three steps, linear over
+ * two, the last one, or (no history) gamma_i tau_pred along the flow at the substep's vertex. NULL: a
+ * model failure. */
 static const double *predict(dth__comp *c, int i, int nh, double tau_pred, double *lam0)
 {
     size_t N = c->N;
-    const double *d1 = c->hs.d1 + (size_t)i * N, *d2 = c->hs.d2 + (size_t)i * N;
+    const double *d1 = c->hs.d1 + (size_t)i * N, *d2 = c->hs.d2 + (size_t)i * N, *d3 = c->hs.d3 + (size_t)i * N;
     double l1 = c->sg.lam1[i];
+    if (nh >= 3) {
+        double l = 3 * (l1 - c->sg.lam2[i]) + c->sg.lam3[i];
+        if (l * l1 > 0 && fabs(l) <= 2 * fabs(l1) && 2 * fabs(l) >= fabs(l1)) {
+            for (size_t j = 0; j < N; j++) c->d[j] = 3 * (d1[j] - d2[j]) + d3[j];
+            *lam0 = l;
+            return c->d;
+        }
+    }
     if (nh >= 2) {
         double l = 2 * l1 - c->sg.lam2[i];
         if (l * l1 > 0 && fabs(l) <= 2 * fabs(l1) && 2 * fabs(l) >= fabs(l1)) {
@@ -307,14 +317,16 @@ void dth__comp_commit_hist(dth__comp *c, int band)
 {
     double tau = 0;
     for (int i = 0; i < c->m; i++) tau += c->nlam[i];
+    swap(&c->hs.d3, &c->hs.d2);
     swap(&c->hs.d2, &c->hs.d1);
     swap(&c->hs.d1, &c->nd1);
     swap(&c->hs.mids, &c->nmids);
+    swap(&c->sg.lam3, &c->sg.lam2);
     swap(&c->sg.lam2, &c->sg.lam1);
     swap(&c->sg.lam1, &c->nlam);
     memcpy(c->st.zprev, c->sz, c->N * sizeof *c->sz); /* the vertex the step left */
     c->st.have_prev = 1;
-    c->st.nh = band ? 1 : c->st.nh < 2 ? c->st.nh + 1 : 2;
+    c->st.nh = band ? 1 : c->st.nh < 3 ? c->st.nh + 1 : 3;
     c->st.last_band = band;
     c->st.fact_valid = 1;
     c->st.lam = tau;
@@ -417,8 +429,10 @@ static void reverse(void *s)
     flip(c->sg.levels, m, 1, 1, c->g);
     flip(c->sg.lam1, m, 1, -1, c->g);
     flip(c->sg.lam2, m, 1, -1, c->g);
+    flip(c->sg.lam3, m, 1, -1, c->g);
     flip(c->hs.d1, m, N, -1, c->g);
     flip(c->hs.d2, m, N, -1, c->g);
+    flip(c->hs.d3, m, N, -1, c->g);
     flip(c->hs.mids, m, N, 1, c->g);
     if (c->st.nh > 1) c->st.nh = 1;
     c->st.dir = -c->st.dir;

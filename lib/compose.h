@@ -46,7 +46,7 @@ const dth__table *dth__table_find(const char *name);
     X(sign0, INT, UNIT, "sign of psi where the levels were made")                                   \
     X(have_levels, INT, BOOL, "the levels are made")                                                \
     X(pending, INT, BOOL, "the next step is the start step that makes the levels")                  \
-    X(nh, INT, NHIST, "composite steps in the predictor's history (lam1, lam2; d1, d2)")           \
+    X(nh, INT, NHIST, "composite steps in the predictor's history (lam1..lam3; d1..d3)")           \
     X(last_band, INT, BOOL, "the last step was a prescribed-step composition (band or start)")      \
     X(fact_valid, INT, BOOL, "the last step has a tangent map (not a band exit's projection)")      \
     X(have_prev, INT, BOOL, "zprev holds the vertex before the current one")                        \
@@ -57,12 +57,14 @@ const dth__table *dth__table_find(const char *name);
 #define DTH__STAGE_FIELDS(X)                                                                        \
     X(levels, VEC, FINITE, "the levels s_i of the start's set (the mirror's are -2 href - s_i)")   \
     X(lam1, VEC, FINITE, "the substeps lambda_i of the last step")                                 \
-    X(lam2, VEC, FINITE, "those of the step before it")
+    X(lam2, VEC, FINITE, "those of the step before it")                                           \
+    X(lam3, VEC, FINITE, "those of the step before that")
 
 /* Per stage and extended coordinate (veclen = stages N). */
 #define DTH__HIST_FIELDS(X)                                                                         \
     X(d1, VEC, FINITE, "the substeps' offsets zbar_i - z_(i-1) of the last step")                   \
     X(d2, VEC, FINITE, "those of the step before it")                                               \
+    X(d3, VEC, FINITE, "those of the step before that")                                             \
     X(mids, VEC, FINITE, "the last step's midpoints zbar_i (its tangent map)")
 
 typedef struct dth__comp_state {
