@@ -93,6 +93,7 @@ static void destroy(void *s)
     if (!c) return;
     if (c->core) dth__stepper_dth.destroy(c->core);
     dth__mid_free(c->mid);
+    dth_free(c->alloc, c->M1);
     dth_free(c->alloc, c->block);
     dth_free(c->alloc, c);
 }
@@ -100,7 +101,7 @@ static void destroy(void *s)
 static int carve(dth__comp *c)
 {
     size_t N = c->N, m = (size_t)c->m, mN = m * N;
-    size_t sizes[] = {N, m, m, m, m, mN, mN, mN, mN, mN, mN, m, N, N, N, 3 * N, N, N, N, N, N, N * N, N * N,
+    size_t sizes[] = {N, m, m, m, m, mN, mN, mN, mN, mN, mN, m, N, N, N, 3 * N, N, N, N, N, N,
                       dth_model_work_size(c->model)};
     size_t nd = 0;
     for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) nd += sizes[i];
@@ -110,7 +111,7 @@ static int carve(dth__comp *c)
     double **slots[] = {&c->st.zprev, &c->sg.levels, &c->sg.lam1, &c->sg.lam2, &c->sg.lam3, &c->hs.d1, &c->hs.d2,
                         &c->hs.d3, &c->hs.mids,
                         &c->nd1, &c->nmids, &c->nlam, &c->sz, &c->szlo, &c->szbar, &c->sdp, &c->y, &c->ylo,
-                        &c->d, &c->u, &c->g, &c->M1, &c->M2, &c->pw};
+                        &c->d, &c->u, &c->g, &c->pw};
     for (size_t i = 0; i < sizeof slots / sizeof slots[0]; i++) {
         *slots[i] = p;
         p += sizes[i];
@@ -450,6 +451,11 @@ static int tangent(void *s, double *M)
     if (!c->st.fact_valid) return DTH_EINVAL; /* no step yet, or a band exit's projection */
     dth__dth *k = c->core;
     size_t N = c->N;
+    if (!c->M1) { /* at the first tangent map (2 N^2 doubles: not made for runs that never ask) */
+        c->M1 = dth_calloc(c->alloc, 2 * N, N * sizeof *c->M1);
+        if (!c->M1) return DTH_ENOMEM;
+        c->M2 = c->M1 + N * N;
+    }
     double *Mi = c->M1, *P = c->M2;
     memset(M, 0, N * N * sizeof *M);
     for (size_t j = 0; j < N; j++) M[j * N + j] = 1;

@@ -106,7 +106,7 @@ typedef struct dth__comp {
     double *nd1, *nmids, *nlam;   /* a step's new offsets, midpoints (m N) and substeps (m) */
     double *sz, *szlo, *szbar, *sdp; /* the core's z, zlo, zbar, dprev..dprev3 (4 N) at the step's start */
     double *y, *ylo, *d, *u, *g;  /* a vertex in double-double, an offset, a flow, a gradient (N each) */
-    double *M1, *M2;              /* tangent maps (N^2 each) */
+    double *M1, *M2;              /* tangent maps (N^2 each), allocated at the first dth_integrator_tangent */
     double *pw;                   /* dth_model_psi's workspace */
     double *block;
     char errmsg[224];
