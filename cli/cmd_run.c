@@ -398,7 +398,7 @@ static void check_start(run_job *j)
     if (dth_step_floor(rs->model, zstart, 1e-6, &hmin, j->r.work) == DTH_OK && fabs(rs->opt.h) < hmin)
         cli_error("warning: |h| = %.3g is below the conditioning limit %.3g at the start: the step size is "
                   "known only to about 1e-6 relative or worse (docs/performance.md)", fabs(rs->opt.h), hmin);
-    if (rs->opt.start == DTH_START_VERTEX) {
+    if (rs->opt.start == DTH_START_VERTEX && rs->opt.order == 2) { /* order 4: the given state is the vertex */
         double H0, E = dth_integrator_energy(j->it);
         if (!dth_model_eval(rs->model, zstart, DTH_EVAL_H, &H0, NULL, NULL) && fabs(E - H0) > 0.01 * fabs(H0))
             cli_error("warning: a vertex start conserves the energy %.10g at every midpoint; the initial state has "
