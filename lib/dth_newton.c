@@ -649,6 +649,12 @@ AI int commit_n(dth__dth *it, const size_t nc, double lam, int replaced)
             return rc;
         }
     }
+    if (it->opt.finish && !replaced && it->level != 0) {
+        /* measured from the midpoint, rho is H(z_(k+1)) - H(zbar), and a level-shifted step's root has
+         * H(zbar) = -s (the DTH step's: 0): the carried offset H(z_(k+1)) is rho - s */
+        double e, r = two_sum(rho, -it->level, &e);
+        rho = two_sum(r, rholo + e, &rholo);
+    }
     it->st.rho = rho;
     it->st.rholo = rholo;
     for (size_t j = 0; j < N; j++) {
