@@ -589,9 +589,10 @@ static int report(const run_job *j)
     }
     if (rc >= 0 && j->rs.warn_ratio > 0 && S->lam_max > j->rs.warn_ratio * fabs(j->rs.opt.h))
         cli_error("warning: the largest step was lambda = %.3g = %.3g h (at t = %.6g, more than integrator.warn_ratio = "
-                  "%g h): DTH steps follow lambda^6 psi^2 = const along the orbit, and h sets them only at the start "
+                  "%g h): DTH steps follow %s = const along the orbit, and h sets them only at the start "
                   "(docs/theory.md); the estimated error says what they cost",
-                  S->lam_max, S->lam_max / fabs(j->rs.opt.h), S->t_lam_max, j->rs.warn_ratio);
+                  S->lam_max, S->lam_max / fabs(j->rs.opt.h), S->t_lam_max, j->rs.warn_ratio,
+                  j->rs.opt.order == 4 ? "tau^2 psi" : "lambda^6 psi^2");
     if (r->too_many) {
         cli_error("stopped at k=%ld, t=%.17g: output.dt = %.3g asks for more than %d rows within one step (a larger "
                   "output.dt, or output.points = vertices; the rows so far are kept)", S->k, S->t, j->rs.dt,
