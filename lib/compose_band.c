@@ -138,8 +138,10 @@ int dth__comp_health(dth__comp *c, const double *z0, double rho1, int *undo)
     double l1 = c->nlam[0], est = 8 * rho1 / (l1 * l1), prev = c->st.psi_est, tau = 0;
     c->st.psi_est = est;
     /* psi read off the first substep (its offset is psi lambda^2 / 8 to leading order): where it moves by
-     * less than 1/16 a step, the crossing is more than 16 steps away (no evaluation of psi) */
-    if (c->opt.band_time == 0 && isfinite(prev) && fabs(est - prev) <= fabs(est) / 16) return DTH_OK;
+     * less than 1/16 a step, the crossing is more than 16 steps away (no evaluation of psi); the plain
+     * finish carries no vertex offset to read it from */
+    int gate = c->opt.band_time == 0 && c->opt.finish != DTH_FINISH_PLAIN && isfinite(prev);
+    if (gate && fabs(est - prev) <= fabs(est) / 16) return DTH_OK;
     double psi, dpsi;
     int rc = dth__comp_psi(c, c->core->st.z, &psi, &dpsi);
     if (rc) return rc;
