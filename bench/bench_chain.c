@@ -5,8 +5,9 @@
  * (linsolve = banded, the default) next to the banded LU of the whole step matrix (banded-lu, the
  * path before the Schur complement) in the same run, their repeats interleaved, N = 10 .. 10^5, with
  * the bytes the model and integrator allocate per particle; then the dense solve (N <= 200); last,
- * the bytes a regularizer (smooth, prescribed) allocates for N = 10 .. 1000 (untimed): at create(),
- * and the kicked segment's dense workspace (prescribed at create(); smooth at its first changeover).
+ * the bytes a regularizer (land, prescribed) allocates for N = 10 .. 1000 (untimed) at create(), and
+ * prescribed's kicked-segment workspace (within create(); land's crossing workspace, a dense Newton of
+ * the same order, is allocated at its first crossing only).
  * Usage: OPENBLAS_NUM_THREADS=1 bench_chain [max_dense_N [max_N]]   (defaults 200, 100000; median of 5), or
  *        bench_chain --only LINSOLVE N steps   (one untimed run of N particles with that solver: for
  *        instruction counts under callgrind; scripts/bench-instr.sh)
@@ -199,12 +200,12 @@ int main(int argc, char **argv)
         prevN = Nd[i];
     }
     /* What a regularizer adds (not timed): the bytes its create() allocates, and the kicked
-     * segment's dense Newton workspace, 2 (2n + 1)^2 doubles (prescribed: part of create();
-     * smooth: allocated at its first changeover step, none if it never needs one). */
+     * segment's dense Newton workspace, 2 (2n + 1)^2 doubles (prescribed: part of create(); land:
+     * a workspace of the same order at its first crossing, none if the run never crosses). */
     printf("# regularizer workspace (untimed; N <= min(max_N, 1000)): bytes its create() allocates, and the kicked\n"
-           "# segment's dense workspace (prescribed: within create(); smooth: at its first changeover step)\n");
+           "# segment's dense workspace (prescribed: within create(); land: one of that order at its first crossing)\n");
     printf("# regularizer   N       n  create() bytes  kicked-segment bytes\n");
-    const dth_regularizer_type *regs[] = {&dth_reg_smooth, &dth_reg_prescribed};
+    const dth_regularizer_type *regs[] = {&dth_reg_land, &dth_reg_prescribed};
     for (size_t i = 0; i < 3 && Ns[i] <= max_n; i++) {
         chain c;
         if (chain_new(Ns[i], "auto", &c)) return 1;

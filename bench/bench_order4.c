@@ -353,7 +353,7 @@ static void crossings(int full)
         size_t n = dth_model_dof(m);
         dth_regularizer *reg = NULL;
         char err[256];
-        if (dth_regularizer_new(&dth_reg_smooth, NULL, 0, m, NULL, &reg, err, sizeof err)) exit(1);
+        if (dth_regularizer_new(&dth_reg_land, NULL, 0, m, NULL, &reg, err, sizeof err)) exit(1);
         double y[2][MAXZ], e[6][2];
         for (int t = 0; t < 2; t++) reference(m, cc[c].q0, cc[c].p0, T[t], y[t]);
         int nh = full ? 5 : 3;

@@ -258,7 +258,7 @@ static Point run_dth(const Scene &s, const char *method, int order, double h)
     bool is_dth = !std::strcmp(method, "dth");
     dth_regularizer *reg = NULL;
     char err[256];
-    if (is_dth && s.crossing && dth_regularizer_new(&dth_reg_smooth, NULL, 0, s.m, NULL, &reg, err, sizeof err)) return pt;
+    if (is_dth && s.crossing && dth_regularizer_new(&dth_reg_land, NULL, 0, s.m, NULL, &reg, err, sizeof err)) return pt;
     dth_options o;
     dth_options_default(&o);
     o.method = method;

@@ -497,14 +497,14 @@ int main(int argc, char **argv)
         problem cfg[5] = {lib, lib, lib, lib, lib};
         cfg[0].reg = NULL;
         cfg[1].no_branch_check = 0;
-        const dth_regularizer_type *others[] = {&dth_reg_none, &dth_reg_smooth};
+        const dth_regularizer_type *others[] = {&dth_reg_none, &dth_reg_land};
         for (int i = 3; i < 5; i++) {
             cfg[i].reg = others[i - 3];
             cfg[i].nrkv = 0;
             cfg[i].no_branch_check = 0;
         }
         const char *lab[] = {"raw DTH (branch_check = 0)", "prescribed, branch_check = 1", "prescribed",
-                             "none (one psi per step, for the sign)", "smooth (the default: psi, psi' at each new vertex for its weight)"};
+                             "none (one psi per step, for the sign)", "land (the default: psi's sign at each new vertex, psi, psi' from the branch test)"};
         for (int i = 0; i < 5; i++) {
             run_out o = run(&cfg[i], INFINITY, ns);
             printf("| pendulum: %s | %.2f |\n", lab[i], 1e6 * o.secs / (double)o.steps);

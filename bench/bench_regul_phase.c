@@ -68,7 +68,7 @@ int main(int argc, char **argv)
     printf("| regularizer | h | period error | observed order | end |\n|---|---|---|---|---|\n");
     static const dth_kv alpha0 = {"alpha", "0"};
     struct { const char *label; const dth_regularizer_type *t; const dth_kv *kv; size_t nkv; } regs[] = {
-        {"smooth (the default)", &dth_reg_smooth, NULL, 0}, {"prescribed alpha=0", &dth_reg_prescribed, &alpha0, 1}};
+        {"land (the default)", &dth_reg_land, NULL, 0}, {"prescribed alpha=0", &dth_reg_prescribed, &alpha0, 1}};
     for (size_t i = 0; i < sizeof regs / sizeof regs[0]; i++) {
         double prev = NAN;
         for (double h = 0.05; h > 0.006; h /= 2) {

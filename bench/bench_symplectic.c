@@ -1,26 +1,26 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * Benchmark (not a test): what losing symplecticity costs (issue 11, item 5; paper, section 7, the
- * regularization of DTH across psi = 0). Raw DTH ("none"), the regularizers "smooth" and "prescribed"
+ * regularization of DTH across psi = 0). Raw DTH ("none"), the regularizers "land" and "prescribed"
  * (alpha = 0: a constant step) and the baselines gauss4, midpoint and midpoint-proj of lib/methods.c, on
  * non-integrable systems with two or more degrees of freedom over long times, at matched mean step:
- * smooth runs first with the nominal first step h; prescribed and the fixed-step methods then take the
- * constant step T / (smooth's steps), so every method advances the same time in about as many steps;
- * none starts like smooth (it takes the same steps wherever smooth takes no band step).
+ * land runs first with the nominal first step h; prescribed and the fixed-step methods then take the
+ * constant step T / (land's steps), so every method advances the same time in about as many steps;
+ * none starts like land (it takes the same steps until land replaces a crossing step).
  *   A. FPUT beta chain (16 masses, fixed ends) started in its lowest mode: mode-1 energy over time,
  *      its first recurrence and when the recurrence breaks down, the spectral entropy of the
  *      time-averaged mode energies; and whether psi changes sign on such chains at all (it cannot for
  *      beta >= 0: the potential is convex, so psi = p^T V'' p + |grad V|^2 > 0).
  *   B. Poincare sections of regular orbits, located by cubic Hermite interpolation between states:
  *      Henon-Heiles at E = 1/12 and 1/6 (y = 0, py > 0) and two coupled rotating pendula (psi changes
- *      sign along it, so smooth's bands are active; section q2 = 0 mod 2 pi, p2 > 0): the distance of
+ *      sign along it, so land replaces steps; section q2 = 0 mod 2 pi, p2 > 0): the distance of
  *      the section points from a reference curve (gauss4 at a small step), early against late.
  *   C. A 2-D chain of 3 masses through psi = 0: energy and angular momentum Lz.
  * Prints markdown tables (wall times are of the stepping calls only, measured side by side in this
  * run: use ratios) and writes CSV files for scripts/plot-symplectic.sh.
- * Usage: bench_symplectic [scale] [--out DIR] [--only PARTS]   (scale 1: the figures of
- * docs/regularization.md, about 7 minutes; 0.01: a smoke run of a few seconds; DIR defaults to
- * bench-out; PARTS: letters of A, B, C, default all)
+ * Usage: bench_symplectic [scale] [--out DIR] [--only PARTS] [--land KEY=VALUE]   (scale 1: the figures
+ * of docs/regularization.md, about 7 minutes; 0.01: a smoke run of a few seconds; DIR defaults to
+ * bench-out; PARTS: letters of A, B, C, default all; --land: a parameter of land's, e.g. clock=no)
  */
 #include <errno.h>
 #include <float.h>
@@ -36,7 +36,9 @@
 #define PI 3.14159265358979323846
 enum { MAXN = 32 };
 
-static const char *const methods[] = {"none", "smooth", "prescribed", "gauss4", "midpoint", "midpoint-proj"};
+static const char *const methods[] = {"none", "land", "prescribed", "gauss4", "midpoint", "midpoint-proj"};
+static dth_kv land_kv[1]; /* --land KEY=VALUE */
+static size_t land_nkv;
 enum { NMETH = sizeof methods / sizeof methods[0] };
 
 /* ---- one run of one method: DTH (with a regularizer) or a fixed-step baseline ---- */
@@ -59,7 +61,7 @@ typedef struct runner {
 
 static int is_dth(const char *method)
 {
-    return !strcmp(method, "none") || !strcmp(method, "smooth") || !strcmp(method, "prescribed");
+    return !strcmp(method, "none") || !strcmp(method, "land") || !strcmp(method, "prescribed");
 }
 
 static double energy(const dth_model *m, const double *y)
@@ -81,10 +83,11 @@ static int runner_open(runner *r, const dth_model *m, const char *method, double
     int rc;
     if (is_dth(method)) {
         const dth_regularizer_type *ty = !strcmp(method, "none")     ? &dth_reg_none
-                                         : !strcmp(method, "smooth") ? &dth_reg_smooth
+                                         : !strcmp(method, "land") ? &dth_reg_land
                                                                      : &dth_reg_prescribed;
         dth_kv kv[] = {{"alpha", "0"}};
-        rc = dth_regularizer_new(ty, kv, ty == &dth_reg_prescribed, m, NULL, &r->reg, err, sizeof err);
+        if (ty == &dth_reg_land) rc = dth_regularizer_new(ty, land_kv, land_nkv, m, NULL, &r->reg, err, sizeof err);
+        else rc = dth_regularizer_new(ty, kv, ty == &dth_reg_prescribed, m, NULL, &r->reg, err, sizeof err);
         if (!rc) {
             dth_options o;
             dth_options_default(&o);
@@ -146,7 +149,7 @@ static int runner_step(runner *r)
     /* energy: DTH's midpoints carry -wp exactly; its vertices carry the O(h^2) offset psi lambda^2/8 */
     const double *y = runner_y(r);
     r->evert = fmax(r->evert, fabs(energy(r->m, y) - r->E0) / fabs(r->E0));
-    if (r->it) {
+    if (r->dth) { /* baselines have no midpoint (dth_integrator_midpoint: NULL) */
         const double *zb = dth_integrator_midpoint(r->it);
         r->emid = fmax(r->emid, fabs(zb[2 * r->n + 1] + energy(r->m, zb)) / fabs(r->E0));
     }
@@ -321,7 +324,7 @@ static void fput_run(fput_out *o, const dth_model *m, const modes *md, const cha
     runner_close(r);
 }
 
-/* Does psi change sign on an FPUT chain? smooth alone, for a range of energies. */
+/* Does psi change sign on an FPUT chain? land alone, for a range of energies. */
 static void part_fput_psi(double scale)
 {
     struct {
@@ -330,7 +333,7 @@ static void part_fput_psi(double scale)
     } cs[] = {{"0", "1", 0.5}, {"0", "1", 2}, {"0", "1", 8}, {"0", "1", 32}, {"2", "1.1", 0.5}, {"2", "1.1", 2}, {"2", "1.1", 8}};
     const size_t N = 16;
     double T = fmax(1000 * scale, 50);
-    printf("### Does psi change sign on the chain? smooth alone, N = %zu, first step h = 0.1, all energy in mode 1, T = %.0f\n\n", N, T);
+    printf("### Does psi change sign on the chain? land alone, N = %zu, first step h = 0.1, all energy in mode 1, T = %.0f\n\n", N, T);
     printf("| alpha | beta | E | steps | end | regularized steps | psi crossings | psi range (sampled) |\n|---|---|---|---|---|---|---|---|\n");
     modes md;
     modes_init(&md, N);
@@ -351,7 +354,7 @@ static void part_fput_psi(double scale)
         for (size_t j = 0; j < N; j++) q0[j] = A * md.S[j];
         fput_out *o = malloc(sizeof *o);
         if (!o) exit(1);
-        fput_run(o, m, &md, "smooth", 0.1, q0, p0, T, 0.5, "", NULL);
+        fput_run(o, m, &md, "land", 0.1, q0, p0, T, 0.5, "", NULL);
         char b1[64];
         printf("| %s | %s | %g | %ld | %s | %s | %ld | [%.3g, %.3g] |\n", cs[c].alpha, cs[c].beta, cs[c].E, o->r.steps, st(&o->r), share(&o->r, b1, sizeof b1),
                o->r.crossings, o->psi_min, o->psi_max);
@@ -385,7 +388,7 @@ static void part_fput(double scale, const char *dir)
     printf("## A. FPUT beta chain: N = %zu masses, fixed ends, beta = %g, all energy in mode 1 (q = A sin(j pi/(N+1)), p = 0)\n\n", N, beta);
     printf("e1 = E_1/E (harmonic energy of mode 1), sampled every T1/4; a recurrence is a return of e1 above 0.6 after it fell below;\n");
     printf("eta = exp(spectral entropy)/N of the mode energies time-averaged over [T/2, T] (1/N = one mode, 1 = equipartition).\n");
-    printf("Step: smooth's first step h = %g; prescribed and the fixed-step methods at smooth's mean step; 'none, h/2': raw DTH at half the step (the spread a step change alone causes).\n\n", h);
+    printf("Step: land's first step h = %g; prescribed and the fixed-step methods at land's mean step; 'none, h/2': raw DTH at half the step (the spread a step change alone causes).\n\n", h);
     for (size_t c = 0; c < sizeof Es / sizeof Es[0]; c++) {
         double E = Es[c], T = Ts[c] * scale;
         if (T < 200) T = 200;
@@ -401,12 +404,12 @@ static void part_fput(double scale, const char *dir)
         char label[64];
         snprintf(label, sizeof label, "E%g", E);
         printf("### E = %g (E/N = %.4g), T = %.0f (%.0f periods of mode 1)\n\n", E, E / (double)N, T, T / T1);
-        printf("| method | mean step | steps | end | t reached | smooth: regularized steps | psi crossings | psi range (sampled) | first recurrence t | its e1 peak | e1 min before | e1 < 0.4 first at t | mean e1, 2nd half | eta, 2nd half | max dE/E midpoints | max dE/E states | step time s | time / gauss4 |\n");
+        printf("| method | mean step | steps | end | t reached | land: regularized steps | psi crossings | psi range (sampled) | first recurrence t | its e1 peak | e1 min before | e1 < 0.4 first at t | mean e1, 2nd half | eta, 2nd half | max dE/E midpoints | max dE/E states | step time s | time / gauss4 |\n");
         printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
         static fput_out out[NMETH + 1];
         double hbar = h;
         const char *names[NMETH + 1];
-        /* smooth first: its mean step is the others' step */
+        /* land first: its mean step is the others' step */
         int order[NMETH] = {1, 0, 2, 3, 4, 5};
         for (int i = 0; i < NMETH; i++) {
             int k = order[i];
@@ -436,7 +439,7 @@ static void part_fput(double scale, const char *dir)
             if (k < NMETH)
                 for (size_t j = 0; j < N; j++) fprintf(ms, "%s,%s,%zu,%.6e\n", label, names[k], j + 1, o->Ebar[j] / E);
         }
-        printf("\nsmooth's last state equals none's bit for bit: %s\n\n", memcmp(out[0].yend, out[1].yend, (2 * N + 1) * sizeof(double)) ? "no" : "yes");
+        printf("\nland's last state equals none's bit for bit: %s\n\n", memcmp(out[0].yend, out[1].yend, (2 * N + 1) * sizeof(double)) ? "no" : "yes");
         fflush(stdout);
     }
     fclose(ts);
@@ -453,7 +456,7 @@ typedef struct orbit {
     dth_kv kv[1];
     size_t nkv;
     double q0[2], p0[2];
-    double h;    /* smooth's first step */
+    double h;    /* land's first step */
     int wrap;    /* 0: section q2 = 0 upward; 1: q2 = 2 pi k upward, q1 taken mod 2 pi */
 } orbit;
 
@@ -614,8 +617,8 @@ static void part_sections(double scale, const char *dir)
     printf("Section points located by cubic Hermite interpolation in t between consecutive states (the vector field at both ends; linear\n");
     printf("interpolation would add an O(h^2) scatter of its own). Distance: from each section point to the reference curve (gauss4, h = %g,\n", href);
     printf("t in [0, %.0f]), measured to the line through the two nearest reference points. Early / late: the first / last 10 %% of the\n", Tref);
-    printf("section points. smooth runs %ld steps from its first step h; the others run to the time it reached, none from the same first\n", steps);
-    printf("step, prescribed and the fixed-step methods at smooth's mean step.\n\n");
+    printf("section points. land runs %ld steps from its first step h; the others run to the time it reached, none from the same first\n", steps);
+    printf("step, prescribed and the fixed-step methods at land's mean step.\n\n");
     for (size_t c = 0; c < sizeof orbits / sizeof orbits[0]; c++) {
         const orbit *o = &orbits[c];
         dth_model *m;
@@ -628,7 +631,7 @@ static void part_sections(double scale, const char *dir)
         pts P[NMETH], ref = {0};
         double psi[NMETH][2], psiref[2];
         memset(P, 0, sizeof P);
-        section_run(&rr[1], &P[1], o, m, "smooth", o->h, INFINITY, steps, psi[1]);
+        section_run(&rr[1], &P[1], o, m, "land", o->h, INFINITY, steps, psi[1]);
         note_failure(&rr[1], o->name, o->q0, o->p0);
         double T = rr[1].t_end, hbar = rr[1].steps ? T / (double)rr[1].steps : o->h;
         for (int k = 0; k < NMETH; k++) {
@@ -639,7 +642,7 @@ static void part_sections(double scale, const char *dir)
         section_run(&rref, &ref, o, m, "gauss4", href, Tref, LONG_MAX, psiref);
         for (size_t i = 0; i < ref.n; i++) fprintf(sec, "%s,reference,%.8g,%.10g,%.10g,0\n", o->label, ref.t[i], ref.x[i], ref.p[i]);
         printf("### %s: T = %.0f, %zu reference points\n\n", o->name, T, ref.n);
-        printf("| method | mean step | steps | end | t reached | smooth: regularized steps | psi crossings | psi range (sampled) | section points | distance early: median / max | late: median / max | late / early (median) | max dE/E midpoints | max dE/E states | step time s | time / gauss4 |\n");
+        printf("| method | mean step | steps | end | t reached | land: regularized steps | psi crossings | psi range (sampled) | section points | distance early: median / max | late: median / max | late / early (median) | max dE/E midpoints | max dE/E states | step time s | time / gauss4 |\n");
         printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
         for (int k = 0; k < NMETH; k++) {
             const runner *r = &rr[k];
@@ -678,7 +681,7 @@ static void part_sections(double scale, const char *dir)
         }
         int same = P[0].n == P[1].n && rr[0].steps == rr[1].steps && !memcmp(P[0].x, P[1].x, P[0].n * sizeof(double)) &&
                    !memcmp(P[0].p, P[1].p, P[0].n * sizeof(double)) && !memcmp(P[0].t, P[1].t, P[0].n * sizeof(double));
-        printf("\nsmooth's section points equal none's bit for bit: %s\n\n", same ? "yes" : "no");
+        printf("\nland's section points equal none's bit for bit: %s\n\n", same ? "yes" : "no");
         fflush(stdout);
         for (int k = 0; k < NMETH; k++) pts_free(&P[k]);
         pts_free(&ref);
@@ -704,8 +707,8 @@ static void part_chain(double scale)
     printf("## C. 2-D chain of 3 unit masses, springs k = 1, L = 1 (the coupled model), started compressed (spacing 0.5) with transverse momenta\n\n");
     printf("q0 = (0,0, 0.5,0, 1,0), p0 = (0,1, 0,-2, 0,1.5) (scenes/coupled-chain3-prescribed.ini), T = %.0f. Lz = 0.5 (its drift is measured from the\n", T);
     printf("first state: DTH's first vertex carries an O(h^2) offset from the midpoint (q0, p0)); Px = 0 and Py = 0.5 are linear, kept by every method.\n");
-    printf("Step as in B: smooth from h = %g, the others at its mean step.\n\n", h);
-    printf("| method | mean step | steps | end | t reached | smooth: regularized steps | psi crossings | max dE/E midpoints | max dE/E states | max dLz/Lz | step time s | time / gauss4 |\n");
+    printf("Step as in B: land from h = %g, the others at its mean step.\n\n", h);
+    printf("| method | mean step | steps | end | t reached | land: regularized steps | psi crossings | max dE/E midpoints | max dE/E states | max dLz/Lz | step time s | time / gauss4 |\n");
     printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     runner rr[NMETH];
     double dL[NMETH];
@@ -787,10 +790,16 @@ int main(int argc, char **argv)
     for (int i = 1; i < argc; i++) {
         if (!strcmp(argv[i], "--out") && i + 1 < argc) dir = argv[++i];
         else if (!strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
-        else scale = atof(argv[i]);
+        else if (!strcmp(argv[i], "--land") && i + 1 < argc && strchr(argv[i + 1], '=')) {
+            static char key[64];
+            const char *kv = argv[++i], *eq = strchr(kv, '=');
+            snprintf(key, sizeof key, "%.*s", (int)(eq - kv), kv);
+            land_kv[0] = (dth_kv){key, eq + 1};
+            land_nkv = 1;
+        } else scale = atof(argv[i]);
     }
     if (!(scale > 0)) {
-        fprintf(stderr, "usage: bench_symplectic [scale > 0] [--out DIR] [--only PARTS (letters of A, B, C)]\n");
+        fprintf(stderr, "usage: bench_symplectic [scale > 0] [--out DIR] [--only PARTS (letters of A, B, C)] [--land KEY=VALUE]\n");
         return 2;
     }
     if (mkdir(dir, 0777) && errno != EEXIST) {
@@ -798,6 +807,7 @@ int main(int argc, char **argv)
         return 1;
     }
     printf("# bench_symplectic %g: what losing symplecticity costs\n\n", scale);
+    if (land_nkv) printf("land's parameter: %s = %s\n\n", land_kv[0].key, land_kv[0].value);
     check_models();
     if (strchr(only, 'A')) part_fput(scale, dir);
     if (strchr(only, 'B')) part_sections(scale, dir);

@@ -51,7 +51,7 @@ static size_t fields(cli_ckpt *c, fld *f)
     I("run.in.iters", M_INT, &S->in.iters, 0, INT_MAX);
     D("run.in.residual", &S->in.residual, C_FINITE_OR_NAN);
     I("run.in.branch", M_INT, &S->in.branch, DTH_BRANCH_NONE, DTH_BRANCH_REG);
-    I("run.in.flags", M_UINT, &S->in.flags, 0, DTH_STEP_REGULARIZED | DTH_STEP_CROSSING);
+    I("run.in.flags", M_UINT, &S->in.flags, 0, DTH_STEP_REGULARIZED | DTH_STEP_CROSSING | DTH_STEP_RESET | DTH_STEP_CLOCK);
     I("run.in.proj_iters", M_INT, &S->in.proj_iters, 0, INT_MAX);
     D("run.in.lerr", &S->in.lerr, C_FINITE_OR_NAN);
     I("run.crossings", M_LONG, &S->crossings, 0, LONG_MAX);
@@ -66,6 +66,9 @@ static size_t fields(cli_ckpt *c, fld *f)
     D("run.p_max", &S->p_max, C_NONNEG);
     D("run.lam_max", &S->lam_max, C_NONNEG);
     D("run.t_lam_max", &S->t_lam_max, C_FINITE);
+    I("run.nonreversible", M_LONG, &S->nonreversible, 0, LONG_MAX);
+    D("run.e_err", &S->e_err, C_NONNEG);
+    D("run.e_scale", &S->e_scale, C_NONNEG);
     I("scene.hash", M_U64, &c->scene_hash, 0, 0);
     S_("out.path", &c->out.path);
     S_("out.tmp", &c->out.tmp);
@@ -80,8 +83,8 @@ static size_t fields(cli_ckpt *c, fld *f)
 #undef S_
     return k;
 }
-/* A field added to the driver's state must be added to the table: the last member is t_lam_max. */
-_Static_assert(offsetof(dth_run_state, t_lam_max) + sizeof(double) == sizeof(dth_run_state),
+/* A field added to the driver's state must be added to the table: the last member is e_scale. */
+_Static_assert(offsetof(dth_run_state, e_scale) + sizeof(double) == sizeof(dth_run_state),
                "dth_run_state changed: update the field table of cli/ckpt.c");
 
 static int wire_type(int mem) { return mem == M_DBL ? T_F64 : mem == M_STR ? T_STR : T_I64; }
@@ -370,33 +373,11 @@ int cli_ckpt_read(const char *path, void **buf, size_t *len, const char **scene,
     return 0;
 }
 
-/* ---- what a resume may change */
-
-static int may_change(const char *sec, const char *key)
-{
-    return (!strcmp(sec, "integrator") && (!strcmp(key, "steps") || !strcmp(key, "t_end"))) ||
-           (!strcmp(sec, "output") && !strcmp(key, "file")) || (!strcmp(sec, "events") && !strcmp(key, "file"));
-}
+/* ---- what a resume may change: the library's rule (scene.h) */
 
 int cli_ckpt_check_scene(const dth_scene *saved, const dth_scene *now, char *err, size_t errlen)
 {
-    const dth_scene *sc[2] = {saved, now};
-    for (int pass = 0; pass < 2; pass++)
-        for (size_t i = 0; i < dth_scene_count(sc[pass]); i++) {
-            const char *sec, *key, *val;
-            dth_scene_entry(sc[pass], i, &sec, &key, &val, NULL);
-            const char *other = dth_scene_get(sc[1 - pass], sec, key);
-            if (may_change(sec, key) || (other && !strcmp(other, val))) continue;
-            const char *was = pass ? other : val, *is = pass ? val : other;
-            const char *org = dth_scene_origin(now, sec, key);
-            snprintf(err, errlen,
-                     "%s: %s.%s = %s%s%s would change the checkpointed run (it ran %s%s%s): a resume may change "
-                     "only integrator.steps, integrator.t_end, output.file and events.file",
-                     org ? org : "--resume", sec, key, is ? "'" : "", is ? is : "(unset)", is ? "'" : "",
-                     was ? "with '" : "without it", was ? was : "", was ? "'" : "");
-            return -1;
-        }
-    return 0;
+    return dth_scene_resume_check(saved, now, 0, "--resume", err, errlen) ? -1 : 0;
 }
 
 int cli_ckpt_check_length(const cli_ckpt *c, const dth_run_setup *rs, char *err, size_t errlen)

@@ -40,7 +40,8 @@ int cli_ckpt_read(const char *path, void **buf, size_t *len, const char **scene,
 
 /* A resume continues the same run: the scene as resumed (after -s) must equal the saved one except
  * for the keys that do not change what is computed or how rows are written (integrator.steps,
- * integrator.t_end, output.file, events.file). 0, or -1 naming the first change in err. */
+ * integrator.t_end, output.file, events.file): the library's rule, dth_scene_resume_check (scene.h). 0, or -1
+ * naming the first change in err. */
 int cli_ckpt_check_scene(const dth_scene *saved, const dth_scene *now, char *err, size_t errlen);
 
 /* The resumed run's end must not lie behind what the checkpointed run has written. 0 or -1. */

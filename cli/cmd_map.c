@@ -221,16 +221,62 @@ static int write_traj(cli_out *o, const dth_run_setup *rs, size_t dof, int *stop
 }
 
 
-int cli_cmd_map(int argc, char **argv)
+/* What each step of the command returns to let it go on; else it returns the exit status, having
+ * printed why. */
+enum { GO_ON = -1 };
+
+/* One dth map: its options, the scene, the results and the two outputs. */
+typedef struct map_cmd {
+    const char *scene_path, *prefix, *qspec, *pspec;
+    double L;
+    long dof1;
+    cli_grid qa, pa;
+    dth_registry *reg;
+    dth_scene *scene;
+    dth_run_setup rs;
+    map mp;
+    long total;
+    cell *cells;
+    char *path_map, *path_traj;
+    cli_out om, ot;
+} map_cmd;
+
+/* The option a (one that takes a value) with its value v (-s is applied with the scene). */
+static int option_value(map_cmd *c, const char *a, const char *v)
 {
-    const char *scene_path = NULL, *prefix = "out/map";
-    const char *qspec = NULL, *pspec = NULL;
-    double L = 0;
-    long dof1 = 1;
-    char err[1024];
-    cli_grid qa = {0, 0, 0}, pa = {0, 0, 0};
+    if (!strcmp(a, "--range") && (dth_parse_double(v, &c->L) || !(c->L > 0))) {
+        cli_error("--range: '%s' is not a positive number", v);
+        return CLI_USAGE;
+    } else if (!strcmp(a, "--out")) {
+        if (!v[0]) {
+            cli_error("--out: the prefix is empty");
+            return CLI_USAGE;
+        }
+        c->prefix = v;
+    } else if (!strcmp(a, "--q")) {
+        if (parse_axis(a, v, &c->qa)) return CLI_USAGE;
+        c->qspec = v;
+    } else if (!strcmp(a, "--p")) {
+        if (parse_axis(a, v, &c->pa)) return CLI_USAGE;
+        c->pspec = v;
+    } else if (!strcmp(a, "--dof")) {
+        char *end;
+        errno = 0;
+        c->dof1 = strtol(v, &end, 10);
+        if (errno || end == v || *end || c->dof1 < 1) {
+            cli_error("--dof: '%s' is not a positive integer", v);
+            return CLI_USAGE;
+        }
+    }
+    return GO_ON;
+}
+
+/* The command line into c: GO_ON, or the exit status (CLI_OK after --help). */
+static int parse_args(int argc, char **argv, map_cmd *c)
+{
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
+        int st = GO_ON;
         if (!strcmp(a, "-h") || !strcmp(a, "--help")) {
             usage_map(stdout);
             return CLI_OK;
@@ -240,104 +286,92 @@ int cli_cmd_map(int argc, char **argv)
                 cli_error("option %s needs an argument (try dth map --help)", a);
                 return CLI_USAGE;
             }
-            const char *v = argv[++i];
-            if (!strcmp(a, "--range") && (dth_parse_double(v, &L) || !(L > 0))) {
-                cli_error("--range: '%s' is not a positive number", v);
-                return CLI_USAGE;
-            } else if (!strcmp(a, "--out")) {
-                if (!v[0]) {
-                    cli_error("--out: the prefix is empty");
-                    return CLI_USAGE;
-                }
-                prefix = v;
-            } else if (!strcmp(a, "--q")) {
-                if (parse_axis(a, v, &qa)) return CLI_USAGE;
-                qspec = v;
-            } else if (!strcmp(a, "--p")) {
-                if (parse_axis(a, v, &pa)) return CLI_USAGE;
-                pspec = v;
-            } else if (!strcmp(a, "--dof")) {
-                char *end;
-                errno = 0;
-                dof1 = strtol(v, &end, 10);
-                if (errno || end == v || *end || dof1 < 1) {
-                    cli_error("--dof: '%s' is not a positive integer", v);
-                    return CLI_USAGE;
-                }
-            }
+            st = option_value(c, a, argv[++i]);
         } else if (a[0] == '-' && a[1]) {
             cli_error("unknown option '%s' (try dth map --help)", a);
             return CLI_USAGE;
-        } else if (scene_path) {
-            cli_error("more than one scene file ('%s' and '%s')", scene_path, a);
+        } else if (c->scene_path) {
+            cli_error("more than one scene file ('%s' and '%s')", c->scene_path, a);
             return CLI_USAGE;
         } else {
-            scene_path = a;
+            c->scene_path = a;
         }
+        if (st != GO_ON) return st;
     }
-    if (!scene_path) {
+    if (!c->scene_path) {
         cli_error("no scene file (usage: dth map SCENE.ini --q a:b:n --p c:d:m [--range L] [--out PREFIX])");
         return CLI_USAGE;
     }
-    if (!qspec || !pspec) {
+    if (!c->qspec || !c->pspec) {
         cli_error("the grid needs both --q a:b:n and --p c:d:m (try dth map --help)");
         return CLI_USAGE;
     }
-    if (qa.n * pa.n > MAP_MAX_POINTS) {
-        cli_error("the grid has %ld x %ld points, more than %ld", qa.n, pa.n, MAP_MAX_POINTS);
+    if (c->qa.n * c->pa.n > MAP_MAX_POINTS) {
+        cli_error("the grid has %ld x %ld points, more than %ld", c->qa.n, c->pa.n, MAP_MAX_POINTS);
         return CLI_USAGE;
     }
+    return GO_ON;
+}
 
-    int status = CLI_USAGE;
-    dth_registry *reg = cli_registry();
-    dth_scene *scene = NULL;
-    dth_run_setup rs;
-    memset(&rs, 0, sizeof rs);
-    cell *cells = NULL;
-    char *path_map = NULL, *path_traj = NULL;
-    cli_out om, ot;
-    memset(&om, 0, sizeof om);
-    memset(&ot, 0, sizeof ot);
-    om.fd = ot.fd = -1;
-    if (!reg) return CLI_FAIL;
-    int rc = dth_scene_new(NULL, &scene);
-    if (!rc) rc = dth_scene_load(scene, scene_path, err, sizeof err);
+/* The scene with the -s overrides, set up; the map's description. */
+static int load_scene(map_cmd *c, int argc, char **argv)
+{
+    char err[1024];
+    if (!(c->reg = cli_registry())) return CLI_FAIL;
+    int rc = dth_scene_new(NULL, &c->scene);
+    if (!rc) rc = dth_scene_load(c->scene, c->scene_path, err, sizeof err);
     for (int i = 1; !rc && i < argc; i++) {
-        if (!strcmp(argv[i], "-s")) rc = dth_scene_set(scene, argv[++i], err, sizeof err);
+        if (!strcmp(argv[i], "-s")) rc = dth_scene_set(c->scene, argv[++i], err, sizeof err);
         else if (argv[i][0] == '-' && argv[i][1] && strcmp(argv[i], "-h")) i++;
     }
-    if (!rc) rc = dth_scene_setup(scene, reg, &rs, err, sizeof err);
+    if (!rc) rc = dth_scene_setup(c->scene, c->reg, &c->rs, err, sizeof err);
     if (rc) {
         cli_error("%s", rc == DTH_ENOMEM ? "out of memory" : err);
-        status = rc == DTH_ENOMEM ? CLI_FAIL : CLI_USAGE;
-        goto done;
+        return rc == DTH_ENOMEM ? CLI_FAIL : CLI_USAGE;
     }
-    if ((size_t)dof1 > rs.n) {
-        cli_error("--dof %ld: the model of '%s' has %zu degree%s of freedom", dof1, scene_path, rs.n,
-                  rs.n == 1 ? "" : "s");
-        goto done;
+    const dth_run_setup *rs = &c->rs;
+    if ((size_t)c->dof1 > rs->n) {
+        cli_error("--dof %ld: the model of '%s' has %zu degree%s of freedom", c->dof1, c->scene_path, rs->n,
+                  rs->n == 1 ? "" : "s");
+        return CLI_USAGE;
     }
-    map mp = {.model = rs.model, .n = rs.n, .dof = (size_t)dof1 - 1, .q0 = rs.q0, .p0 = rs.p0, .t0 = rs.t0,
-              .h = rs.opt.h, .L = L > 0 ? L : 16 * fabs(rs.opt.h), .K = rs.opt.K, .q = qa, .p = pa};
-    long total = qa.n * pa.n;
-    cells = calloc((size_t)total, sizeof *cells);
-    size_t plen = strlen(prefix) + 16;
-    path_map = malloc(plen);
-    path_traj = malloc(plen);
-    if (!cells || !path_map || !path_traj) {
-        cli_error("out of memory");
-        status = CLI_FAIL;
-        goto done;
-    }
-    snprintf(path_map, plen, "%s.csv", prefix);
-    snprintf(path_traj, plen, "%s-traj.csv", prefix);
-    cli_make_parents(path_map);
-    /* both outputs are opened before the work, so an unwritable prefix fails at once */
-    if (cli_out_open(&om, path_map)) goto done;
-    if (cli_out_open(&ot, path_traj)) goto done;
+    c->mp = (map){.model = rs->model, .n = rs->n, .dof = (size_t)c->dof1 - 1, .q0 = rs->q0, .p0 = rs->p0,
+                  .t0 = rs->t0, .h = rs->opt.h, .L = c->L > 0 ? c->L : 16 * fabs(rs->opt.h), .K = rs->opt.K,
+                  .q = c->qa, .p = c->pa};
+    c->total = c->qa.n * c->pa.n;
+    return GO_ON;
+}
 
-    /* ---- the map: every point independent, results stored by grid index and written in order after
-     * the loop, so the output is the same bits for any thread count and schedule */
+/* The results' memory and both outputs (neither may be the scene), opened before the work so an
+ * unwritable prefix fails at once. */
+static int open_outputs(map_cmd *c)
+{
+    c->cells = calloc((size_t)c->total, sizeof *c->cells);
+    size_t plen = strlen(c->prefix) + 16;
+    c->path_map = malloc(plen);
+    c->path_traj = malloc(plen);
+    if (!c->cells || !c->path_map || !c->path_traj) {
+        cli_error("out of memory");
+        return CLI_FAIL;
+    }
+    snprintf(c->path_map, plen, "%s.csv", c->prefix);
+    snprintf(c->path_traj, plen, "%s-traj.csv", c->prefix);
+    const cli_input scene[] = {{c->scene_path, "the scene file"}};
+    if (cli_check_clash("the map", c->path_map, scene, 1) || cli_check_clash("the trajectory", c->path_traj, scene, 1))
+        return CLI_USAGE;
+    cli_make_parents(c->path_map);
+    if (cli_out_open(&c->om, c->path_map)) return CLI_USAGE;
+    if (cli_out_open(&c->ot, c->path_traj)) return CLI_USAGE;
+    return GO_ON;
+}
+
+/* The map: every point independent, results stored by grid index and written in order after the
+ * loop, so the output is the same bits for any thread count and schedule. */
+static int compute_map(map_cmd *c)
+{
+    const map *mp = &c->mp;
+    long total = c->total, np = c->pa.n;
+    cell *cells = c->cells;
     int nomem = 0, sig = 0;
     cli_catch_signals(); /* Ctrl-C: skip the remaining points, remove the temporary files */
 #ifdef _OPENMP
@@ -345,70 +379,81 @@ int cli_cmd_map(int argc, char **argv)
 #endif
     {
         worker w;
-        int wrc = worker_new(&mp, &w);
+        int wrc = worker_new(mp, &w);
         if (wrc) nomem = 1;
 #ifdef _OPENMP
 #pragma omp for schedule(dynamic, 16)
 #endif
         for (long k = 0; k < total; k++) {
             if (wrc || cli_signal_received()) continue;
-            map_point(&mp, &w, cli_grid_at(&mp.q, k / pa.n), cli_grid_at(&mp.p, k % pa.n), &cells[k]);
+            map_point(mp, &w, cli_grid_at(&mp->q, k / np), cli_grid_at(&mp->p, k % np), &cells[k]);
         }
         worker_free(&w);
     }
     if ((sig = cli_signal_received()) != 0) {
         cli_error("interrupted (no output written)");
-        status = 128 + sig;
-        goto done;
+        return 128 + sig;
     }
     if (nomem) {
         cli_error("out of memory (a root finder per thread)");
-        status = CLI_FAIL;
-        goto done;
+        return CLI_FAIL;
     }
+    return GO_ON;
+}
+
+/* The map's rows and the trajectory's, put in place; notes on failed points and a stopped
+ * trajectory; the exit status. */
+static int write_outputs(map_cmd *c)
+{
     long failed = 0;
-    for (long k = 0; k < total; k++) failed += cells[k].status != DTH_OK;
-    if (write_map(&om, &mp, cells)) {
-        cli_error("cannot write '%s': %s", path_map, strerror(om.err));
-        status = CLI_FAIL;
-        goto done;
+    for (long k = 0; k < c->total; k++) failed += c->cells[k].status != DTH_OK;
+    if (write_map(&c->om, &c->mp, c->cells)) {
+        cli_error("cannot write '%s': %s", c->path_map, strerror(c->om.err));
+        return CLI_FAIL;
     }
-    int stop;
+    int stop, sig;
     long ksteps = 0;
-    double tstop = rs.t0;
-    if (write_traj(&ot, &rs, mp.dof, &stop, &ksteps, &tstop)) {
-        cli_error("cannot write '%s': %s", path_traj, strerror(ot.err));
-        status = CLI_FAIL;
-        goto done;
+    double tstop = c->rs.t0;
+    if (write_traj(&c->ot, &c->rs, c->mp.dof, &stop, &ksteps, &tstop)) {
+        cli_error("cannot write '%s': %s", c->path_traj, strerror(c->ot.err));
+        return CLI_FAIL;
     }
     if ((sig = cli_signal_received()) != 0) {
         cli_error("interrupted (no output written)");
-        status = 128 + sig;
-        goto done;
+        return 128 + sig;
     }
-    if (cli_out_finish(&om) || cli_out_finish(&ot)) {
-        status = CLI_FAIL;
-        goto done;
-    }
+    if (cli_out_finish(&c->om) || cli_out_finish(&c->ot)) return CLI_FAIL;
     if (failed)
         cli_error("note: the root search failed at %ld of %ld grid points (their region and roots are empty)",
-                  failed, total);
+                  failed, c->total);
     if (stop > 0)
         cli_error("note: the trajectory stopped at k=%ld, t=%.17g: %s", ksteps, tstop, dth_strerror(stop));
     if (stop < 0) {
         cli_error("the trajectory failed at k=%ld, t=%.17g: %s", ksteps, tstop, dth_strerror(stop));
-        status = CLI_FAIL;
-    } else {
-        status = CLI_OK;
+        return CLI_FAIL;
     }
-done:
-    if (om.fd >= 0 && om.buf) cli_out_abort(&om);
-    if (ot.fd >= 0 && ot.buf) cli_out_abort(&ot);
-    free(cells);
-    free(path_map);
-    free(path_traj);
-    dth_run_setup_clear(&rs);
-    dth_scene_free(scene);
-    dth_registry_free(reg);
-    return status;
+    return CLI_OK;
+}
+
+int cli_cmd_map(int argc, char **argv)
+{
+    map_cmd c;
+    memset(&c, 0, sizeof c);
+    c.prefix = "out/map";
+    c.dof1 = 1;
+    c.om.fd = c.ot.fd = -1;
+    int st = parse_args(argc, argv, &c);
+    if (st == GO_ON) st = load_scene(&c, argc, argv);
+    if (st == GO_ON) st = open_outputs(&c);
+    if (st == GO_ON) st = compute_map(&c);
+    if (st == GO_ON) st = write_outputs(&c);
+    if (c.om.fd >= 0 && c.om.buf) cli_out_abort(&c.om);
+    if (c.ot.fd >= 0 && c.ot.buf) cli_out_abort(&c.ot);
+    free(c.cells);
+    free(c.path_map);
+    free(c.path_traj);
+    dth_run_setup_clear(&c.rs);
+    dth_scene_free(c.scene);
+    dth_registry_free(c.reg);
+    return st;
 }

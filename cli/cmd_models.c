@@ -49,7 +49,7 @@ static int list(int argc, char **argv, int regularizers)
         }
     }
     dth_registry_free(reg);
-    return fflush(stdout) == 0 ? CLI_OK : CLI_FAIL;
+    return cli_flush_stdout();
 }
 
 int cli_cmd_models(int argc, char **argv) { return list(argc, argv, 0); }

@@ -100,8 +100,12 @@ int cli_cmd_roots(int argc, char **argv)
         printf("%.17g,%s,%.17g,%s,%.17g,%.17g,%.17g\n", r->lambda, dth_root_class_name(r), r->s,
                dth_region_name(s.vertex.region), s.vertex.H, s.vertex.psi, s.vertex.dpsi);
     }
-    if (s.truncated) cli_error("more than %d roots: the list is truncated", DTH_MAX_ROOTS);
-    status = fflush(stdout) ? CLI_FAIL : CLI_OK;
+    if (s.count >= DTH_MAX_ROOTS && s.truncated) cli_error("more than %d roots: the list is truncated", DTH_MAX_ROOTS);
+    if (s.lo > -L || s.hi < L)
+        cli_error("note: the scan covers lambda in [%.6g, %.6g] only, not all of --range %g (it reaches as far as the "
+                  "decoupled solve continues and its grid resolves from this vertex): roots outside are not listed",
+                  s.lo, s.hi, L);
+    status = cli_flush_stdout();
 done:
     dth_rootfinder_free(rf);
     dth_integrator_free(it);

@@ -21,7 +21,7 @@
 void cli_usage_run(FILE *f)
 {
     fprintf(f, "usage: dth run SCENE.ini [-s section.key=value]... [-o FILE] [--events FILE] [--roundtrip]\n"
-               "                [--progress[=SECONDS]] [--no-model-check]\n"
+               "                [--progress[=SECONDS]] [--no-model-check] [--model-lib FILE.so:SYMBOL]...\n"
                "                [--checkpoint FILE [--checkpoint-every N]]\n"
                "       dth run --resume CHECKPOINT [-s section.key=value]... [-o FILE] [--checkpoint ...]\n"
                "  -s section.key=value  override a scene key (applied after the file, in order)\n"
@@ -33,6 +33,8 @@ void cli_usage_run(FILE *f)
                "                        (without --progress, a terminal shows a percentage; other stderr nothing)\n"
                "  --events FILE         write the [events] rows to FILE (default: OUT-events.csv next to -o OUT.csv)\n"
                "  --no-model-check      skip the check of the model's derivatives at the start\n"
+               "  --model-lib F:SYM     load a model type from a shared object: SYM names its const dth_model_type\n"
+               "                        (F without a slash: the file F here if there is one, else the library path)\n"
                "  --checkpoint FILE     save the full state to FILE (crash-safely) every N steps (default\n"
                "                        1000) and when the run ends; the CSV is flushed to disk first\n"
                "  --checkpoint-every N  the N of --checkpoint: steps between checkpoints (an integer >= 1)\n"
@@ -51,6 +53,7 @@ typedef struct run_opts {
     long ckpt_every;
     int roundtrip, want_progress, model_check;
     double progress_s;
+    cli_modlibs libs;  /* --model-lib */
 } run_opts;
 
 /* What one dth run holds (released by job_free), and how its run went. */
@@ -68,8 +71,9 @@ typedef struct run_job {
     double *zstart;       /* the first (or the resumed) vertex */
     const char *path;     /* the trajectory's output; NULL: standard output */
     char *ev_path;        /* the events CSV (NULL: none) */
-    int is_h5;            /* path is HDF5 (the events are its table /events) */
+    char origin[2][1100]; /* where the scene named the output and the events file (r.out_origin, r.ev_origin) */
     dth_run_state S;      /* the driver's state */
+    double omega;         /* the fastest rate of the linearized flow at the start (0: unknown) */
     int rc, werr;         /* the driver's status; an output could not be written */
 } run_job;
 
@@ -80,7 +84,8 @@ enum { GO_ON = -1 };
 /* 1 for the options that take a value. */
 static int takes_value(const char *a)
 {
-    static const char *const opts[] = {"-s", "-o", "--checkpoint", "--checkpoint-every", "--resume", "--events"};
+    static const char *const opts[] = {"-s", "-o", "--checkpoint", "--checkpoint-every", "--resume", "--events",
+                                       "--model-lib"};
     for (size_t i = 0; i < sizeof opts / sizeof *opts; i++)
         if (!strcmp(a, opts[i])) return 1;
     return 0;
@@ -89,11 +94,16 @@ static int takes_value(const char *a)
 /* The option a (one that takes a value) with its value v. */
 static int option_value(run_opts *o, const char *a, const char *v)
 {
+    if (strcmp(a, "-s") && !v[0]) { /* a file name: an empty one would be a hidden temporary in . */
+        cli_error("%s: the file name is empty", a);
+        return CLI_USAGE;
+    }
     if (!strcmp(a, "-s")) o->sets[o->nsets++] = v;
     else if (!strcmp(a, "-o")) o->out_opt = v;
     else if (!strcmp(a, "--checkpoint")) o->ckpt_path = v;
     else if (!strcmp(a, "--resume")) o->resume_path = v;
     else if (!strcmp(a, "--events")) o->ev_opt = v;
+    else if (!strcmp(a, "--model-lib") && cli_modlib_add(&o->libs, v)) return CLI_USAGE;
     else if (!strcmp(a, "--checkpoint-every")) {
         char *end;
         o->ckpt_every = strtol(v, &end, 10);
@@ -205,37 +215,16 @@ static int check_setup(run_job *j)
         cli_error("--roundtrip writes vertices: it cannot be combined with [output] dt > 0");
         return CLI_USAGE;
     }
-    j->is_dth = strcmp(rs->method, "dth") == 0;
-    if (!j->is_dth && strcmp(rs->regularize, "none")) {
-        cli_error("[regularize] applies to method = dth only (this scene uses '%s')", rs->method);
-        return CLI_USAGE;
-    }
+    j->is_dth = strcmp(rs->method, "dth") == 0; /* (a regularizer with a baseline: refused by dth_scene_setup) */
     return GO_ON;
 }
 
-/* The model's derivatives against finite differences at the initial state, once (dth_model_check;
- * its memory grows as (2n+1)^2: skipped above 200 degrees of freedom). */
+/* The model's derivatives against finite differences at the initial state, once (cli_check_model). */
 static int check_model(run_job *j)
 {
-    const dth_run_setup *rs = &j->rs;
-    if (!j->o.model_check || rs->n > 200) return GO_ON;
-    double *y = calloc(2 * rs->n + 1, sizeof *y);
-    if (!y) {
-        cli_error("out of memory");
-        return CLI_FAIL;
-    }
-    memcpy(y, rs->q0, rs->n * sizeof *y);
-    y[rs->n] = rs->t0;
-    memcpy(y + rs->n + 1, rs->p0, rs->n * sizeof *y);
-    dth_model_check_report rep;
-    int rc = dth_model_check(rs->model, y, &rep);
-    free(y);
-    if (rc == DTH_OK && !rep.pass) {
-        cli_error("%s: model '%s' fails its derivative check at the initial state: %s (--no-model-check runs "
-                  "it anyway)", j->o.scene_path, dth_model_get_type(rs->model)->name, rep.message);
-        return CLI_USAGE;
-    }
-    return GO_ON;
+    if (!j->o.model_check) return GO_ON;
+    int st = cli_check_model(&j->rs, j->o.scene_path, "the initial state", "--no-model-check runs it anyway");
+    return st ? st : GO_ON;
 }
 
 /* The integrator at the initial state, or at the checkpoint's. */
@@ -313,8 +302,16 @@ static int events_path(run_job *j)
     return GO_ON;
 }
 
-/* Where the rows go: -o, else [output] file=, else (a resume) the checkpointed run's output; CSV
- * or HDF5 (by the name); the events file. */
+/* "FILE:LINE: output.file" (ev = 0) or "...: events.file" (ev = 1): where the scene named the file. */
+static const char *scene_origin(run_job *j, int ev)
+{
+    const char *sec = ev ? "events" : "output", *org = dth_scene_origin(j->scene, sec, "file");
+    snprintf(j->origin[ev], sizeof j->origin[ev], "%s: %s.file", org ? org : "the scene", sec);
+    return j->origin[ev];
+}
+
+/* Where the rows go: -o, else [output] file=, else (a resume) the checkpointed run's output; its
+ * format (by the name, outfmt.h); the events file. */
 static int choose_outputs(run_job *j)
 {
     const run_opts *o = &j->o;
@@ -326,42 +323,48 @@ static int choose_outputs(run_job *j)
         cli_error("--checkpoint needs an output file (-o FILE or [output] file=): standard output cannot be resumed");
         return CLI_USAGE;
     }
-    size_t plen = path ? strlen(path) : 0;
-    j->is_h5 = path && ((plen > 3 && !strcmp(path + plen - 3, ".h5")) || (plen > 5 && !strcmp(path + plen - 5, ".hdf5")));
-    if (j->is_h5 && (o->ckpt_path || o->resume_path)) {
-        cli_error("checkpoints cover CSV output only (the output '%s' is HDF5)", path);
+    const out_format *fmt = j->r.fmt = run_format_for(path);
+    if (!fmt->resumable && (o->ckpt_path || o->resume_path)) {
+        cli_error("checkpoints cover CSV output only (the output '%s' is %s)", path, fmt->name);
         return CLI_USAGE;
     }
-    if (j->is_h5 && (o->ev_opt || rs->events_file)) {
-        cli_error("with HDF5 output the events are the table /events of '%s': give no events file", path);
+    if (fmt->events_in_file && (o->ev_opt || rs->events_file)) {
+        cli_error("with %s output the events are the table /events of '%s': give no events file", fmt->name, path);
         return CLI_USAGE;
     }
-    j->r.has_ev = rs->nevents > 0 && !j->is_h5;
+    j->r.has_ev = rs->nevents > 0 && !fmt->events_in_file;
+    j->r.out_origin = path && path == rs->out_file ? scene_origin(j, 0) : NULL;
+    j->r.ev_origin = j->r.has_ev && !o->ev_opt && rs->events_file ? scene_origin(j, 1) : NULL;
     return j->r.has_ev ? events_path(j) : GO_ON;
 }
 
-/* An output that would overwrite an input is refused (a resume may write its checkpoint over the
- * one it read: that is whole in memory, and a checkpoint is replaced atomically). */
+/* An output that would overwrite an input is refused: the scene, the checkpoint, the trajectory
+ * (for the events); on a resume also the checkpointed run's file of the other kind, which the resume
+ * reads (its own kind it continues: the rows are copied before the file is replaced). A resume may
+ * write its checkpoint over the one it read: that is whole in memory, and replaced atomically. */
 static int check_clashes(const run_job *j)
 {
     const char *path = j->path, *ev_path = j->ev_path, *ckpt_path = j->o.ckpt_path, *resume_path = j->o.resume_path;
-    const char *outs[2] = {path, ev_path}, *scene_file = resume_path ? NULL : j->o.scene_path;
-    for (int i = 0; i < 2; i++) {
-        if (!outs[i]) continue;
-        const char *clash = cli_same_file(outs[i], scene_file) ? "the scene file"
-                            : cli_same_file(outs[i], ckpt_path) ? "the checkpoint file"
-                            : resume_path && cli_same_file(outs[i], resume_path) ? "the checkpoint file" : NULL;
-        if (i == 1 && !clash && cli_same_file(ev_path, path)) clash = "the trajectory's output";
-        if (clash) {
-            cli_error("refusing to write %s '%s': it is %s", i ? "events to" : "the output to", outs[i], clash);
-            return CLI_USAGE;
-        }
+    const char *scene_file = resume_path ? NULL : j->o.scene_path;
+    const cli_ckpt *c = resume_path ? &j->res.c : NULL;
+    const cli_input out_in[] = {{scene_file, "the scene file"}, {ckpt_path, "the checkpoint file"},
+                                {resume_path, "the checkpoint file"},
+                                {c && c->ev.path[0] ? c->ev.path : NULL, "the checkpointed run's events file"}};
+    const cli_input ev_in[] = {{scene_file, "the scene file"}, {ckpt_path, "the checkpoint file"},
+                               {resume_path, "the checkpoint file"}, {path, "the trajectory's output"},
+                               {c && c->out.path[0] ? c->out.path : NULL, "the checkpointed run's output"}};
+    const cli_input ckpt_in[] = {{scene_file, "the scene file"}};
+    int st = cli_check_clash("the output", path, out_in, sizeof out_in / sizeof *out_in);
+    if (!st) st = cli_check_clash("events", ev_path, ev_in, sizeof ev_in / sizeof *ev_in);
+    if (!st) st = cli_check_clash("the checkpoint", ckpt_path, ckpt_in, 1);
+    /* and no output over a model library */
+    char lib[4096];
+    for (int i = 0; !st && i < j->o.libs.nargs; i++) {
+        const cli_input in[] = {{cli_modlib_file(&j->o.libs, i, lib, sizeof lib), "a model library (--model-lib)"}};
+        st = cli_check_clash("the output", path, in, 1) || cli_check_clash("events", ev_path, in, 1) ||
+             cli_check_clash("the checkpoint", ckpt_path, in, 1) ? CLI_USAGE : 0;
     }
-    if (ckpt_path && cli_same_file(ckpt_path, scene_file)) {
-        cli_error("refusing to write the checkpoint to '%s': it is the scene file", ckpt_path);
-        return CLI_USAGE;
-    }
-    return GO_ON;
+    return st ? st : GO_ON;
 }
 
 /* The outputs (with their missing folders), a resume's rows copied in; stop requests caught from
@@ -371,13 +374,8 @@ static int open_outputs(run_job *j)
     run_out *r = &j->r;
     if (j->path) cli_make_parents(j->path);
     if (j->ev_path) cli_make_parents(j->ev_path);
-    if (j->is_h5) {
-        int st = run_h5_open(r, j->path, j->argc, j->argv);
-        if (st) return st;
-    } else if (cli_out_open(&r->out, j->path)) {
-        return CLI_USAGE; /* the output cannot be written */
-    }
-    if (r->has_ev && cli_out_open(&r->ev, j->ev_path)) return CLI_USAGE;
+    int st = run_outputs_open(r, j->path, j->ev_path, j->argc, j->argv);
+    if (st) return st;
     if (j->o.resume_path && run_resume_prefix(r, &j->res.c, j->o.resume_path, j->ev_path))
         return r->out.failed || r->ev.failed ? CLI_FAIL : CLI_USAGE;
     cli_catch_signals();
@@ -386,18 +384,17 @@ static int open_outputs(run_job *j)
 
 /* ---------------------------------------------------------------- the run */
 
-/* The start vertex into zstart, and warnings about a fresh start: h below the conditioning limit
- * of the step (methods.h); a vertex start's energy (every midpoint's) against the initial state's;
+/* The start vertex into zstart, and warnings about a fresh start: a vertex start's energy (every midpoint's) against the initial state's;
  * an explicit wp: the first step it encodes against h (checked at the first sample). */
 static void check_start(run_job *j)
 {
     const dth_run_setup *rs = &j->rs;
-    double *zstart = j->zstart, hmin;
+    double *zstart = j->zstart;
     memcpy(zstart, dth_integrator_vertex(j->it), j->r.N * sizeof *zstart);
-    if (!j->is_dth || j->o.resume_path) return;
-    if (dth_step_floor(rs->model, zstart, 1e-6, &hmin, j->r.work) == DTH_OK && fabs(rs->opt.h) < hmin)
-        cli_error("warning: |h| = %.3g is below the conditioning limit %.3g at the start: the step size is "
-                  "known only to about 1e-6 relative or worse (docs/performance.md)", fabs(rs->opt.h), hmin);
+    if (j->o.resume_path) return;
+    /* the fastest rate at the start, for a warning when the run ends (fast_rate) */
+    if (cli_fastest_rate(rs->model, zstart, &j->omega)) j->omega = 0;
+    if (!j->is_dth) return;
     if (rs->opt.start == DTH_START_VERTEX && rs->opt.order == 2) { /* order 4: the given state is the vertex */
         double H0, E = dth_integrator_energy(j->it);
         if (!dth_model_eval(rs->model, zstart, DTH_EVAL_H, &H0, NULL, NULL) && fabs(E - H0) > 0.01 * fabs(H0))
@@ -481,7 +478,7 @@ static void roundtrip(run_job *j, dth_run_config *cfg)
         e = fmax(e, fabs(z[i] - zstart[i]));
         sc = fmax(sc, fabs(zstart[i]));
     }
-    fprintf(stderr, "dth: round trip of 2 x %ld steps: max |z - z_0| = %.3g (relative %.3g)\n", k1, e,
+    fprintf(stderr, "dth: round trip of 2 x %ld step%s: max |z - z_0| = %.3g (relative %.3g)\n", k1, CLI_S(k1), e,
             sc > 0 ? e / sc : e);
 }
 
@@ -506,7 +503,7 @@ static int run_all(run_job *j)
     /* temporaries of runs that were killed: once this run's own checkpoint stands (a resume's rows
      * are in this run's temporary), or at once without checkpoints */
     if (!j->werr && (o->ckpt_path || !o->resume_path))
-        run_clean_stale(j->path, j->ev_path, o->ckpt_path, o->resume_path ? &j->res.c : NULL);
+        run_clean_stale(j->path, j->ev_path, o->ckpt_path, o->resume_path, o->resume_path ? &j->res.c : NULL);
     if (j->werr) j->rc = DTH_OK;
     else drive(j, &cfg);
     if (o->roundtrip && !j->werr && j->rc == DTH_OK) roundtrip(j, &cfg);
@@ -528,7 +525,7 @@ static int close_outputs(run_job *j)
     }
     if (run_outputs_finish(r)) return CLI_FAIL;
     /* the resumed run's files are complete */
-    if (j->o.resume_path && !j->o.ckpt_path) run_clean_stale(j->path, j->ev_path, NULL, &j->res.c);
+    if (j->o.resume_path && !j->o.ckpt_path) run_clean_stale(j->path, j->ev_path, NULL, j->o.resume_path, &j->res.c);
     return GO_ON;
 }
 
@@ -537,13 +534,42 @@ static int close_outputs(run_job *j)
 static void stop_hint(const run_job *j, char *hint, size_t len)
 {
     const dth_run_setup *rs = &j->rs;
-    if (j->S.k - j->r.k_begin <= 1 && !j->o.resume_path)
-        snprintf(hint, len, "; the first step failed: a smaller step may pass: -s integrator.h=%.6g", rs->opt.h / 4);
-    else if (j->is_dth)
+    if (j->S.k - j->r.k_begin <= 1 && !j->o.resume_path) {
+        char adv[400];
+        cli_smaller_step(rs->model, j->it ? dth_integrator_vertex(j->it) : NULL, rs->opt.h, adv, sizeof adv);
+        snprintf(hint, len, "; the first step failed: %s", adv + 2); /* (adv: "; advice") */
+    } else if (j->is_dth)
         cli_stop_hint(rs->regularize, j->rc, rs->opt.h, rs->model, dth_integrator_vertex(j->it),
                       dth_integrator_lambda(j->it), hint, len);
     else
         hint[0] = '\0';
+}
+
+/* A step that cannot follow the fastest motion of the start: omega |h| > 1, fewer than 2 pi steps per
+ * period of the fastest oscillation (or more than an e-fold per step of a growing direction). Said
+ * when a run ends well (one that stops has its own advice). */
+static void fast_rate(const run_job *j)
+{
+    double h = j->rs.opt.h, om = j->omega;
+    if (!(om * fabs(h) > 1)) return;
+    cli_error("warning: |h| = %.3g is large for the motion at the start: omega |h| = %.3g > 1, fewer than 2 pi steps per "
+              "period of the fastest oscillation (omega = %.3g, the fastest rate of the linearized flow there), whose "
+              "phase then errs by more than 7 %% a step; a smaller step, e.g. -s integrator.h=%.3g (omega |h| = 0.5)",
+              fabs(h), om * fabs(h), om, copysign(0.5 / om, h));
+}
+
+/* A run that was mostly the regularizer's: more than half of at least 10 steps regularized by one
+ * that only carries the crossings (land; not one that replaces every step by design, prescribed).
+ * Those steps are not symplectic: a warning, with a smaller step. */
+static void regularized_share(const run_job *j)
+{
+    const dth_run_state *S = &j->S;
+    const dth_regularizer *reg = j->rs.regularizer;
+    if (!reg || dth_regularizer_get_type(reg)->replaces_all || S->k < 10 || 2 * S->regularized <= S->k) return;
+    cli_error("warning: %.0f %% of the steps (%ld of %ld) were regularized steps of the regularizer '%s', which are not "
+              "symplectic: the step is large for this trajectory; a smaller one keeps more of it on ordinary DTH steps, "
+              "e.g. -s integrator.h=%.6g", 100.0 * (double)S->regularized / (double)S->k, S->regularized, S->k,
+              dth_regularizer_get_type(reg)->name, j->rs.opt.h / 4);
 }
 
 /* How the run ended, on stderr (always when it could not go on, else for regularized runs and on
@@ -562,6 +588,13 @@ static void estimate_note(const run_job *j, char *buf, size_t len)
 static void accuracy_msg(const run_job *j, char *buf, size_t len)
 {
     const dth_run_state *S = &j->S;
+    if (!j->is_dth) { /* a fixed-step baseline: its energy error */
+        snprintf(buf, len, "the energy error |H - H0| = %.3g is %.0f %% of the size of the energy's terms %.3g (the run's "
+                 "bound integrator.stop_error = %.2g): the fixed step h = %.3g does not resolve the orbit here (a "
+                 "near-collision?): a smaller integrator.h, or integrator.method = dth", S->e_err,
+                 100 * S->e_err / S->e_scale, S->e_scale, j->rs.stop_error, fabs(j->rs.opt.h));
+        return;
+    }
     int p = S->err_p / S->p_max > S->err_q / S->q_max;
     snprintf(buf, len, "the estimated error |d%c| = %.3g is %.0f %% of the largest |%c| = %.3g (the run's bound "
              "integrator.stop_error = %.2g): the steps grew to lambda = %.3g = %.3g h (at t = %.6g, more than "
@@ -575,11 +608,15 @@ static int report(const run_job *j)
 {
     const run_out *r = &j->r;
     const dth_run_state *S = &j->S;
-    int rc = j->rc, sig = r->sig && rc == DTH_ESTOPPED && !r->too_many ? r->sig : 0;
+    int rc = j->rc, sig = r->sig && rc == DTH_ESTOPPED ? r->sig : 0;
     char crossing[160] = "", est[200];
-    if (S->crossings || S->regularized)
-        snprintf(crossing, sizeof crossing, "; %ld psi = 0 crossings, %ld regularized steps, largest step ratio "
-                 "at a crossing %.3g", S->crossings, S->regularized, S->max_ratio);
+    if (S->crossings || S->regularized) {
+        /* (the step ratio around a crossing exists only where there was one) */
+        int w = snprintf(crossing, sizeof crossing, "; %ld psi = 0 crossing%s, %ld regularized step%s", S->crossings,
+                         CLI_S(S->crossings), S->regularized, CLI_S(S->regularized));
+        if (S->crossings && w > 0 && (size_t)w < sizeof crossing)
+            snprintf(crossing + w, sizeof crossing - (size_t)w, ", largest step ratio at a crossing %.3g", S->max_ratio);
+    }
     estimate_note(j, est, sizeof est);
     char amsg[400];
     const char *emsg = dth_integrator_errmsg(j->it);
@@ -593,16 +630,20 @@ static int report(const run_job *j)
                   "(docs/theory.md); the estimated error says what they cost",
                   S->lam_max, S->lam_max / fabs(j->rs.opt.h), S->t_lam_max, j->rs.warn_ratio,
                   j->rs.opt.order == 4 ? "tau^2 psi" : "lambda^6 psi^2");
-    if (r->too_many) {
+    if (S->stop == DTH_RUN_SAMPLES) { /* the library's bound (run.h) */
         cli_error("stopped at k=%ld, t=%.17g: output.dt = %.3g asks for more than %d rows within one step (a larger "
                   "output.dt, or output.points = vertices; the rows so far are kept)", S->k, S->t, j->rs.dt,
-                  MAX_SAMPLES_PER_STEP);
+                  DTH_RUN_MAX_SAMPLES_PER_STEP);
         return CLI_USAGE;
     } else if (sig) {
-        cli_error("interrupted at k=%ld, t=%.17g (the rows so far are kept)%s", S->k, S->t, crossing);
+        char resume[1200] = "";
+        if (r->ckpt_written)
+            snprintf(resume, sizeof resume, "; to continue: dth run --resume %s (its checkpoint of step %ld)",
+                     j->o.ckpt_path, r->ckpt_k);
+        cli_error("interrupted at k=%ld, t=%.17g (the rows so far are kept)%s%s", S->k, S->t, crossing, resume);
         return 128 + sig;
     } else if (rc > 0) {
-        char hint[256];
+        char hint[512];
         stop_hint(j, hint, sizeof hint);
         cli_error("stopped at k=%ld, t=%.17g: %s (%s)%s%s%s", S->k, S->t, dth_strerror(rc), emsg, crossing,
                   rc == DTH_EACCURACY ? "" : est, hint);
@@ -611,11 +652,13 @@ static int report(const run_job *j)
         cli_error("error at k=%ld, t=%.17g: %s (%s)", S->k, S->t, dth_strerror(rc), emsg);
         return CLI_FAIL;
     }
+    fast_rate(j);
+    regularized_share(j);
     if (r->progress == 1 || S->regularized)
-        fprintf(stderr, "dth: %ld steps to t = %.17g, %ld rows to %s%s%s\n", S->k, S->t_stop, S->samples,
-                j->path ? j->path : "standard output", crossing, est);
+        fprintf(stderr, "dth: %ld step%s to t = %.17g, %ld row%s to %s%s%s\n", S->k, CLI_S(S->k), S->t_stop, S->samples,
+                CLI_S(S->samples), j->path ? j->path : "standard output", crossing, est);
     if (r->has_ev && (r->progress == 1 || S->stop == DTH_RUN_EVENT))
-        fprintf(stderr, "dth: %ld events to %s%s\n", S->events, j->ev_path,
+        fprintf(stderr, "dth: %ld event%s to %s%s\n", S->events, CLI_S(S->events), j->ev_path,
                 S->stop == DTH_RUN_EVENT ? " (the run ended at a terminal event)" : "");
     return CLI_OK;
 }
@@ -630,6 +673,7 @@ static void job_free(run_job *j)
     dth_run_setup_clear(&j->rs);
     dth_scene_free(j->scene);
     dth_registry_free(j->reg);
+    cli_modlib_close(&j->o.libs); /* after every model of theirs is freed */
 }
 
 /* The command, with room in `sets` for the -s overrides (argc entries). */
@@ -648,7 +692,8 @@ static int run_cmd(int argc, char **argv, const char **sets)
     if (st != GO_ON) return st;
     if (!(j.reg = cli_registry())) return CLI_FAIL;
     /* input: everything is validated before any output is created */
-    st = load_input(&j);
+    st = cli_modlib_load(&j.o.libs, j.reg);
+    st = st ? st : load_input(&j);
     if (st == GO_ON) st = check_setup(&j);
     if (st == GO_ON) st = check_model(&j);
     if (st == GO_ON) st = start_integrator(&j);

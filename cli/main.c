@@ -37,14 +37,19 @@ int main(int argc, char **argv)
     const char *c = argv[1];
     if (!strcmp(c, "--help") || !strcmp(c, "-h") || !strcmp(c, "help")) {
         cli_usage(0);
-        return CLI_OK;
+        return cli_flush_stdout();
     }
     if (!strcmp(c, "--version")) {
         printf("dth %s\n", DTH_VERSION_STRING);
-        return CLI_OK;
+        return cli_flush_stdout();
     }
     for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
-        if (!strcmp(c, commands[i].name)) return commands[i].fn(argc - 1, argv + 1);
+        if (!strcmp(c, commands[i].name)) {
+            int st = commands[i].fn(argc - 1, argv + 1);
+            /* what a command printed to stdout (a --help, a list) must have been written: a command
+             * that failed has said why */
+            return st == CLI_OK ? cli_flush_stdout() : st;
+        }
     cli_error("unknown command '%s' (try dth --help)", c);
     return CLI_USAGE;
 }

@@ -16,7 +16,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 #include "cli.h"
-#include "../lib/tempfile.h" /* the temporaries' names and the hash, as the library's checkpoints have them */
+#include "tempfile.h" /* lib/: the temporaries' names and the hash, as the library's checkpoints have them */
 
 enum { OUT_CAP = 1 << 16 };
 
@@ -62,8 +62,11 @@ static int flush(cli_out *o)
     return 0;
 }
 
-int cli_out_open(cli_out *o, const char *path)
+int cli_out_open(cli_out *o, const char *path) { return cli_out_open_from(o, path, NULL); }
+
+int cli_out_open_from(cli_out *o, const char *path, const char *origin)
 {
+    const char *pre = origin ? origin : "", *sep = origin ? ": " : "";
     memset(o, 0, sizeof *o);
     o->fd = STDOUT_FILENO;
     o->cap = OUT_CAP;
@@ -75,10 +78,15 @@ int cli_out_open(cli_out *o, const char *path)
     }
     o->last_flush = cli_now();
     if (!path) return 0;
+    if (!path[0]) { /* its temporary would be ".tmp.PID.XXXXXX" in the working folder, renamed onto nothing */
+        cli_error("%s%scannot write '': the file name is empty", pre, sep);
+        cli_out_abort(o);
+        return -1;
+    }
     struct stat st;
     int exists = stat(path, &st) == 0;
     if (exists && S_ISDIR(st.st_mode)) {
-        cli_error("cannot write '%s': %s", path, strerror(EISDIR));
+        cli_error("%s%scannot write '%s': %s", pre, sep, path, strerror(EISDIR));
         cli_out_abort(o);
         return -1;
     }
@@ -93,7 +101,7 @@ int cli_out_open(cli_out *o, const char *path)
         /* a device or pipe: write to it directly; renaming onto it would replace the node */
         o->fd = open(path, O_WRONLY | O_CLOEXEC);
         if (o->fd < 0) {
-            cli_error("cannot write '%s': %s", path, strerror(errno));
+            cli_error("%s%scannot write '%s': %s", pre, sep, path, strerror(errno));
             cli_out_abort(o);
             return -1;
         }
@@ -111,7 +119,7 @@ int cli_out_open(cli_out *o, const char *path)
     }
     o->fd = dth__open_unique_temp(path, o->tmp, len);
     if (o->fd < 0) {
-        cli_error("cannot write '%s': %s", path, strerror(errno));
+        cli_error("%s%scannot write '%s': %s", pre, sep, path, strerror(errno));
         free(o->tmp);
         o->tmp = NULL; /* nothing was created: nothing to remove */
         cli_out_abort(o);

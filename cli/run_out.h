@@ -6,13 +6,13 @@
 #include <stddef.h>
 #include "cli.h"
 #include "ckpt.h"
-#include "h5out.h"
+#include "outfmt.h"
 
-/* At most this many rows within one step (output.dt far below the step: a full disk, not a trajectory). */
-enum { MAX_SAMPLES_PER_STEP = 1000000 };
+/* How a column's values are written: numbers, or codes (CSV prints their names, run_code_name). */
+enum { COL_DBL = 0, COL_INT, COL_REGION, COL_BRANCH, COL_EVENT };
 
-/* One dth run: its scene and setup, the outputs (CSV or HDF5, events), checkpoint and progress
- * state; the `user` of the run driver's callbacks. */
+/* One dth run: its scene and setup, the outputs (a format of outfmt.h; events), checkpoint and
+ * progress state; the `user` of the run driver's callbacks. */
 typedef struct run_out {
     const dth_run_setup *rs;
     const dth_model *model;
@@ -20,7 +20,9 @@ typedef struct run_out {
     double *inv, *work;
     char *line;
     size_t linecap, len;
-    cli_out out;
+    const out_format *fmt; /* the output's format (outfmt.h) and its state */
+    void *fmt_state;
+    cli_out out;           /* CSV: the trajectory's file (also what checkpoints record) */
     int leg; /* --roundtrip: 1 forward, 2 return (a `leg` column); 0: no column */
     /* checkpoints and progress */
     const char *ckpt_path;
@@ -32,15 +34,13 @@ typedef struct run_out {
     int sig;
     int ckpt_written, ckpt_failed; /* a checkpoint was written (at step ckpt_k); one failed */
     long ckpt_k;
-    long step_k, step_samples; /* samples within the current step (bounded) */
-    int too_many;
-    cli_out ev;            /* event rows ([events]) */
+    cli_out ev;            /* CSV: the events' file ([events]) */
+    const char *out_origin, *ev_origin; /* where the scene set the output's, the events' name ("FILE:LINE:
+                                           output.file"; NULL: the command line), for messages */
     int has_ev;
     double *vals;          /* one row's values */
     unsigned char *kind, *ekind; /* column kinds of the trajectory and events tables */
     size_t ncol, encol;
-    h5file *h5;            /* HDF5 output instead of CSV */
-    h5table *h5traj, *h5ev;
     int check_wp;          /* an explicit wp: compare the first step it encodes with h */
     int vk_set, vk_leg;    /* vertex_K's last value vk: of the step vk_k of leg vk_leg */
     long vk_k;
@@ -50,19 +50,28 @@ typedef struct run_out {
 /* (run_rows.c) The row buffers and column kinds of the run rs; leg 1 adds the column leg
  * (--roundtrip). 0, or -1: out of memory. */
 int run_rows_init(run_out *r, const dth_run_setup *rs, int leg);
-/* The header lines of the trajectory's and the events' CSV (nothing for HDF5). 0 or -1. */
+/* The format of the output path, by its name's ending (CSV for other names and standard output). */
+const out_format *run_format_for(const char *path);
+/* The column names of the trajectory (ev = 0) or the events table (ev = 1), comma-separated (in
+ * r->line, valid until the next row). */
+const char *run_columns(run_out *r, int ev);
+/* The name of code v in a column of kind COL_REGION, COL_BRANCH or COL_EVENT, and how many codes
+ * the kind has (0 .. count-1). */
+const char *run_code_name(const run_out *r, int kind, long v);
+size_t run_code_count(const run_out *r, int kind);
+/* The tables' headers (r->fmt's). 0 or -1. */
 int run_headers(run_out *r);
 /* The driver's sample callback: one row per sample. */
 int run_on_sample(void *user, const dth_sample *s);
 /* The driver's event callback: one row per located event in the events table. */
 int run_on_event(void *user, const dth_sample *s);
-/* Open the HDF5 output `path` with its tables and attributes (the scene r->scene as run, the
- * provenance: the version and the command line argv): 0, or the exit status (printed). */
-int run_h5_open(run_out *r, const char *path, int argc, char **argv);
-/* Put the finished outputs in place (CSV: rename; HDF5: write out). 0, or -1 (printed). */
+/* Open the outputs in r->fmt (path NULL: standard output; the events file ev_path when r->has_ev;
+ * argc/argv for provenance): 0, or the exit status (printed). */
+int run_outputs_open(run_out *r, const char *path, const char *ev_path, int argc, char **argv);
+/* Put the finished outputs in place. 0, or -1 (printed). */
 int run_outputs_finish(run_out *r);
-/* Report the output that failed to be written (path: the trajectory's, NULL for standard output);
- * an HDF5 output is removed. */
+/* Report the output that failed to be written (path: the trajectory's, NULL for standard output),
+ * dropping what the format cannot keep. */
 void run_outputs_failed(run_out *r, const char *path, const char *ev_path);
 /* Remove the outputs not finished (but temporaries a checkpoint keeps) and free the buffers. */
 void run_out_free(run_out *r);
@@ -72,8 +81,9 @@ void run_out_free(run_out *r);
  * it names are kept if the run fails. */
 int run_on_checkpoint(void *user, const dth_run_state *st);
 /* Remove the temporaries that killed runs left next to the outputs and the checkpoint, and next to
- * the outputs a resumed checkpoint names (c may be NULL). */
-void run_clean_stale(const char *path, const char *ev_path, const char *ckpt_path, const cli_ckpt *c);
+ * the checkpoint a resume read and the outputs it names (resume_path and c may be NULL). */
+void run_clean_stale(const char *path, const char *ev_path, const char *ckpt_path, const char *resume_path,
+                     const cli_ckpt *c);
 /* The rows the checkpointed run c had made final, into the new outputs: from its temporary file if
  * it was killed (or failed), else from the file it finished; the bytes must hash as recorded. 0 or
  * -1 (printed). */

@@ -32,13 +32,16 @@ int run_on_checkpoint(void *user, const dth_run_state *st)
 }
 
 /* Remove the temporaries that killed runs left next to the outputs and the checkpoint, and next to
- * the outputs a resumed checkpoint names (c may be NULL). */
-void run_clean_stale(const char *path, const char *ev_path, const char *ckpt_path, const cli_ckpt *c)
+ * the checkpoint a resume read and the outputs it names (resume_path and c may be NULL). */
+void run_clean_stale(const char *path, const char *ev_path, const char *ckpt_path, const char *resume_path,
+                     const cli_ckpt *c)
 {
-    const char *p[5] = {path, ev_path, ckpt_path, c && c->out.path[0] ? c->out.path : NULL,
-                        c && c->ev.path[0] ? c->ev.path : NULL};
-    for (int i = 0; i < 5; i++) {
-        if (i >= 3 && p[i] && ((path && cli_same_file(p[i], path)) || (ev_path && cli_same_file(p[i], ev_path)))) continue;
+    const char *p[6] = {path, ev_path, ckpt_path, c && c->out.path[0] ? c->out.path : NULL,
+                        c && c->ev.path[0] ? c->ev.path : NULL,
+                        resume_path && !(ckpt_path && cli_same_file(resume_path, ckpt_path)) ? resume_path : NULL};
+    for (int i = 0; i < 6; i++) {
+        if (i == 3 || i == 4)
+            if (p[i] && ((path && cli_same_file(p[i], path)) || (ev_path && cli_same_file(p[i], ev_path)))) continue;
         int k = p[i] ? cli_clean_stale(p[i], NULL) : 0;
         if (k) cli_error("removed %d temporar%s of '%s' left by runs that no longer run", k, k > 1 ? "ies" : "y", p[i]);
     }

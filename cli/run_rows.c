@@ -1,20 +1,29 @@
 /* SPDX-License-Identifier: MIT */
 /*
  * dth run's rows: the column names and kinds of the trajectory and events tables, one row per
- * sample of the run driver (state, energy, diagnostics psi, psi', region and branch), formatted
- * as CSV or appended to an HDF5 table; the output files opened (HDF5 with the scene and provenance
- * as attributes), finished, or removed after a failure.
+ * sample of the run driver (state, energy, diagnostics psi, psi', region and branch) handed to the
+ * output format (outfmt.h: the table of formats is here; each writes, finishes or removes its files).
  */
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include "fmt.h"
 #include "run_out.h"
 
-/* How a column is printed in CSV (HDF5 stores every column as a double: codes for the names). */
-enum { COL_DBL = 0, COL_INT, COL_REGION, COL_BRANCH, COL_EVENT };
+/* The output formats; the first is the default (standard output, names no other format claims). */
+static const out_format *const formats[] = {&cli_format_csv, &cli_format_hdf5};
+
+const out_format *run_format_for(const char *path)
+{
+    size_t plen = path ? strlen(path) : 0;
+    for (size_t i = 0; path && i < sizeof formats / sizeof *formats; i++)
+        for (const char *const *e = formats[i]->ext; *e; e++) {
+            size_t el = strlen(*e);
+            if (plen > el && !strcmp(path + plen - el, *e)) return formats[i];
+        }
+    return formats[0];
+}
 
 static void put(run_out *r, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 static void put(run_out *r, const char *fmt, ...)
@@ -27,8 +36,7 @@ static void put(run_out *r, const char *fmt, ...)
     if (r->len >= r->linecap) r->len = r->linecap - 1; /* cannot happen: linecap is sized for the row */
 }
 
-/* Column names of the trajectory (ev = 0) or the events table (ev = 1), comma-separated, in r->line. */
-static void column_names(run_out *r, int ev)
+const char *run_columns(run_out *r, int ev)
 {
     r->len = 0;
     put(r, ev ? "i,event,direction,k,t" : "k,t,lambda");
@@ -41,9 +49,22 @@ static void column_names(run_out *r, int ev)
         put(r, ",psi,dpsi,region,iters,branch");
     }
     if (!ev && r->leg) put(r, ",leg");
+    return r->line;
 }
 
-/* The kind of each column: how the CSV prints its value. */
+const char *run_code_name(const run_out *r, int kind, long v)
+{
+    if (kind == COL_REGION) return dth_region_name((dth_region)v);
+    if (kind == COL_BRANCH) return dth_branch_name((dth_branch)v);
+    return r->rs->event_names[(size_t)v];
+}
+
+size_t run_code_count(const run_out *r, int kind)
+{
+    return kind == COL_REGION ? DTH_REGION_III + 1 : kind == COL_BRANCH ? DTH_BRANCH_REG + 1 : r->rs->nevents;
+}
+
+/* The kind of each column: a number, or a code the format may print by name. */
 static void column_kinds(run_out *r, int ev, unsigned char *kind, size_t *ncol)
 {
     size_t c = 0, n = r->n;
@@ -62,37 +83,6 @@ static void column_kinds(run_out *r, int ev, unsigned char *kind, size_t *ncol)
     }
     if (!ev && r->leg) kind[c++] = COL_INT;
     *ncol = c;
-}
-
-/* Write the values v (columns of the given kinds) as one CSV line, or one HDF5 row. */
-static int emit_row(run_out *r, int ev, const double *v)
-{
-    if (r->h5) return h5_row(ev ? r->h5ev : r->h5traj, v) ? -1 : 0;
-    const unsigned char *kind = ev ? r->ekind : r->kind;
-    size_t ncol = ev ? r->encol : r->ncol;
-    char *p = r->line;
-    for (size_t c = 0; c < ncol; c++) {
-        if (c) *p++ = ',';
-        switch (kind[c]) {
-        case COL_INT: p += dth_fmt_long((long)v[c], p); break;
-        case COL_DBL: p += dth_fmt_g17(v[c], p); break;
-        default: {
-            const char *s = kind[c] == COL_REGION ? dth_region_name((dth_region)v[c])
-                            : kind[c] == COL_BRANCH ? dth_branch_name((dth_branch)v[c])
-                                                    : r->rs->event_names[(size_t)v[c]];
-            size_t l = strlen(s);
-            memcpy(p, s, l);
-            p += l;
-        }
-        }
-    }
-    return cli_out_line(ev ? &r->ev : &r->out, r->line, (size_t)(p - r->line));
-}
-
-static int header(run_out *r)
-{
-    column_names(r, 0);
-    return r->h5 ? 0 : cli_out_line(&r->out, r->line, r->len);
 }
 
 /* The columns q, p, wp, H, E of the extended state z into v; returns how many. */
@@ -139,7 +129,7 @@ static int row(run_out *r, long k, const double *z, const dth_step_info *in, dou
         v[c++] = (double)in->branch;
     }
     if (r->leg) v[c++] = r->leg;
-    return emit_row(r, 0, v);
+    return r->fmt->row(r, 0, v);
 }
 
 /* K that a vertex's diagnostics use: for rows interpolated inside its outgoing segment, the step
@@ -162,11 +152,6 @@ int run_on_sample(void *user, const dth_sample *s)
     run_out *r = user;
     /* a stop request, also between the samples of one step (dense output can hold many) */
     if ((r->sig = cli_signal_received()) != 0) return DTH_ESTOPPED;
-    if (s->k != r->step_k) r->step_k = s->k, r->step_samples = 0;
-    if (++r->step_samples > MAX_SAMPLES_PER_STEP) {
-        r->too_many = 1;
-        return DTH_ESTOPPED;
-    }
     if (r->check_wp && s->k == 0) {
         double lam = s->kind == DTH_SAMPLE_VERTEX ? s->lambda_out : s->za ? s->step->lambda : 0;
         if (lam != 0) {
@@ -182,9 +167,7 @@ int run_on_sample(void *user, const dth_sample *s)
     else if (!s->za) lambda_root = -s->step->lambda; /* the end is the last vertex itself */
     else if (s->kind != DTH_SAMPLE_MIDPOINT && r->rs->diagnostics) K = vertex_K(r, s->k, s->za, s->step->lambda);
     else if (s->kind == DTH_SAMPLE_MIDPOINT) lambda_root = 0;
-    if (row(r, k, s->z, s->step, lambda_root, K)) return DTH_EIO;
-    if (!r->h5) cli_out_maybe_flush(&r->out);
-    return 0;
+    return row(r, k, s->z, s->step, lambda_root, K) ? DTH_EIO : 0;
 }
 
 /* The driver's event callback: one row per located event in the events table. */
@@ -199,18 +182,10 @@ int run_on_event(void *user, const dth_sample *s)
     v[c++] = (double)s->k;
     v[c++] = s->z[r->n];
     state_columns(r, s->z, v + c);
-    if (emit_row(r, 1, v)) return DTH_EIO;
-    if (!r->h5) cli_out_maybe_flush(&r->ev);
-    return 0;
+    return r->fmt->row(r, 1, v) ? DTH_EIO : 0;
 }
 
-static int ev_header(run_out *r)
-{
-    column_names(r, 1);
-    return r->h5 ? 0 : cli_out_line(&r->ev, r->line, r->len);
-}
-
-int run_headers(run_out *r) { return header(r) || (r->has_ev && ev_header(r)); }
+int run_headers(run_out *r) { return r->fmt->header(r); }
 
 /* ---------------------------------------------------------------- setup and output files */
 
@@ -237,92 +212,18 @@ int run_rows_init(run_out *r, const dth_run_setup *rs, int leg)
     return 0;
 }
 
-/* "dth VERSION; command: dth ARGS..." (malloc'd; NULL: out of memory). */
-static char *provenance(int argc, char **argv)
+int run_outputs_open(run_out *r, const char *path, const char *ev_path, int argc, char **argv)
 {
-    size_t cl = 64;
-    for (int i = 0; i < argc; i++) cl += strlen(argv[i]) + 1;
-    char *prov = malloc(cl);
-    if (prov) {
-        size_t k = (size_t)snprintf(prov, cl, "dth %s; command: dth", DTH_VERSION_STRING);
-        for (int i = 0; i < argc; i++) k += (size_t)snprintf(prov + k, cl - k, " %s", argv[i]);
-    }
-    return prov;
+    return r->fmt->open(r, path, ev_path, argc, argv);
 }
 
-/* The table /events and its attribute event_codes ("0 NAME, 1 NAME, ..."). 0 or -1. */
-static int h5_events(run_out *r)
-{
-    const dth_run_setup *rs = r->rs;
-    size_t nl = 8;
-    for (size_t i = 0; i < rs->nevents; i++) nl += strlen(rs->event_names[i]) + 8;
-    char *names = malloc(nl);
-    if (!names) return -1;
-    size_t k = 0;
-    for (size_t i = 0; i < rs->nevents; i++)
-        k += (size_t)snprintf(names + k, nl - k, "%s%zu %s", i ? ", " : "", i, rs->event_names[i]);
-    column_names(r, 1);
-    int hrc = h5_attr(r->h5, "event_codes", names) || !(r->h5ev = h5_table(r->h5, "events", r->encol, r->line));
-    free(names);
-    return hrc ? -1 : 0;
-}
+int run_outputs_finish(run_out *r) { return r->fmt->finish(r); }
 
-int run_h5_open(run_out *r, const char *path, int argc, char **argv)
-{
-    char herr[1200];
-    size_t tl;
-    char *text = NULL;
-    if (dth_scene_text(r->scene, NULL, NULL, &text, &tl)) text = NULL;
-    r->h5 = text ? h5_open(path, herr, sizeof herr) : NULL;
-    if (!r->h5) {
-        cli_error("%s", text ? herr : "out of memory");
-        free(text);
-        return CLI_USAGE;
-    }
-    /* provenance: the version and the command line; the scene as run */
-    char *prov = provenance(argc, argv);
-    column_names(r, 0);
-    int hrc = !prov || h5_attr(r->h5, "scene", text) || h5_attr(r->h5, "provenance", prov) ||
-              h5_attr(r->h5, "region_codes", "0 -, 1 I, 2 II, 3 III") ||
-              h5_attr(r->h5, "branch_codes", "0 -, 1 minus, 2 plus, 3 ghost, 4 exact, 5 reg") ||
-              !(r->h5traj = h5_table(r->h5, "trajectory", r->ncol, r->line));
-    free(text);
-    free(prov);
-    if (!hrc && r->rs->nevents) hrc = h5_events(r);
-    if (hrc) {
-        cli_error("cannot write '%s': HDF5 error", path);
-        h5_abort(r->h5);
-        r->h5 = NULL;
-        return CLI_FAIL;
-    }
-    return 0; /* rows go to HDF5; standard output stays empty */
-}
-
-int run_outputs_finish(run_out *r)
-{
-    if (!r->h5) return cli_out_finish(&r->out) || (r->has_ev && cli_out_finish(&r->ev)) ? -1 : 0;
-    char herr[1200];
-    int hrc = h5_finish(r->h5, herr, sizeof herr);
-    r->h5 = NULL;
-    if (hrc) cli_error("%s", herr);
-    return hrc ? -1 : 0;
-}
-
-void run_outputs_failed(run_out *r, const char *path, const char *ev_path)
-{
-    if (r->h5) {
-        cli_error("cannot write '%s' (HDF5)", path);
-        h5_abort(r->h5);
-        r->h5 = NULL;
-    } else if (r->out.failed) cli_error("cannot write '%s': %s", path ? path : "standard output", strerror(r->out.err));
-    else if (r->ev.failed) cli_error("cannot write '%s': %s", ev_path, strerror(r->ev.err));
-}
+void run_outputs_failed(run_out *r, const char *path, const char *ev_path) { r->fmt->failed(r, path, ev_path); }
 
 void run_out_free(run_out *r)
 {
-    if (r->h5) h5_abort(r->h5);
-    if (r->out.fd >= 0 && r->out.buf) cli_out_abort(&r->out);
-    if (r->ev.fd >= 0 && r->ev.buf) cli_out_abort(&r->ev);
+    if (r->fmt) r->fmt->release(r);
     free(r->vals);
     free(r->kind);
     free(r->ekind);

@@ -24,6 +24,14 @@ void cli_error(const char *fmt, ...)
     va_end(ap);
 }
 
+int cli_flush_stdout(void)
+{
+    errno = 0;
+    if (fflush(stdout) == 0 && !ferror(stdout)) return CLI_OK;
+    cli_error("cannot write 'standard output': %s", strerror(errno ? errno : EIO));
+    return CLI_FAIL;
+}
+
 dth_registry *cli_registry(void)
 {
     dth_registry *r = NULL;
@@ -149,7 +157,84 @@ int cli_same_file(const char *a, const char *b)
     free(cb);
     return same;
 }
+int cli_check_clash(const char *what, const char *path, const cli_input *in, size_t n)
+{
+    for (size_t i = 0; path && i < n; i++)
+        if (in[i].path && cli_same_file(path, in[i].path)) {
+            cli_error("refusing to write %s to '%s': it is %s", what, path, in[i].what);
+            return CLI_USAGE;
+        }
+    return 0;
+}
 
+int cli_fastest_rate(const dth_model *m, const double *y, double *omega)
+{
+    size_t n = dth_model_dof(m), d = 2 * n + 1, k = 2 * n;
+    if (n > 200) return -1; /* a dense (2n+1)^2 Hessian */
+    double *hess = calloc(d * d + 3 * k, sizeof *hess);
+    if (!hess) return -1;
+    double *v = hess + d * d, *w = v + k, *x = w + k;
+    int rc = dth_model_eval(m, y, DTH_EVAL_HESS, NULL, NULL, hess);
+    /* the (q, p) block of H'' (y = (q, t, p): skip row and column n) applied to a (q, p) vector */
+#define HQP(i, j) hess[((i) < n ? (i) : (i) + 1) * d + ((j) < n ? (j) : (j) + 1)]
+    unsigned long long seed = 88172645463325252ULL; /* a fixed pseudo-random start: every mode in it */
+    for (size_t i = 0; i < k; i++) {
+        seed ^= seed << 13, seed ^= seed >> 7, seed ^= seed << 17;
+        v[i] = (double)(seed >> 11) / 9007199254740992.0 - 0.5;
+    }
+    double rho = 0;
+    for (int it = 0; !rc && it < 100; it++) {
+        /* v <- (J H'')^2 v, J (a, b) = (b, -a) on (q, p); rho its growth */
+        for (int half = 0; half < 2; half++) {
+            double *in = half ? x : v, *out = half ? v : x;
+            for (size_t i = 0; i < k; i++) {
+                double s = 0;
+                for (size_t j = 0; j < k; j++) s += HQP(i, j) * in[j];
+                w[i] = s;
+            }
+            for (size_t i = 0; i < n; i++) out[i] = w[n + i], out[n + i] = -w[i];
+        }
+        double norm = 0;
+        for (size_t i = 0; i < k; i++) norm += v[i] * v[i];
+        norm = sqrt(norm);
+        if (!(norm > 0) || !isfinite(norm)) break;
+        rho = norm;
+        for (size_t i = 0; i < k; i++) v[i] /= norm;
+    }
+#undef HQP
+    free(hess);
+    if (rc || !(rho > 0)) return -1;
+    *omega = sqrt(rho);
+    return 0;
+}
+
+int cli_check_model(const dth_run_setup *rs, const char *scene_path, const char *where, const char *skip)
+{
+    if (rs->n > 200) return 0; /* its memory grows as (2n+1)^2 */
+    double *y = calloc(2 * rs->n + 1, sizeof *y);
+    if (!y) {
+        cli_error("out of memory");
+        return CLI_FAIL;
+    }
+    memcpy(y, rs->q0, rs->n * sizeof *y);
+    y[rs->n] = rs->t0;
+    memcpy(y + rs->n + 1, rs->p0, rs->n * sizeof *y);
+    dth_model_check_report rep;
+    int rc = dth_model_check(rs->model, y, &rep);
+    free(y);
+    const char *name = dth_model_get_type(rs->model)->name;
+    if (rc != DTH_OK) {
+        /* a check that cannot run has not passed */
+        cli_error("%s: model '%s': its derivative check cannot run at %s: %s (%s)", scene_path, name, where,
+                  dth_strerror(rc), skip);
+        return rc > 0 || rc == DTH_EINVAL ? CLI_USAGE : CLI_FAIL;
+    }
+    if (!rep.pass) {
+        cli_error("%s: model '%s' fails its derivative check at %s: %s (%s)", scene_path, name, where, rep.message, skip);
+        return CLI_USAGE;
+    }
+    return 0;
+}
 
 const char *cli_stop_hint(const char *regularizer, int status, double h, const dth_model *m, const double *z,
                           double lambda, char *buf, size_t len)
@@ -159,7 +244,7 @@ const char *cli_stop_hint(const char *regularizer, int status, double h, const d
                  status == DTH_ENOCONV || status == DTH_ESINGULAR;
     if (!branch && status != DTH_EREFUSED) return buf;
     if (!strcmp(regularizer, "none")) {
-        snprintf(buf, len, "; to carry the run across psi = 0 and folds: -s regularize.method=smooth");
+        snprintf(buf, len, "; to carry the run across psi = 0 and folds: -s regularize.method=land");
         return buf;
     }
     /* a fold the regularizer could not carry, with the step at the ceiling 6/5 |psi/psi'| */
@@ -174,6 +259,22 @@ const char *cli_stop_hint(const char *regularizer, int status, double h, const d
         return buf;
     }
     free(work);
-    snprintf(buf, len, "; a smaller step may pass: -s integrator.h=%.6g", h / 4);
+    cli_smaller_step(m, z, h, buf, len);
+    return buf;
+}
+
+const char *cli_smaller_step(const dth_model *m, const double *z, double h, char *buf, size_t len)
+{
+    /* below the conditioning limit a smaller step is known less accurately, not better: no advice of h */
+    double hmin = 0;
+    double *work = m && z ? calloc(dth_model_work_size(m) + 1, sizeof *work) : NULL;
+    if (work && dth_step_floor(m, z, 1e-6, &hmin, work) != DTH_OK) hmin = 0;
+    free(work);
+    if (fabs(h) < hmin)
+        snprintf(buf, len, "; no step size helps: |h| = %.3g lies below the conditioning limit %.3g here (psi is "
+                           "round-off small, as near an equilibrium) and a smaller step is known less well; a fixed-step "
+                           "method integrates it: -s integrator.method=gauss4", fabs(h), hmin);
+    else
+        snprintf(buf, len, "; a smaller step may pass: -s integrator.h=%.6g", h / 4);
     return buf;
 }

@@ -4,17 +4,23 @@
 #
 # Run it as a script (cells are marked `# %%` for editors that run them one by one):
 #
-#     python3 docs/python_example.py [OUT.png]      # default docs/figures/python-example.png
+#     python3 docs/python_example.py [OUTDIR]       # OUTDIR/python-example.png and .txt (default: a new
+#                                                   # temporary folder, printed)
+#     python3 docs/python_example.py --docs         # regenerate docs/figures/python-example.png and the
+#                                                   # numbers quoted in docs/python.md
+#     python3 docs/python_example.py --check-docs DIR   # run into DIR; fail if docs/python.md quotes
+#                                                   # other numbers (meson test python-example)
 #
 # from a checkout whose library is built (bash scripts/setup.sh), or with dth installed.
 # It integrates the pendulum scene, a Henon-Heiles model written in Python (its Poincare section
 # from the run driver's events) and follows MEGNO on a regular and a chaotic orbit, then draws
-# the figure docs/figures/python-example.png.
+# the figure.
 
 # %%
 import math
 import os
 import sys
+import tempfile
 
 try:
     import dth
@@ -28,7 +34,25 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
-out = sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "docs", "figures", "python-example.png")
+DOC = os.path.join(ROOT, "docs", "python.md")
+BEGIN, END = "<!-- python_example.py --docs: begin -->", "<!-- python_example.py --docs: end -->"
+args = sys.argv[1:]
+mode = args.pop(0) if args and args[0] in ("--docs", "--check-docs") else None
+if mode == "--docs":
+    outdir = os.path.join(ROOT, "docs", "figures")
+elif args:
+    outdir = args[0]
+else:
+    outdir = tempfile.mkdtemp(prefix="dth-python-example-")
+os.makedirs(outdir, exist_ok=True)
+out = os.path.join(outdir, "python-example.png")
+report = []  # the numbers docs/python.md quotes
+
+
+def say(line):
+    print(line)
+    report.append(line)
+
 
 # %% [markdown]
 # ## 1. A scene file, and the same run at its vertices
@@ -40,7 +64,7 @@ pend = os.path.join(ROOT, "scenes", "pendulum.ini")
 mid = dth.run(pend)
 ver = dth.run(pend, points="vertices")
 E0 = mid.E[0]
-print("pendulum: %d midpoints to t = %.4f, max |E - E0|/|E0| = %.2e (vertices: %.2e)" % (
+say("pendulum: %d midpoints to t = %.4f, max |E - E0|/|E0| = %.2e (vertices: %.2e)" % (
     len(mid.t), mid.t[-1], np.abs(mid.E - E0).max() / abs(E0), np.abs(ver.E - E0).max() / abs(E0)))
 
 
@@ -84,7 +108,7 @@ sections = []
 for q2, p2 in ((-0.2, 0.0), (-0.1, 0.0), (0.05, 0.0), (0.15, 0.0), (0.3, 0.0), (0.4, 0.0)):
     r = dth.run(hh_scene(1 / 12, q2, p2, 600), models=[HenonHeiles])
     err = np.abs(r.E - r.E[0]).max() / abs(r.E[0])
-    print("Henon-Heiles E = 1/12, q2 = %+.2f: %d section points, midpoint energy error %.1e" % (
+    say("Henon-Heiles E = 1/12, q2 = %+.2f: %d section points, midpoint energy error %.1e" % (
         q2, len(r.events), err))
     sections.append((q2, r.events.q[:, 1], r.events.p[:, 1]))
 
@@ -95,16 +119,14 @@ for q2, p2 in ((-0.2, 0.0), (-0.1, 0.0), (0.05, 0.0), (0.15, 0.0), (0.3, 0.0), (
 # %%
 megno = {}
 for tag, E, q2 in (("regular, E = 1/12", 1 / 12, 0.1), ("chaotic, E = 1/6", 1 / 6, -0.1)):
-    sim = dth.Simulation(hh_scene(E, q2, 0.0, 400), models=[HenonHeiles])
     ts, ys = [], []
-    for T in np.linspace(25, 400, 16):
-        # each leg restarts the indicator: run one leg per end time from the start instead
-        r = dth.run(hh_scene(E, q2, 0.0, T), models=[HenonHeiles], megno=True, points="vertices", every=10 ** 6)
-        ts.append(T)
-        ys.append(r.megno)
-    sim.close()
+    with dth.Simulation(hh_scene(E, q2, 0.0, 400), models=[HenonHeiles]) as sim:
+        for T in np.linspace(25, 400, 16):  # legs of one run: the indicator continues over them
+            r = sim.run(t_end=T, megno=True, points="vertices", every=10 ** 6)
+            ts.append(T)
+            ys.append(r.megno)
     megno[tag] = (np.array(ts), np.array(ys))
-    print("MEGNO %s: %.3f at t = %g (Lyapunov estimate %.3f)" % (tag, ys[-1], ts[-1], r.lyapunov))
+    say("MEGNO %s: %.3f at t = %g (Lyapunov estimate %.3f)" % (tag, ys[-1], ts[-1], r.lyapunov))
 
 # %%
 fig, ax = plt.subplots(1, 3, figsize=(14, 4.4))
@@ -132,6 +154,34 @@ a.set_ylabel("MEGNO <Y>")
 a.set_title("Henon-Heiles: MEGNO\nfrom the DTH tangent map")
 a.legend(fontsize=8)
 fig.tight_layout()
-os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
 fig.savefig(out, dpi=110)
-print("wrote %s" % out)
+if mode != "--docs":  # the documentation quotes them instead
+    with open(os.path.join(outdir, "python-example.txt"), "w") as f:
+        f.write("\n".join(report) + "\n")
+print("wrote %s%s" % (out, "" if mode == "--docs" else " and python-example.txt beside it"))
+
+# %% [markdown]
+# ## 4. The documentation's copy of these numbers (docs/python.md, between two markers)
+
+
+# %%
+def quoted():
+    text = open(DOC).read()
+    if BEGIN not in text or END not in text:
+        sys.exit("python_example.py: %s has no %s ... %s block" % (DOC, BEGIN, END))
+    a, b = text.index(BEGIN) + len(BEGIN), text.index(END)
+    return text, a, b
+
+
+block = "\n```\n" + "\n".join(report) + "\n```\n"
+if mode == "--docs":
+    text, a, b = quoted()
+    with open(DOC, "w") as f:
+        f.write(text[:a] + block + text[b:])
+    print("updated the numbers in %s" % DOC)
+elif mode == "--check-docs":
+    text, a, b = quoted()
+    if text[a:b] != block:
+        sys.exit("python_example.py: docs/python.md quotes other numbers than this run printed; regenerate them with "
+                 "python3 docs/python_example.py --docs\n--- docs/python.md:%s\n--- this run:%s" % (text[a:b], block))
+    print("docs/python.md quotes these numbers")

@@ -52,7 +52,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     dth_model *m = NULL;
     FUZZ_CHECK(dth_model_new(&dth_model_pendulum, NULL, 0, 1, NULL, &m, NULL, 0) == DTH_OK);
     dth_regularizer *reg = NULL;
-    FUZZ_CHECK(dth_regularizer_new(&dth_reg_smooth, NULL, 0, m, NULL, &reg, NULL, 0) == DTH_OK);
+    FUZZ_CHECK(dth_regularizer_new(&dth_reg_land, NULL, 0, m, NULL, &reg, NULL, 0) == DTH_OK);
     for (int with_reg = 0; with_reg < 2; with_reg++) {
         dth_options o;
         dth_options_default(&o);

@@ -576,16 +576,16 @@ static void classify(dth_root_set *out)
 
 static int sgn(double x) { return (x > 0) - (x < 0); }
 
-int dth_find_roots(dth_rootfinder *rf, const double *z, double L, dth_root_set *out)
+/* How far the grid reaches, in units of the vertex's root scale ell (the largest of the Taylor model's
+ * landmarks: its real roots, 6 |psi/psi'|): far enough for every root the model predicts and for the
+ * integrator's searches (8 steps), near enough for its 64 uniform and 40 geometric points to resolve g
+ * and follow one branch of zbar. A longer range is scanned this far only and reported as truncated
+ * (dth_root_set.truncated, lo, hi). */
+#define SCAN_REACH 1024.0
+
+/* H, psi, psi' at the vertex into out. */
+static int search_vertex(dth_rootfinder *rf, const double *z, dth_root_set *out)
 {
-    if (!rf || !z || !out || !(L > 0) || !isfinite(L)) return DTH_EINVAL;
-    size_t N = rf->N;
-    for (size_t j = 0; j < N; j++)
-        if (!isfinite(z[j])) return DTH_EINVAL;
-    memset(out, 0, sizeof *out);
-    if (z != rf->z) memcpy(rf->z, z, N * sizeof *z);
-    z = rf->z;
-    rf->evals = 0;
     double H, psi, dpsi, pabs;
     int rc = vertex_quantities(rf, z, &H, &psi, &dpsi, &pabs);
     if (rc) return rc;
@@ -595,14 +595,18 @@ int dth_find_roots(dth_rootfinder *rf, const double *z, double L, dth_root_set *
     out->psi_zero = fabs(psi) <= 32 * DBL_EPSILON * pabs;
     out->sign_H_psi = out->psi_zero ? 0 : sgn(H) * sgn(psi);
     out->sign_H_dpsi = sgn(H) * sgn(dpsi);
+    return DTH_OK;
+}
 
-    /* ---- the grid: 0, geometric and uniform points, and the cubic's landmarks (Lemma
-     * g_taylor: its real roots and the extremum s = 2; Lemma Monotonicity: s = 6/5, s = 6) */
-    size_t m = 0, cap = rf->cap;
-    double *x = rf->tmp; /* |lambda| candidates */
-    for (int i = 1; i <= rf->opt.n_uniform; i++) x[m++] = L * i / rf->opt.n_uniform;
-    for (int i = 0; i < rf->opt.n_geom; i++)
-        x[m++] = L * pow(1e-6, (double)i / (rf->opt.n_geom > 1 ? rf->opt.n_geom - 1 : 1));
+/*
+ * The grid of |lambda| on [0, *L]: geometric and uniform points, and the cubic's landmarks (Lemma
+ * g_taylor: its real roots and the extremum s = 2; Lemma Monotonicity: s = 6/5, s = 6), sorted and
+ * deduplicated into x (rf->tmp). *L is cut to SCAN_REACH times the vertex's step scale if it lies
+ * beyond (a range the grid cannot resolve). Returns how many points.
+ */
+static size_t build_grid(dth_rootfinder *rf, const dth_root_set *out, double *L)
+{
+    double H = out->vertex.H, psi = out->vertex.psi, dpsi = out->vertex.dpsi;
     double marks[8];
     int nm = 0;
     if (!out->psi_zero && dpsi != 0) {
@@ -615,50 +619,69 @@ int dth_find_roots(dth_rootfinder *rf, const double *z, double L, dth_root_set *
      * of cr (GSL writes only those) */
     double cr[3] = {0, 0, 0};
     int nc = 0;
-    if (dpsi != 0 && (out->psi_zero || fabs(dpsi) * L > 1e-8 * fabs(psi)))
+    if (dpsi != 0 && (out->psi_zero || fabs(dpsi) * *L > 1e-8 * fabs(psi)))
         nc = gsl_poly_solve_cubic(3 * (out->psi_zero ? 0 : psi) / dpsi, 0, -24 * H / dpsi, &cr[0], &cr[1], &cr[2]);
     else if (!out->psi_zero && psi != 0)
         nc = gsl_poly_solve_quadratic(-psi / 8, 0, H, &cr[0], &cr[1]);
     for (int i = 0; i < nc && i < 3; i++) marks[nm++] = fabs(cr[i]);
+    double ell = 0; /* the root scale: the largest landmark */
+    for (int i = 0; i < nm; i++)
+        if (isfinite(marks[i])) ell = fmax(ell, marks[i]);
+    if (ell > 0 && *L > SCAN_REACH * ell) *L = SCAN_REACH * ell;
+    size_t m = 0;
+    double *x = rf->tmp, Lr = *L; /* |lambda| candidates */
+    for (int i = 1; i <= rf->opt.n_uniform; i++) x[m++] = Lr * i / rf->opt.n_uniform;
+    for (int i = 0; i < rf->opt.n_geom; i++)
+        x[m++] = Lr * pow(1e-6, (double)i / (rf->opt.n_geom > 1 ? rf->opt.n_geom - 1 : 1));
     /* each side gets the same |lambda| set except landmarks, which belong to their sign only;
      * keep it simple: add landmarks to both sides (harmless extra points) */
     for (int i = 0; i < nm; i++)
-        if (isfinite(marks[i]) && marks[i] > 0 && marks[i] < L) x[m++] = marks[i];
+        if (isfinite(marks[i]) && marks[i] > 0 && marks[i] < Lr) x[m++] = marks[i];
     qsort(x, m, sizeof *x, cmp_double);
     size_t u = 0;
     for (size_t i = 0; i < m; i++)
         if (u == 0 || x[i] > x[u - 1] * (1 + 1e-9)) x[u++] = x[i];
     m = u;
-    if (2 * m + 1 > cap) m = (cap - 1) / 2;
-    /* layout: index c = m is lambda 0; c + i is +x[i-1], c - i is -x[i-1] */
-    size_t c = m;
+    if (2 * m + 1 > rf->cap) m = (rf->cap - 1) / 2;
+    return m;
+}
+
+/* g on the grid: lambda 0 at index c = m, c + i is +x[i-1], c - i is -x[i-1]; each side solved
+ * outward from 0 until a decoupled solve fails. The solved indices into *ilo .. *ihi; the round-off
+ * scale of g into *tolsc. */
+static int scan_grid(dth_rootfinder *rf, const double *z, size_t m, size_t *ilo, size_t *ihi, double *tolsc)
+{
+    size_t N = rf->N, c = m;
+    const double *x = rf->tmp;
     for (size_t i = 0; i < m; i++) {
         rf->gl[c + 1 + i] = x[i];
         rf->gl[c - 1 - i] = -x[i];
     }
     rf->gl[c] = 0;
-    double tolsc = 0, sc;
+    double sc;
     memcpy(rf->gz + c * N, z, N * sizeof *z);
-    rc = solve_at(rf, z, 0.0, rf->gz + c * N, &rf->gg[c], &rf->gd[c], &sc);
+    int rc = solve_at(rf, z, 0.0, rf->gz + c * N, &rf->gg[c], &rf->gd[c], &sc);
     if (rc) return rc;
     rf->gd[c] = 0; /* exactly: g'(0) = -psi * 0 / 4 */
-    tolsc = sc;
-    size_t ilo = c, ihi = c;
+    *tolsc = sc;
+    *ilo = *ihi = c;
     for (size_t i = c + 1; i < 2 * m + 1; i++) {
-        if (grid_solve(rf, z, i, i - 1, &tolsc)) break;
-        ihi = i;
+        if (grid_solve(rf, z, i, i - 1, tolsc)) break;
+        *ihi = i;
     }
     for (size_t i = c; i-- > 0;) {
-        if (grid_solve(rf, z, i, i + 1, &tolsc)) break;
-        ilo = i;
+        if (grid_solve(rf, z, i, i + 1, tolsc)) break;
+        *ilo = i;
     }
-    out->lo = rf->gl[ilo];
-    out->hi = rf->gl[ihi];
-    double tol = 32 * DBL_EPSILON * tolsc;
-    out->tol = tol;
+    return DTH_OK;
+}
 
-    /* ---- roots */
-    double lam, slope, res, ge;
+/* The roots between the solved grid points ilo .. ihi (c: lambda 0): sign changes refined, extrema
+ * of g examined for a double root or a hidden pair; the zero root where H_k is round-off. */
+static void grid_roots(dth_rootfinder *rf, const double *z, dth_root_set *out, size_t c, size_t ilo, size_t ihi)
+{
+    size_t N = rf->N;
+    double H = out->vertex.H, tol = out->tol, lam, slope, ge;
     if (fabs(H) <= tol) add_root(rf, out, 0.0, DTH_ROOT_ZERO | DTH_ROOT_DOUBLE, fabs(H), 0.0, z, 0, 0);
     for (size_t i = ilo; i < ihi; i++) {
         pt a = {rf->gl[i], rf->gg[i], rf->gd[i], rf->gz + i * N};
@@ -683,7 +706,13 @@ int dth_find_roots(dth_rootfinder *rf, const double *z, double L, dth_root_set *
             }
         }
     }
-    /* ---- polish simple roots with the bordered Newton of the step */
+}
+
+/* Polish the simple roots with the bordered Newton of the step (their residual from g where it fails). */
+static void polish_roots(dth_rootfinder *rf, const double *z, dth_root_set *out)
+{
+    size_t N = rf->N;
+    double res, sc;
     for (size_t k = 0; k < out->count; k++) {
         dth_root *r = &out->root[k];
         if (r->flags & DTH_ROOT_DOUBLE) continue;
@@ -699,7 +728,13 @@ int dth_find_roots(dth_rootfinder *rf, const double *z, double L, dth_root_set *
             r->residual = eval_from(rf, z, zk, r->lambda, r->lambda, rf->ze, &g, &dg, &sc) ? NAN : fabs(g);
         }
     }
-    /* ---- sort; merge two roots closer than the resolution (g at their middle is round-off) */
+}
+
+/* Sort the roots by lambda; merge two closer than the resolution (g at their middle is round-off). */
+static void sort_merge(dth_rootfinder *rf, const double *z, dth_root_set *out)
+{
+    size_t N = rf->N;
+    double sc;
     for (size_t i = 1; i < out->count; i++)
         for (size_t j = i; j > 0 && out->root[j - 1].lambda > out->root[j].lambda; j--) {
             dth_root t = out->root[j];
@@ -714,7 +749,7 @@ int dth_find_roots(dth_rootfinder *rf, const double *z, double L, dth_root_set *
         double g, dg, mid = 0.5 * (r1->lambda + r2->lambda);
         int merge = 0;
         if (r1->lambda == r2->lambda) merge = 1;
-        else if (!eval_from(rf, z, rf->rz + i * N, r1->lambda, mid, rf->ze, &g, &dg, &sc) && fabs(g) <= tol)
+        else if (!eval_from(rf, z, rf->rz + i * N, r1->lambda, mid, rf->ze, &g, &dg, &sc) && fabs(g) <= out->tol)
             merge = 1;
         if (!merge) {
             i++;
@@ -731,7 +766,13 @@ int dth_find_roots(dth_rootfinder *rf, const double *z, double L, dth_root_set *
         }
         out->count--;
     }
-    /* ---- the vertex's K and region */
+}
+
+/* The vertex's K (see branch.h; the local estimate over the solved grid points with |lambda| >= L/8)
+ * and its region. */
+static void vertex_region(dth_rootfinder *rf, dth_root_set *out, size_t ilo, size_t ihi, double L)
+{
+    double H = out->vertex.H, psi = out->vertex.psi, dpsi = out->vertex.dpsi;
     double K = rf->opt.K > 0 ? rf->opt.K : dth_model_get_info(rf->model)->K;
     if (!(K > 0)) {
         K = 0;
@@ -744,7 +785,35 @@ int dth_find_roots(dth_rootfinder *rf, const double *z, double L, dth_root_set *
     }
     out->vertex.K = K;
     out->vertex.region = out->psi_zero ? (dpsi != 0 ? DTH_REGION_III : DTH_REGION_NONE) : dth_region_of(psi, dpsi, K);
+}
+
+int dth_find_roots(dth_rootfinder *rf, const double *z, double L, dth_root_set *out)
+{
+    if (!rf || !z || !out || !(L > 0) || !isfinite(L)) return DTH_EINVAL;
+    size_t N = rf->N;
+    for (size_t j = 0; j < N; j++)
+        if (!isfinite(z[j])) return DTH_EINVAL;
+    memset(out, 0, sizeof *out);
+    if (z != rf->z) memcpy(rf->z, z, N * sizeof *z);
+    z = rf->z;
+    rf->evals = 0;
+    int rc = search_vertex(rf, z, out);
+    if (rc) return rc;
+    double Ls = L; /* the range scanned: L, or as far as the grid resolves */
+    size_t m = build_grid(rf, out, &Ls), ilo, ihi;
+    double tolsc;
+    rc = scan_grid(rf, z, m, &ilo, &ihi, &tolsc);
+    if (rc) return rc;
+    out->lo = rf->gl[ilo];
+    out->hi = rf->gl[ihi];
+    out->tol = 32 * DBL_EPSILON * tolsc;
+    grid_roots(rf, z, out, m, ilo, ihi);
+    polish_roots(rf, z, out);
+    sort_merge(rf, z, out);
+    vertex_region(rf, out, ilo, ihi, Ls);
     classify(out);
+    /* roots beyond the scan may exist: the list is incomplete */
+    if (out->lo > -L || out->hi < L) out->truncated = 1;
     out->evals = rf->evals;
     return DTH_OK;
 }

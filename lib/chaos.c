@@ -65,6 +65,15 @@ int dth_megno_new(const dth_integrator *it, const double *delta0, const dth_allo
     return DTH_OK;
 }
 
+int dth_megno_new_len(const dth_integrator *it, const double *delta0, size_t len, const dth_allocator *alloc,
+                      dth_megno **out)
+{
+    if (!it) return DTH_EINVAL;
+    size_t N = 2 * dth_model_dof(dth_integrator_model(it)) + 2;
+    if (delta0 ? len != N : len != 0) return DTH_EINVAL;
+    return dth_megno_new(it, delta0, alloc, out);
+}
+
 void dth_megno_free(dth_megno *g)
 {
     if (!g) return;

@@ -113,6 +113,7 @@ struct dth__dth {
     int ypinned;              /* yc is pinned for the rest of this solve (step_again) */
     int rev;                  /* the reversible finish (opt.finish == DTH_FINISH_REVERSIBLE): coarse_n */
     int tiny;                 /* the Newton solve in progress iterates on the compensated constraint (newton_n) */
+    const double *jump;       /* a replaced step's end-vertex displacement during its commit, else NULL */
     double level;             /* the constraint's level s: H(zbar) + s = 0 (0: the DTH step; a composition's
                                  substeps set theirs, issue "fourth order": the step T_-s o Phi o T_s) */
     double Hphys;     /* H_phys at it->zb after the last step evaluation */

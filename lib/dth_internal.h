@@ -59,6 +59,8 @@ void dth__reg_save_state(const struct dth_regularizer *r, void *buf);
 int dth__reg_load_state(struct dth_regularizer *r, const void *buf, size_t len);
 /** The instance's admit callback (regularize.h; the type has one). */
 int dth__reg_admit(struct dth_regularizer *r, const double *za, const double *zb, double lambda);
+/** The instance's observe callback (the type has one). */
+int dth__reg_observe(struct dth_regularizer *r, const struct dth_reg_step *st, double *dt);
 /** Nonzero if the instance replaces every step (its type's replaces_all). */
 int dth__reg_replaces_all(const struct dth_regularizer *r);
 struct dth_rootfinder;
@@ -99,6 +101,51 @@ size_t dth__flow2_work_size(const dth_model *model);
 /** Solve the DTH step from the core's current vertex seeded with (lam, d0): 1 if it converged,
  *  with lambda, the residual and the midpoint out (policy.h's dth__polish_fn). */
 int dth__dth_polish(void *core, double lam, const double *d0, double *lam_out, double *res, double *zbar);
+/** Doubles of workspace dth__model_grad_psi needs. */
+size_t dth__model_gpsi_work(const dth_model *m);
+/** The gradient of psi over y = (q, t, p) (d values) at y, D^3H[u, u, .] + 2 H J^T H u with u = J grad H
+ *  (the third derivative by a second difference of the gradient along u), and psi, psi' there
+ *  (dth_model_psi). Dense Hessians only. */
+int dth__model_grad_psi(const dth_model *m, const double *y, double *gpsi, double *psi, double *dpsi, double *work);
+
+/** A closing condition of dth__kicked_joint: c(z_b) = 0 at the segment's end vertex (eval: its value and
+ *  gradient over y = (q, t, p)), or lambda = `lambda` where eval is NULL. */
+typedef struct dth__kj_close {
+    int (*eval)(void *ctx, const double *yb, double *c, double *grad);
+    void *ctx;
+    double lambda;
+} dth__kj_close;
+/** Doubles of workspace dth__kicked_joint needs. */
+size_t dth__kicked_joint_work_size(const dth_model *model);
+/**
+ * A kicked segment from the vertex z (+ zlo) with its time step lambda unknown too, closed by `close`
+ * (regularize.c): ONE Newton on (d, lambda, mu). On entry dz (N), *lambda, *mu hold a seed; on success the
+ * midpoint offset, the step and the kick. Autonomous models only.
+ * @return DTH_OK, DTH_ENOCONV, DTH_ESINGULAR, DTH_EDOMAIN, DTH_EUNSUPPORTED, the closing condition's status.
+ */
+int dth__kicked_joint(const dth_model *model, const double *z, const double *zlo, const dth__kj_close *close, double *dz,
+                      double *lambda, double *mu, double *residual, int *iters, double *work);
+/** Doubles of workspace dth__kick_at needs. */
+size_t dth__kick_work_size(const dth_model *model);
+/** The kick direction n over (q, p) (2n values) at y, as the kicked segments use it. */
+int dth__kick_at(const dth_model *model, const double *y, double *nv, double *work);
+
+/** D^3 H[a, a, b] at y over y = (q, t, p): the model's `third` by polarization (three calls), else a
+ *  central difference of the Hessian form a^T H a along b. Dense Hessians only. */
+int dth__model_d3aab(const dth_model *m, const double *y, const double *a, const double *b, double *out, double *work);
+/** Doubles of workspace dth__model_d3aab needs. */
+size_t dth__model_d3_work(const dth_model *m);
+
+/* ---- ordinary DTH's step invariant near psi = 0 (step_invariant.c) ---- */
+/** G(r) of I = 512 rho^3/psi G(rho psi'^2/psi^3) (1 at r = 0). */
+double dth__inv_G(double r);
+/** I(psi, rho, psi'), NaN where rho psi < 0 (no ordinary step continues from there). */
+double dth__inv_I(double psi, double rho, double dpsi);
+/** The vertex offset R on the exit branch of the level set I = C at a vertex with psi, psi' travelling
+ *  in direction dir (continued linearly before the crossing), and dR/dpsi. */
+int dth__inv_exit_offset(double C, double psi, double dpsi, double dir, double *R, double *dR);
+/** The offset R with I(psi, R, psi') = C on the side of psi (psi != 0), and dR/dpsi. */
+int dth__inv_level_offset(double C, double psi, double dpsi, double *R, double *dR);
 /** printf into a caller's message buffer (err may be NULL or len 0: nothing is written). */
 void dth__set_err(char *err, size_t len, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 /** Parse a comma-separated list of finite doubles; 0 on success. */
@@ -106,12 +153,17 @@ int dth__parse_list(const char *v, double *out, size_t max, size_t *count);
 
 /* ---- dense LU (linsolve.c: LAPACK, or written out for m <= DTH__SMALL_MAX) ---- */
 
-/** One linear-solver choice (linsolve.c's table). */
+/** The factor/solve/tangent of a linear-solver path (dth_newton.c: the dense paths, the banded ones). */
+struct dth__linsolver;
+extern const struct dth__linsolver dth__dense_ls, dth__band_ls;
+
+/** One linear-solver choice (linsolve.c's table): a new solver is one entry here and its ops. */
 typedef struct dth__linsolve_info {
     dth_linsolve kind;
     const char *name;
     int banded;      /* needs a banded model; no O(m^2) buffers (banded.c) */
     const char *doc;
+    const struct dth__linsolver *ops; /* the step's factor/solve/tangent (NULL: AUTO, resolved first) */
 } dth__linsolve_info;
 /** The entry of choice k, NULL if k is not one. */
 const dth__linsolve_info *dth__linsolve_find(dth_linsolve k);

@@ -172,8 +172,8 @@ static int band_tangent(dth__dth *it, double *M)
     return dth__band_tangent(it->band, it->model, it->st.zbar, it->st.lam, M);
 }
 
-static const struct dth__linsolver dense_ls = {DTH_EVAL_HESS, dense_factor, dense_solve, dth__dense_tangent};
-static const struct dth__linsolver band_ls = {0, band_factor, band_solve, band_tangent};
+const struct dth__linsolver dth__dense_ls = {DTH_EVAL_HESS, dense_factor, dense_solve, dth__dense_tangent};
+const struct dth__linsolver dth__band_ls = {0, band_factor, band_solve, band_tangent};
 
 
 /*
@@ -614,6 +614,11 @@ AI int commit_n(dth__dth *it, const size_t nc, double lam, int replaced)
         }
         finite &= isfinite(zn[j]) != 0;
     }
+    if (replaced && it->jump) /* a regularizer's reset of the end vertex (DTH_STEP_RESET): no time passes */
+        for (size_t j = 0; j < N; j++) {
+            zn[j] = two_sum(zn[j], zl[j] + it->jump[j], &zl[j]);
+            finite &= isfinite(zn[j]) != 0;
+        }
     if (!finite) {
         size_t j = 0;
         while (isfinite(zn[j])) j++;
@@ -694,7 +699,7 @@ static const dth__kernels kernels[4] = {{newton_0, commit_0}, {newton_1, commit_
 
 void dth__newton_setup(dth__dth *it)
 {
-    it->ls = dth__linsolve_find(it->kind)->banded ? &band_ls : &dense_ls;
+    it->ls = dth__linsolve_find(it->kind)->ops; /* linsolve.c's table (kind is resolved: never AUTO) */
     it->kern = &kernels[it->nsmall];
 }
 

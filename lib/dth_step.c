@@ -215,9 +215,22 @@ static int commit_decision(dth__dth *it, const dth__decision *dec, const dth__so
                            int psi_sign_new, dth_step_info *info)
 {
     int replace = dec->verdict == DTH__REPLACE;
+    double lam_last = it->st.have_prev ? it->st.lam : it->st.lam_hint; /* the last step a fresh start aims at */
     if (replace) dth__set_solution(it, dec->d, dec->lambda);
+    it->jump = replace ? dec->jump : NULL;
     int rc = dth__commit(it, dec->lambda, replace);
+    it->jump = NULL;
     if (rc) return rc;
+    if (replace && dec->fresh) { /* the next step from the last ordinary step's size, without this segment */
+        it->st.have_prev = 0;
+        it->st.nhist = 0;
+        it->st.lam_hint = lam_last;
+    }
+    if (dec->dt != 0) { /* the regularizer's clock correction of the new vertex's time */
+        size_t n = it->n;
+        it->st.z[n] = two_sum(it->st.z[n], it->st.zlo[n] + dec->dt, &it->st.zlo[n]);
+        info->flags |= DTH_STEP_CLOCK;
+    }
     info->residual = replace ? dec->residual : sol->residual;
     info->branch = replace ? DTH_BRANCH_REG : br;
     info->flags |= dec->flags;

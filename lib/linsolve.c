@@ -14,16 +14,19 @@
 
 _Static_assert(sizeof(lapack_int) == sizeof(int), "pivots are stored as int");
 
-/* The linear-solver seam: one entry per choice (the factor/solve/tangent of each path are the
- * integrator's, integrator.c's table; banded.c has the banded solves). AUTO resolves by
+/* The linear-solver seam: one entry per choice, with the step's factor/solve/tangent for it
+ * (dth_newton.c's dth__dense_ls and dth__band_ls; banded.c has the banded solves). AUTO resolves by
  * dth__linsolve_resolve. */
 static const dth__linsolve_info solvers[] = {
-    {DTH_LINSOLVE_AUTO, "auto", 0, "banded for banded models, else small for m <= 8 unknowns, else dense"},
-    {DTH_LINSOLVE_DENSE, "dense", 0, "LAPACK dgetrf/dgetrs on the bordered system: the reference path"},
-    {DTH_LINSOLVE_SMALL, "small", 0, "written out, no library call; the Schur complement for separable models"},
-    {DTH_LINSOLVE_BANDED, "banded", 1, "banded models: the banded Schur complement (Cholesky), else banded LU"},
-    {DTH_LINSOLVE_BANDED_LU, "banded-lu", 1, "banded models: banded LU of the whole step matrix"},
-    {DTH_LINSOLVE_SMALL_LU, "small-lu", 0, "the small path's LU with partial pivoting, never its Schur complement"},
+    {DTH_LINSOLVE_AUTO, "auto", 0, "banded for banded models, else small for m <= 8 unknowns, else dense", NULL},
+    {DTH_LINSOLVE_DENSE, "dense", 0, "LAPACK dgetrf/dgetrs on the bordered system: the reference path", &dth__dense_ls},
+    {DTH_LINSOLVE_SMALL, "small", 0, "written out, no library call; the Schur complement for separable models",
+     &dth__dense_ls},
+    {DTH_LINSOLVE_BANDED, "banded", 1, "banded models: the banded Schur complement (Cholesky), else banded LU",
+     &dth__band_ls},
+    {DTH_LINSOLVE_BANDED_LU, "banded-lu", 1, "banded models: banded LU of the whole step matrix", &dth__band_ls},
+    {DTH_LINSOLVE_SMALL_LU, "small-lu", 0, "the small path's LU with partial pivoting, never its Schur complement",
+     &dth__dense_ls},
 };
 enum { NSOLVERS = sizeof solvers / sizeof solvers[0] };
 

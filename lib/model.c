@@ -9,6 +9,7 @@
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <stdint.h>
 #include <string.h>
 #include "dth_internal.h"
 
@@ -157,6 +158,13 @@ int dth_model_new(const dth_model_type *utype, const dth_kv *kv, size_t nkv, siz
     dth_model_args args = {kv, nkv, n_hint, alloc, err, errlen};
     if (err && errlen) err[0] = '\0';
     int rc = type->create(&args, &m->self, &m->info);
+    if (rc == DTH_OK && !m->self && type->n_params > 0) {
+        /* a model with parameters keeps them in its instance: none is a bug of the model (its eval
+         * would read through NULL); stateless models without parameters may leave self NULL */
+        dth__set_err(err, errlen, "create succeeded without an instance (*self = NULL), but the model has "
+                     "parameters to keep in one: a bug in the model");
+        rc = DTH_EINVAL;
+    }
     if (rc == DTH_OK && (m->info.n == 0 || m->info.n > DTH__MAX_DOF)) {
         dth__set_err(err, errlen, "model '%s' reported %zu degrees of freedom (1 to 2^40 supported)", type->name,
                      m->info.n);
@@ -168,6 +176,18 @@ int dth_model_new(const dth_model_type *utype, const dth_kv *kv, size_t nkv, siz
                      DTH__MAX_INVARIANTS);
         rc = DTH_EINVAL;
     }
+    for (size_t i = 0; rc == DTH_OK && i < ninv; i++) {
+        /* the names are columns of CSV files: present, not empty, no separators or control characters */
+        const char *nm = type->invariant_name ? type->invariant_name(m->self, i) : NULL;
+        int ok = nm && nm[0];
+        for (const char *c = nm; ok && *c; c++) ok = *c != ',' && *c != '"' && (unsigned char)*c >= 0x20;
+        if (!ok) {
+            dth__set_err(err, errlen, "invariant %zu of %zu has %s (invariant_name returned %s%s%s)", i + 1, ninv,
+                         nm && nm[0] ? "a name that cannot be a CSV column" : "no name",
+                         nm ? "'" : "NULL", nm ? nm : "", nm ? "'" : "");
+            rc = DTH_EINVAL;
+        }
+    }
     if (rc == DTH_OK && m->info.bandwidth >= 2 * m->info.n && (m->info.hess_kind == DTH_HESS_BANDED)) {
         dth__set_err(err, errlen, "model '%s' reported a Hessian bandwidth of %zu for %zu degrees of freedom",
                      type->name, m->info.bandwidth, m->info.n);
@@ -175,8 +195,8 @@ int dth_model_new(const dth_model_type *utype, const dth_kv *kv, size_t nkv, siz
     }
     if (rc != DTH_OK) {
         if (m->self && type->destroy) type->destroy(m->self, alloc);
-        dth_free(alloc, m);
-        if (err && errlen && !err[0]) dth__set_err(err, errlen, "model '%s': %s", type->name, dth_strerror(rc));
+        dth_free(alloc, m); /* type pointed into m: the caller's table names the model */
+        if (err && errlen && !err[0]) dth__set_err(err, errlen, "model '%s': %s", utype->name, dth_strerror(rc));
         return rc < 0 ? rc : DTH_EINVAL;
     }
     if (rc == DTH_OK && probe_quadratic(m, &m->quad_mask) != DTH_OK) {
@@ -440,7 +460,7 @@ int dth_model_psi(const dth_model *m, const double *y, double *psi, double *dpsi
     /* Central difference of u^T H_yy(y + e u) u in e with u fixed: error O(e^2) + eps/e. */
     double ynorm = 0, unorm = 0;
     for (size_t i = 0; i < d; i++) {
-        ynorm = fmax(ynorm, fabs(y[i]));
+        if (i != n) ynorm = fmax(ynorm, fabs(y[i])); /* (q, p): the time's size sets no step */
         unorm = fmax(unorm, fabs(u[i]));
     }
     double e = cbrt(DBL_EPSILON) * fmax(ynorm, 1.0) / unorm;
@@ -504,6 +524,131 @@ static void check_verdict(const dth_model *m, size_t n, dth_model_check_report *
     if (l + strlen(add) < sizeof rep->message) memcpy(rep->message + l, add, strlen(add) + 1);
 }
 
+/*
+ * dth_model_check's guarded evaluation: every output the model writes (gradient, Hessian, third
+ * derivative, banded Hessian, invariants) in its own slice of one block with a canary of GUARD
+ * doubles (a NaN payload) before and after each, so that a model writing past an output, or before
+ * it, is named (outputs of a run are slices of one block with no gap: such a write would silently
+ * change another output). Returns 1 and the message in `what` when a canary was touched.
+ */
+enum { GUARD = 8 };
+static const uint64_t canary_bits = 0x7ff4dead5eedbeefULL;
+
+static void canary_fill(double *p)
+{
+    for (int i = 0; i < GUARD; i++) memcpy(&p[i], &canary_bits, sizeof canary_bits);
+}
+
+static int canary_ok(const double *p)
+{
+    for (int i = 0; i < GUARD; i++)
+        if (memcmp(&p[i], &canary_bits, sizeof canary_bits)) return 0;
+    return 1;
+}
+
+static int guarded_eval(const dth_model *m, const double *y, char *what, size_t len)
+{
+    size_t n = m->info.n, d = 2 * n + 1, nb = 0, ni = m->type->n_invariants && m->type->invariants ? m->type->n_invariants(m->self) : 0;
+    if (m->info.hess_kind == DTH_HESS_BANDED && m->type->hess_band) nb = 2 * n * (2 * m->info.bandwidth + 1);
+    size_t sizes[5] = {d, d * d, 1, nb, ni};
+    const char *names[5] = {"gradient (2n+1 doubles)", "Hessian ((2n+1)^2 doubles)", "third derivative (1 double)",
+                            "banded Hessian (2n (2w+1) doubles)", "invariants (n_invariants doubles)"};
+    size_t total = GUARD;
+    for (int k = 0; k < 5; k++) total += sizes[k] + GUARD;
+    double *blk = dth_calloc(m->alloc, total, sizeof(double)), *out[5], *u = NULL, H;
+    if (!blk) return -1;
+    double *p = blk;
+    canary_fill(p);
+    p += GUARD;
+    for (int k = 0; k < 5; k++) {
+        out[k] = p;
+        p += sizes[k];
+        canary_fill(p);
+        p += GUARD;
+    }
+    u = dth_calloc(m->alloc, d, sizeof *u);
+    int bad = -1;
+    if (u) {
+        (void)m->type->eval(m->self, y, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &H, out[0], out[1]);
+        dth__flow_y(n, out[0], u);
+        if (m->type->third) (void)m->type->third(m->self, y, u, out[2]);
+        if (nb) (void)m->type->hess_band(m->self, y, out[3]);
+        if (ni) (void)m->type->invariants(m->self, y, out[4]);
+        bad = 0;
+        for (int k = 0; k < 5 && !bad; k++)
+            if (!canary_ok(out[k] - GUARD) || !canary_ok(out[k] + sizes[k])) {
+                snprintf(what, len, "FAIL: model '%s' wrote %s its %s", m->type->name,
+                         canary_ok(out[k] - GUARD) ? "past the end of" : "before the start of", names[k]);
+                bad = 1;
+            }
+    }
+    dth_free(m->alloc, u);
+    dth_free(m->alloc, blk);
+    return bad;
+}
+
+/* dth_model_check's third-derivative check: D^3 H[u,u,u] against a difference of the Hessian form
+ * along u = J grad H held fixed. */
+static int check_third(const dth_model *m, const double *y, const double *grad, double hscale, double *u, double *yy,
+                       double *hp, dth_model_check_report *rep)
+{
+    size_t n = m->info.n, d = 2 * n + 1;
+    int rc = DTH_OK;
+    /* Compare D^3 H[u,u,u] with a difference of the Hessian form along a fixed direction. */
+    dth__flow_y(n, grad, u);
+    double unorm = 0, ynorm = 0, d3 = 0, f[2];
+    for (size_t i = 0; i < d; i++) {
+        unorm = fmax(unorm, fabs(u[i]));
+        if (i != n) ynorm = fmax(ynorm, fabs(y[i])); /* (q, p): the time's size sets no step */
+    }
+    double e = cbrt(DBL_EPSILON) * fmax(ynorm, 1.0) / unorm, fd = 0;
+    int r3 = m->type->third(m->self, y, u, &d3);
+    if (r3) rc = r3 > 0 ? DTH_EDOMAIN : DTH_EMODEL;
+    double sc3 = hscale * unorm * unorm * unorm / fmax(ynorm, 1.0);
+    /* differences at e and e/2, Richardson-extrapolated; e divided by 4 while they disagree
+     * by more than the threshold (at most 8 times), as for the gradient and the Hessian */
+    for (int shrink = 0; !rc; shrink++) {
+        double f2[2];
+        for (int s = 0; s < 4 && !rc; s++) {
+            double es = (s & 1 ? -e : e) * (s & 2 ? 0.5 : 1.0);
+            for (size_t i = 0; i < d; i++) yy[i] = y[i] + es * u[i];
+            rc = dth_model_eval(m, yy, DTH_EVAL_HESS, NULL, NULL, hp);
+            if (!rc) (s & 2 ? f2 : f)[s & 1] = quad_form(d, hp, u);
+        }
+        if (rc) break;
+        double a = (f[0] - f[1]) / (2 * e), b = (f2[0] - f2[1]) / e;
+        fd = (4 * b - a) / 3;
+        if (fabs(a - b) <= rep->tol * fmax(fmax(fabs(fd), fabs(d3)), sc3) || shrink == 8) break;
+        e *= 0.25;
+    }
+    if (!rc) rep->third_err = fabs(fd - d3) / fmax(fmax(fabs(fd), fabs(d3)), sc3);
+    return rc;
+}
+
+/* dth_model_check's banded Hessian against the dense one. */
+static int check_band(const dth_model *m, const double *y, const double *hess, double hscale, dth_model_check_report *rep)
+{
+    size_t n = m->info.n, d = 2 * n + 1;
+    int rc = DTH_OK;
+    size_t w = m->info.bandwidth, bw = 2 * w + 1, nn = 2 * n;
+    double *band = dth_calloc(m->alloc, nn * bw, sizeof(double));
+    if (!band) rc = DTH_ENOMEM;
+    else if (m->type->hess_band(m->self, y, band) != 0) rc = DTH_EMODEL;
+    else {
+        /* interleaved index x_(2i) = q_i -> y_i, x_(2i+1) = p_i -> y_(n+1+i) */
+        for (size_t a = 0; a < nn; a++)
+            for (size_t b = 0; b < nn; b++) {
+                size_t ya = (a % 2) ? n + 1 + a / 2 : a / 2, yb = (b % 2) ? n + 1 + b / 2 : b / 2;
+                double dense = hess[ya * d + yb];
+                double bv = 0;
+                if ((a > b ? a - b : b - a) <= w) bv = band[a * bw + (b + w - a)];
+                rep->band_err = fmax(rep->band_err, fabs(bv - dense) / hscale);
+            }
+    }
+    dth_free(m->alloc, band);
+    return rc;
+}
+
 /* the block of coordinate i of y = (q, t, p): 0, 1, 2 */
 static int blk(size_t n, size_t i) { return i < n ? 0 : i == n ? 1 : 2; }
 int dth_model_check(const dth_model *m, const double *y, dth_model_check_report *rep)
@@ -512,6 +657,9 @@ int dth_model_check(const dth_model *m, const double *y, dth_model_check_report 
     memset(rep, 0, sizeof *rep);
     rep->tol = DTH_MODEL_CHECK_TOL;
     size_t n = m->info.n, d = 2 * n + 1;
+    int g = guarded_eval(m, y, rep->message, sizeof rep->message);
+    if (g < 0) return DTH_ENOMEM;
+    if (g) return DTH_OK; /* pass = 0 and the message name the output overrun */
     double *buf = dth_calloc(m->alloc, 3 * d * d + 9 * d, sizeof(double));
     if (!buf) return DTH_ENOMEM;
     double *hess = buf, *hp = hess + d * d, *hm = hp + d * d;
@@ -585,56 +733,8 @@ int dth_model_check(const dth_model *m, const double *y, dth_model_check_report 
     for (size_t i = 0; !rc && i < d; i++)
         for (size_t j = 0; j < i; j++)
             rep->sym_err = fmax(rep->sym_err, fabs(hess[i * d + j] - hess[j * d + i]) / hscale);
-    if (!rc && m->type->third) {
-        /* Compare D^3 H[u,u,u] with a difference of the Hessian form along a fixed direction. */
-        dth__flow_y(n, grad, u);
-        double unorm = 0, ynorm = 0, d3 = 0, f[2];
-        for (size_t i = 0; i < d; i++) {
-            unorm = fmax(unorm, fabs(u[i]));
-            ynorm = fmax(ynorm, fabs(y[i]));
-        }
-        double e = cbrt(DBL_EPSILON) * fmax(ynorm, 1.0) / unorm, fd = 0;
-        if (!rc) {
-            int r3 = m->type->third(m->self, y, u, &d3);
-            if (r3) rc = r3 > 0 ? DTH_EDOMAIN : DTH_EMODEL;
-        }
-        double sc3 = hscale * unorm * unorm * unorm / fmax(ynorm, 1.0);
-        /* differences at e and e/2, Richardson-extrapolated; e divided by 4 while they disagree
-         * by more than the threshold (at most 8 times), as for the gradient and the Hessian */
-        for (int shrink = 0; !rc; shrink++) {
-            double f2[2];
-            for (int s = 0; s < 4 && !rc; s++) {
-                double es = (s & 1 ? -e : e) * (s & 2 ? 0.5 : 1.0);
-                for (size_t i = 0; i < d; i++) yy[i] = y[i] + es * u[i];
-                rc = dth_model_eval(m, yy, DTH_EVAL_HESS, NULL, NULL, hp);
-                if (!rc) (s & 2 ? f2 : f)[s & 1] = quad_form(d, hp, u);
-            }
-            if (rc) break;
-            double a = (f[0] - f[1]) / (2 * e), b = (f2[0] - f2[1]) / e;
-            fd = (4 * b - a) / 3;
-            if (fabs(a - b) <= rep->tol * fmax(fmax(fabs(fd), fabs(d3)), sc3) || shrink == 8) break;
-            e *= 0.25;
-        }
-        if (!rc) rep->third_err = fabs(fd - d3) / fmax(fmax(fabs(fd), fabs(d3)), sc3);
-    }
-    if (!rc && m->info.hess_kind == DTH_HESS_BANDED && m->type->hess_band) {
-        size_t w = m->info.bandwidth, bw = 2 * w + 1, nn = 2 * n;
-        double *band = dth_calloc(m->alloc, nn * bw, sizeof(double));
-        if (!band) rc = DTH_ENOMEM;
-        else if (m->type->hess_band(m->self, y, band) != 0) rc = DTH_EMODEL;
-        else {
-            /* interleaved index x_(2i) = q_i -> y_i, x_(2i+1) = p_i -> y_(n+1+i) */
-            for (size_t a = 0; a < nn; a++)
-                for (size_t b = 0; b < nn; b++) {
-                    size_t ya = (a % 2) ? n + 1 + a / 2 : a / 2, yb = (b % 2) ? n + 1 + b / 2 : b / 2;
-                    double dense = hess[ya * d + yb];
-                    double bv = 0;
-                    if ((a > b ? a - b : b - a) <= w) bv = band[a * bw + (b + w - a)];
-                    rep->band_err = fmax(rep->band_err, fabs(bv - dense) / hscale);
-                }
-        }
-        dth_free(m->alloc, band);
-    }
+    if (!rc && m->type->third) rc = check_third(m, y, grad, hscale, u, yy, hp, rep);
+    if (!rc && m->info.hess_kind == DTH_HESS_BANDED && m->type->hess_band) rc = check_band(m, y, hess, hscale, rep);
     dth_free(m->alloc, buf);
     if (!rc) check_verdict(m, n, rep);
     return rc;
@@ -697,24 +797,124 @@ int dth_args_list(const dth_model_args *a, const char *key, double *out, size_t 
     return dth__parse_list(v, out, max, count) ? dth_args_error(a, "parameter '%s': '%s' is not a list of at most %zu finite numbers", key, v, max) : DTH_OK;
 }
 
+/* One item of a list: the text from s to stop (a comma or the end), read as dth_parse_double reads a
+ * string, in place: an item may be as long as its line (a token buffer once cut it at 127). */
+static int parse_item(const char *s, const char *stop, double *out)
+{
+    while (s < stop && (*s == ' ' || *s == '\t')) s++;
+    if (s == stop) return -1;
+    char *end;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (end == s || end > stop) return -1;
+    while (end < stop && (*end == ' ' || *end == '\t')) end++;
+    if (end != stop || !isfinite(v)) return -1;
+    if (errno == ERANGE && fabs(v) > 1.0) return -1; /* overflow; underflow to a denormal is fine */
+    *out = v;
+    return 0;
+}
+
 int dth__parse_list(const char *v, double *out, size_t max, size_t *count)
 {
-    char tok[128];
     size_t k = 0;
     *count = 0;
     const char *s = v;
     for (;;) {
         const char *c = strchr(s, ',');
-        size_t len = c ? (size_t)(c - s) : strlen(s);
-        if (len >= sizeof tok) return -1;
-        memcpy(tok, s, len);
-        tok[len] = '\0';
+        const char *stop = c ? c : s + strlen(s);
         if (k >= max) return -1;
-        if (dth_parse_double(tok, &out[k])) return -1;
+        if (parse_item(s, stop, &out[k])) return -1;
         k++;
         if (!c) break;
         s = c + 1;
     }
     *count = k;
     return 0;
+}
+
+size_t dth__model_gpsi_work(const dth_model *m)
+{
+    size_t d = 2 * m->info.n + 1;
+    return dth_model_work_size(m) + d * d + 6 * d;
+}
+
+int dth__model_grad_psi(const dth_model *m, const double *y, double *gpsi, double *psi, double *dpsi, double *work)
+{
+    size_t n = m->info.n, d = 2 * n + 1;
+    double *A = work + dth_model_work_size(m), *g = A + d * d, *u = g + d, *ys = u + d, *gp = ys + d, *gm = gp + d,
+           *v = gm + d;
+    int rc = dth_model_psi(m, y, psi, dpsi, work);
+    if (!rc) rc = dth_model_eval(m, y, DTH_EVAL_GRAD | DTH_EVAL_HESS, NULL, g, A);
+    if (rc) return rc;
+    dth__flow_y(n, g, u);
+    /* D^3 H[u, u, .] by the second difference of the gradient along u (error O(e^2) + eps / e^2) */
+    double ynorm = 1, unorm = 0;
+    for (size_t i = 0; i < d; i++) {
+        if (i != n) ynorm = fmax(ynorm, fabs(y[i])); /* (q, p): the time's size sets no step */
+        unorm = fmax(unorm, fabs(u[i]));
+    }
+    double e = sqrt(sqrt(DBL_EPSILON)) * ynorm / unorm;
+    for (size_t i = 0; i < d; i++) ys[i] = y[i] + e * u[i];
+    rc = dth_model_eval(m, ys, DTH_EVAL_GRAD, NULL, gp, NULL);
+    for (size_t i = 0; !rc && i < d; i++) ys[i] = y[i] - e * u[i];
+    if (!rc) rc = dth_model_eval(m, ys, DTH_EVAL_GRAD, NULL, gm, NULL);
+    if (rc) return rc;
+    /* + 2 A J^T A u: v = A u, (J^T v)_q = -v_p, (J^T v)_p = v_q over y */
+    for (size_t i = 0; i < d; i++) {
+        double s = 0;
+        for (size_t j = 0; j < d; j++) s += A[i * d + j] * u[j];
+        v[i] = s;
+    }
+    for (size_t i = 0; i < n; i++) {
+        ys[i] = -v[n + 1 + i];
+        ys[n + 1 + i] = v[i];
+    }
+    ys[n] = 0;
+    for (size_t i = 0; i < d; i++) {
+        double s = 0;
+        for (size_t j = 0; j < d; j++) s += A[i * d + j] * ys[j];
+        gpsi[i] = (gp[i] - 2 * g[i] + gm[i]) / (e * e) + 2 * s;
+    }
+    return DTH_OK;
+}
+
+int dth__model_d3aab(const dth_model *m, const double *y, const double *a, const double *b, double *out, double *work)
+{
+    size_t n = m->info.n, d = 2 * n + 1;
+    double *v = work, *ys = work + d, *hess = ys + d;
+    if (m->type->third) { /* polarization: D^3H[a, a, b] = (T(a + b) - T(a - b) - 2 T(b)) / 6, T(x) = D^3H[x, x, x] */
+        double t[3];
+        for (int k = 0; k < 3; k++) {
+            for (size_t i = 0; i < d; i++) v[i] = k == 0 ? a[i] + b[i] : k == 1 ? a[i] - b[i] : b[i];
+            int r3 = m->type->third(m->self, y, v, &t[k]);
+            if (r3) return r3 > 0 ? DTH_EDOMAIN : DTH_EMODEL;
+        }
+        *out = (t[0] - t[1] - 2 * t[2]) / 6;
+        return isfinite(*out) ? DTH_OK : DTH_EDOMAIN;
+    }
+    /* central difference of a^T H(y + e b) a in e */
+    double ynorm = 1, bnorm = 0, f[2];
+    for (size_t i = 0; i < d; i++) {
+        if (i != n) ynorm = fmax(ynorm, fabs(y[i])); /* (q, p): the time's size sets no step */
+        bnorm = fmax(bnorm, fabs(b[i]));
+    }
+    if (!(bnorm > 0)) {
+        *out = 0;
+        return DTH_OK;
+    }
+    double e = cbrt(DBL_EPSILON) * ynorm / bnorm;
+    for (int s = 0; s < 2; s++) {
+        for (size_t i = 0; i < d; i++) ys[i] = y[i] + (s ? -e : e) * b[i];
+        int rc = dth_model_eval(m, ys, DTH_EVAL_HESS, NULL, NULL, hess);
+        if (rc) return rc;
+        f[s] = quad_form(d, hess, a);
+    }
+    *out = (f[0] - f[1]) / (2 * e);
+    return DTH_OK;
+}
+
+size_t dth__model_d3_work(const dth_model *m)
+{
+    size_t d = 2 * m->info.n + 1;
+    return 2 * d + d * d;
 }

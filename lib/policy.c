@@ -16,6 +16,7 @@
 /* The cheap test accepts a Newton root only with s <= S_CHEAP, safely below the paper's 6/5
  * (Theorem EU_2 (vi)); between the two the full search decides (branch.c classifies by 6/5). */
 #define S_CHEAP 1.0
+#define S_FOLD 1.2 /* the paper's 6/5: beyond it a root is the ghost */
 
 static void say(dth__policy *p, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 static void say(dth__policy *p, const char *fmt, ...)
@@ -44,11 +45,11 @@ int dth__policy_init(dth__policy *p, const dth_model *model, const dth_options *
     p->reg = o->regularizer;
     dth__policy_reset(p);
     size_t N = p->N;
-    p->work = dth_calloc(p->alloc, dth_model_work_size(model) + 3 * N, sizeof(double));
+    p->work = dth_calloc(p->alloc, dth_model_work_size(model) + 4 * N, sizeof(double));
     if (!p->work) return DTH_ENOMEM;
     p->cand = p->work + dth_model_work_size(model);
     p->dd = p->cand + N;
-    p->ad = p->dd + N;
+    p->ad = p->dd + N; /* and the jump after it */
     p->regsnap_len = dth__reg_state_size(p->reg);
     if (p->regsnap_len && !(p->regsnap = dth_calloc(p->alloc, p->regsnap_len, 1))) return DTH_ENOMEM;
     if (!o->branch_check || dth__model_banded(model)) return DTH_OK;
@@ -86,6 +87,7 @@ int dth__policy_branch(dth__policy *p, const dth__view *v, dth__decision *dec)
     int rc = v->status;
     memset(dec, 0, sizeof *dec);
     dec->branch = DTH_BRANCH_NONE;
+    p->psi_a = p->dpsi_a = NAN;
     if (!rf) {
         /* no branch check: Newton's root as it is, if it goes the right way */
         if (rc) return rc;
@@ -101,6 +103,8 @@ int dth__policy_branch(dth__policy *p, const dth__view *v, dth__decision *dec)
     double H, psi, dpsi, pabs;
     int vr = dth__rootfinder_vertex(rf, v->z, v->zlo, &H, &psi, &dpsi, &pabs);
     if (vr) return rc ? rc : vr;
+    p->psi_a = psi; /* for the regularizer's observe (policy.h) */
+    p->dpsi_a = dpsi;
     /* the vertex offset H_k as the step reads it: the direct value wp + H_phys carries eps S, as
      * large as the offset itself at tiny steps, where its sign, which the cheap test reads, is noise */
     if (!isnan(v->hk)) H = v->hk;
@@ -117,6 +121,25 @@ int dth__policy_branch(dth__policy *p, const dth__view *v, dth__decision *dec)
             p->st.psi_prev = psi;
             p->st.psi_step = v->steps;
             return DTH_OK;
+        }
+    }
+    /* With a regularizer, a vertex approaching psi = 0 whose cubic model has no root with s <= 1 ahead
+     * is decided without the full search (docs/regularization.md, "land"): Newton's root if it is the
+     * cubic model's nearest (within 10 %) and physical (s <= 6/5, H/psi > 0), else the fold the full
+     * search would find; the regularizer replaces the step then. */
+    if (p->reg && !pz && psi * dpsi * v->dir < 0) {
+        double cr = dth_cubic_root(H, psi, dpsi, v->dir);
+        if (cr == 0 || -(dpsi / psi) * cr > S_CHEAP) {
+            if (!rc && v->lambda * v->dir > 0 && H * psi > 0 && -(dpsi / psi) * v->lambda <= S_FOLD && cr != 0 &&
+                fabs(cr - v->lambda) <= 0.1 * fabs(v->lambda)) {
+                dec->branch = v->lambda > 0 ? DTH_BRANCH_PLUS : DTH_BRANCH_MINUS;
+                p->st.psi_prev = psi;
+                p->st.psi_step = v->steps;
+                return DTH_OK;
+            }
+            say(p, "no physical root ahead of the vertex approaching psi = 0 (H = %.3g, psi = %.3g, psi' = %.3g: the "
+                   "cubic model's root %s)", H, psi, dpsi, cr == 0 ? "is missing" : "lies beyond s = 1");
+            return DTH_EFOLD;
         }
     }
     /* the full search on [-L, L] around the expected step */
@@ -202,8 +225,8 @@ static dth_reg_event reg_event(const dth__policy *p, const dth__view *v, int rc,
 
 static int reg_apply(dth__policy *p, const dth_reg_event *ev, dth_reg_action *act, dth__decision *dec)
 {
-    memset(p->ad, 0, p->N * sizeof *p->ad);
-    *act = (dth_reg_action){DTH_REG_KEEP, 0.0, p->ad, 0.0, 0, NULL};
+    memset(p->ad, 0, 2 * p->N * sizeof *p->ad); /* the offset and the jump */
+    *act = (dth_reg_action){DTH_REG_KEEP, 0.0, p->ad, 0.0, 0, NULL, p->ad + p->N, 0, 0.0};
     int r = dth_regularizer_apply(p->reg, ev, act);
     dec->iters += act->iters;
     if (!r && act->what != DTH_REG_KEEP && act->what != DTH_REG_REPLACE) {
@@ -231,12 +254,17 @@ static int reg_finish(dth__policy *p, const dth__view *v, const dth_reg_action *
         say(p, "regularizer '%s' answered a step %.17g against the direction of travel", name, lam);
         return DTH_EREFUSED;
     }
+    const double *jp = replace ? act->jump : NULL;
+    int jumped = 0;
     for (size_t j = 0; j < N; j++) {
-        if (replace && (!isfinite(dk[j]) || (v->auton && j == N - 1 && dk[j] != 0))) {
+        double jj = jp ? jp[j] : 0;
+        if (replace && (!isfinite(dk[j]) || !isfinite(jj) || (v->auton && j == N - 1 && dk[j] != 0) ||
+                        (j == N - 1 && jj != 0))) {
             say(p, "regularizer '%s' answered a non-finite offset or one that changes wp", name);
             return DTH_EREFUSED;
         }
-        p->cand[j] = v->z[j] + (v->zlo[j] + 2 * dk[j]);
+        jumped |= jj != 0;
+        p->cand[j] = v->z[j] + (v->zlo[j] + (2 * dk[j] + jj));
     }
     int sb, r = psi_sign_at(p, v->model, p->cand, &sb);
     if (r) return r;
@@ -246,10 +274,32 @@ static int reg_finish(dth__policy *p, const dth__view *v, const dth_reg_action *
     if (replace) {
         dec->residual = act->residual;
         dec->branch = DTH_BRANCH_REG;
-        dec->flags |= DTH_STEP_REGULARIZED;
+        dec->flags |= DTH_STEP_REGULARIZED | (jumped ? DTH_STEP_RESET : 0u);
+        dec->jump = jumped ? jp : NULL;
+        dec->fresh = act->fresh != 0;
+        dec->dt = isfinite(act->dt) ? act->dt : 0;
     }
     if (sb != p->st.psi_sign) dec->flags |= DTH_STEP_CROSSING;
     *psi_sign_new = sb;
+    return DTH_OK;
+}
+
+/* The regularizer's look at an ordinary step it lets through (its observe callback): a clock correction. */
+static int observe(dth__policy *p, const dth__view *v, dth__decision *dec)
+{
+    if (!dth_regularizer_get_type(p->reg)->observe) return DTH_OK;
+    size_t N = p->N;
+    for (size_t j = 0; j < N; j++) p->cand[j] = v->z[j] + (2 * v->d[j] + v->zlo[j]); /* the end vertex */
+    double *zbar = p->dd;
+    for (size_t j = 0; j < N; j++) zbar[j] = v->z[j] + (v->d[j] + v->zlo[j]);
+    dth_reg_step st = {v->model, N, v->z, zbar, p->cand, v->lambda, v->dir, p->psi_a, p->dpsi_a};
+    double dt = 0;
+    int r = dth__reg_observe(p->reg, &st, &dt);
+    if (r) {
+        say(p, "regularizer '%s' stopped the run: %s", dth_regularizer_get_type(p->reg)->name, dth_strerror(r));
+        return r;
+    }
+    dec->dt = isfinite(dt) ? dt : 0;
     return DTH_OK;
 }
 
@@ -290,7 +340,7 @@ int dth__policy_cross(dth__policy *p, const dth__view *v, int pre, dth__decision
     dth_reg_action act;
     if (pre) {
         /* the hook was asked before the ordinary step (dth__policy_pre) and kept it */
-        act = (dth_reg_action){DTH_REG_KEEP, 0.0, p->ad, 0.0, 0, NULL};
+        act = (dth_reg_action){DTH_REG_KEEP, 0.0, p->ad, 0.0, 0, NULL, p->ad + p->N, 0, 0.0};
         if (!plain_ok) {
             /* say that the hook had no step of its own here */
             const char *name = dth_regularizer_get_type(p->reg)->name;
@@ -317,7 +367,7 @@ int dth__policy_cross(dth__policy *p, const dth__view *v, int pre, dth__decision
             dec->lambda = v->lambda;
             dec->d = v->d;
             *psi_sign_new = sb;
-            return DTH_OK;
+            return observe(p, v, dec);
         }
     }
     /* the ordinary step failed or crossed psi = 0: ask the regularizer */

@@ -60,6 +60,9 @@ typedef struct dth__decision {
     int verdict;
     double lambda;    /* RESEED, REPLACE: the step */
     const double *d;  /* RESEED, REPLACE: its offset zbar - z_k (N; the policy's buffer) */
+    const double *jump; /* REPLACE: the end vertex's displacement (N), NULL: none */
+    int fresh;        /* REPLACE: the next step starts without history */
+    double dt;        /* TAKE, REPLACE: the regularizer's correction of the new vertex's time */
     double residual;  /* REPLACE: |H(zbar)| of the segment */
     int iters;        /* iterations the regularizer spent */
     int asked;        /* the regularizer was consulted on this candidate (or before it) */
@@ -82,6 +85,7 @@ typedef struct dth__policy {
     unsigned char *regsnap;    /* the regularizer's own state at the start of the step */
     size_t regsnap_len;
     const dth_allocator *alloc;
+    double psi_a, dpsi_a;      /* psi, psi' at the vertex as the branch test read them (NaN: not read) */
     char *err;                 /* the stepper's message buffer */
     size_t errlen;
 } dth__policy;

@@ -76,9 +76,9 @@ int dth_regularizer_new(const dth_regularizer_type *utype, const dth_kv *kv, siz
         dth_reg_args a = {kv, nkv, model, alloc, err, errlen};
         int rc = type->create(&a, &r->self);
         if (rc) {
-            if (r->self && type->destroy) type->destroy(r->self, alloc);
-            dth_free(alloc, r);
             if (err && errlen && !err[0]) snprintf(err, errlen, "regularizer '%s': %s", type->name, dth_strerror(rc));
+            if (r->self && type->destroy) type->destroy(r->self, alloc);
+            dth_free(alloc, r);             /* type points into r: the message is written first */
             return rc < 0 ? rc : DTH_EINVAL;
         }
     }
@@ -114,6 +114,11 @@ int dth__reg_load_state(dth_regularizer *r, const void *buf, size_t len)
 int dth__reg_admit(dth_regularizer *r, const double *za, const double *zb, double lambda)
 {
     return r->type->admit(r->self, za, zb, lambda);
+}
+
+int dth__reg_observe(dth_regularizer *r, const dth_reg_step *st, double *dt)
+{
+    return r->type->observe(r->self, st, dt);
 }
 
 int dth__reg_replaces_all(const dth_regularizer *r)
@@ -324,30 +329,67 @@ static void ks_midpoint(const ks_ctx *c, const double *x, double *y)
     }
 }
 
-static int ks_eval(void *ctx, const double *x, double *F, int jac)
+/*
+ * The kick direction at the midpoint y (gradient g, Hessian hs): n = S P S grad H over (q, p), with
+ * S = diag(sc) the kick's metric and P the projector off S grad I of the quadratic invariants
+ * (G: their orthonormal rows, `kept` of them): grad I . n = 0 (the midpoint identity keeps I) and
+ * grad H . n = |P S grad H|^2 > 0.
+ */
+static size_t kick_dir(const dth_model *model, size_t n, const double *y, const double *g, const double *hs, double *sc,
+                       double *G, double *ys, double *tmp, double *nv)
 {
-    ks_ctx *c = ctx;
-    const dth_model *model = c->model;
-    size_t n = c->n, d = 2 * n + 1, q = 2 * n, m = (size_t)c->m;
-    double *y = c->y, *g = c->g, *hs = c->hs, *A = c->A, *nv = c->nv, *G = c->G, *sc = c->sc;
-    ks_midpoint(c, x, y);
-    int rc = dth__model_eval_raw(model, y, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &c->H, g, hs);
-    if (rc) return rc;
-    /* kick direction: n = S P S grad H over (q, p), with S = diag(sc) the kick's metric and
-     * P the projector off S grad I of the quadratic invariants: grad I . n = 0 (the midpoint
-     * identity keeps I) and grad H . n = |P S grad H|^2 > 0 */
+    size_t q = 2 * n;
     kick_metric(model, n, hs, sc);
     for (size_t i = 0; i < n; i++) {
         nv[i] = sc[i] * g[i];
         nv[n + i] = sc[n + i] * g[n + 1 + i];
     }
-    size_t kept = quad_invariant_basis(model, y, sc, G, c->ys, c->tmp);
+    size_t kept = quad_invariant_basis(model, y, sc, G, ys, tmp);
     for (size_t r = 0; r < kept; r++) {
         double dot = 0;
         for (size_t i = 0; i < q; i++) dot += nv[i] * G[r * q + i];
         for (size_t i = 0; i < q; i++) nv[i] -= dot * G[r * q + i];
     }
     for (size_t i = 0; i < q; i++) nv[i] *= sc[i];
+    return kept;
+}
+
+/*
+ * The kick's block of a Newton Jacobian (column-major, leading dimension m, rows and columns 0..2n-1 over
+ * (q, p)): I - (lambda/2) d u / d y - (kmu/2) S P S H, the derivatives of S and P left out (they are
+ * multiplied by mu, which is tiny; the projected Hessian term is needed: without it Newton converges only
+ * linearly where grad H is far from n, e.g. at Kepler pericentres).
+ */
+static void kick_block(size_t n, size_t m, const double *hs, const double *sc, const double *G, size_t kept, double lam,
+                       double kmu, double *A)
+{
+    size_t d = 2 * n + 1, q = 2 * n;
+    for (size_t a = 0; a < q; a++) {
+        size_t ya = a < n ? a : a + 1; /* y-index of this (q, p) component */
+        for (size_t b = 0; b < q; b++) {
+            size_t yb = b < n ? b : b + 1;
+            A[a + b * m] = (a == b ? 1.0 : 0.0) - 0.5 * lam * dth__dudz(n, hs, ya, yb) - 0.5 * kmu * sc[a] * sc[a] * hs[ya * d + yb];
+        }
+    }
+    for (size_t rr = 0; rr < kept; rr++)
+        for (size_t b = 0; b < q; b++) {
+            size_t yb = b < n ? b : b + 1;
+            double sb = 0;
+            for (size_t k = 0; k < q; k++) sb += G[rr * q + k] * sc[k] * hs[(k < n ? k : k + 1) * d + yb];
+            for (size_t a = 0; a < q; a++) A[a + b * m] += 0.5 * kmu * sc[a] * G[rr * q + a] * sb;
+        }
+}
+
+static int ks_eval(void *ctx, const double *x, double *F, int jac)
+{
+    ks_ctx *c = ctx;
+    const dth_model *model = c->model;
+    size_t n = c->n, q = 2 * n, m = (size_t)c->m;
+    double *y = c->y, *g = c->g, *hs = c->hs, *A = c->A, *nv = c->nv;
+    ks_midpoint(c, x, y);
+    int rc = dth__model_eval_raw(model, y, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &c->H, g, hs);
+    if (rc) return rc;
+    size_t kept = kick_dir(model, n, y, g, hs, c->sc, c->G, c->ys, c->tmp, nv);
     /* F = d - (lambda/2) u - (mu/2) n, u = (dH/dp, -dH/dq); F_last = wp + H */
     double lam = c->lambda, kmu = x[q];
     for (size_t i = 0; i < n; i++) {
@@ -356,28 +398,13 @@ static int ks_eval(void *ctx, const double *x, double *F, int jac)
     }
     F[q] = c->wp + c->H;
     if (!jac) return DTH_OK;
-    /* Jacobian over (d_q, d_p, mu); the derivative of the projection itself is left out
-     * (it is multiplied by mu, which is tiny) */
+    /* Jacobian over (d_q, d_p, mu) */
+    kick_block(n, m, hs, c->sc, c->G, kept, lam, kmu, A);
     for (size_t a = 0; a < q; a++) {
-        size_t ya = a < n ? a : a + 1;           /* y-index of this (q, p) component */
-        for (size_t b = 0; b < q; b++) {
-            size_t yb = b < n ? b : b + 1;
-            A[a + b * m] = (a == b ? 1.0 : 0.0) - 0.5 * lam * dth__dudz(n, hs, ya, yb) - 0.5 * kmu * sc[a] * sc[a] * hs[ya * d + yb];
-        }
         A[a + q * m] = -0.5 * nv[a];
-        A[q + a * m] = g[ya];
+        A[q + a * m] = g[a < n ? a : a + 1];
     }
     A[q + q * m] = 0;
-    /* the kick's Hessian term projected like n itself, S P S H with P = I - G^T G (without
-     * it Newton converges only linearly where grad H is far from n, e.g. Kepler pericentres);
-     * the derivatives of S and P are left out (they are multiplied by mu) */
-    for (size_t rr = 0; rr < kept; rr++)
-        for (size_t b = 0; b < q; b++) {
-            size_t yb = b < n ? b : b + 1;
-            double sb = 0;
-            for (size_t k = 0; k < q; k++) sb += G[rr * q + k] * sc[k] * hs[(k < n ? k : k + 1) * d + yb];
-            for (size_t a = 0; a < q; a++) A[a + b * m] += 0.5 * kmu * sc[a] * G[rr * q + a] * sb;
-        }
     return dth__lu_factor(DTH_LINSOLVE_AUTO, c->m, A, c->piv);
 }
 
@@ -473,4 +500,167 @@ size_t dth__quad_invariant_basis(const dth_model *model, const double *y, const 
                                  double *tmp)
 {
     return quad_invariant_basis(model, y, sc, G, ys, tmp);
+}
+
+/* ------------------------------------------------------------------ the kicked segment, lambda unknown */
+
+/*
+ * A kicked segment from the vertex z (+ zlo) whose time step lambda is an unknown too, closed by a
+ * condition on the segment's end vertex z_b = z + 2 d (close->eval: its value and gradient over y), or
+ * by lambda = close->lambda when close->eval is NULL: ONE Newton on x = (d_q, d_p, lambda, mu),
+ *     d - (1/2)(lambda u(zbar) + mu n(zbar)) = 0,  wp + H(zbar) = 0,  c(z_b) = 0,
+ * t advancing by lambda. The Jacobian is ks_eval's block plus the lambda column (-u/2) and the closing
+ * row (2 dc/dy at z_b). Autonomous models only.
+ */
+typedef struct kj_ctx {
+    const dth_model *model;
+    const double *z, *zlo;
+    const dth__kj_close *close;
+    double wp, H;
+    size_t n, d, m;
+    double *y, *yb, *g, *hs, *A, *F, *dx, *nv, *G, *tmp, *ys, *sc, *gc;
+    int *piv;
+} kj_ctx;
+
+size_t dth__kicked_joint_work_size(const dth_model *model)
+{
+    size_t n = dth_model_dof(model), d = 2 * n + 1, m = 2 * n + 2, ni = model_ninv(model);
+    return 3 * d + d * d + m * m + 4 * m + 2 * n + ni * 2 * n + 2 * ni + 8 + d + 2 * n + d + (m + 1) / 2 + 1;
+}
+
+/* zbar and z_b over y from x = (d_q, d_p, lambda, mu) */
+static void kj_points(const kj_ctx *c, const double *x)
+{
+    size_t n = c->n;
+    for (size_t j = 0; j < c->d; j++) {
+        double lo = c->zlo ? c->zlo[j] : 0;
+        double dj = j < n ? x[j] : (j == n ? 0.5 * x[2 * n] : x[j - 1]);
+        c->y[j] = c->z[j] + (lo + dj);
+        c->yb[j] = c->z[j] + (lo + 2 * dj);
+    }
+}
+
+static int kj_eval(kj_ctx *c, const double *x)
+{
+    size_t n = c->n, q = 2 * n, m = c->m, d = c->d;
+    double *A = c->A, *F = c->F, *g = c->g, *nv = c->nv, lam = x[q], kmu = x[q + 1];
+    kj_points(c, x);
+    int rc = dth__model_eval_raw(c->model, c->y, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &c->H, g, c->hs);
+    if (rc) return rc;
+    size_t kept = kick_dir(c->model, n, c->y, g, c->hs, c->sc, c->G, c->ys, c->tmp, nv);
+    for (size_t i = 0; i < n; i++) {
+        F[i] = x[i] - 0.5 * lam * g[n + 1 + i] - 0.5 * kmu * nv[i];
+        F[n + i] = x[n + i] + 0.5 * lam * g[i] - 0.5 * kmu * nv[n + i];
+    }
+    F[q] = c->wp + c->H;
+    memset(A, 0, m * m * sizeof *A);
+    kick_block(n, m, c->hs, c->sc, c->G, kept, lam, kmu, A);
+    for (size_t a = 0; a < q; a++) {
+        size_t ya = a < n ? a : a + 1;
+        A[a + q * m] = -0.5 * (a < n ? g[n + 1 + a] : -g[a - n]); /* d F / d lambda = -u/2 */
+        A[a + (q + 1) * m] = -0.5 * nv[a];
+        A[q + a * m] = g[ya];
+    }
+    if (c->close->eval) {
+        rc = c->close->eval(c->close->ctx, c->yb, &F[q + 1], c->gc);
+        if (rc) return rc;
+        for (size_t a = 0; a < q; a++) A[q + 1 + a * m] = 2 * c->gc[a < n ? a : a + 1];
+    } else {
+        F[q + 1] = lam - c->close->lambda;
+        A[q + 1 + q * m] = 1;
+    }
+    (void)d;
+    return dth__lu_factor(DTH_LINSOLVE_AUTO, (int)m, A, c->piv);
+}
+
+int dth__kicked_joint(const dth_model *model, const double *z, const double *zlo, const dth__kj_close *close, double *dz,
+                      double *lambda, double *mu, double *residual, int *iters, double *work)
+{
+    if (!dth_model_get_info(model)->autonomous) return DTH_EUNSUPPORTED;
+    size_t n = dth_model_dof(model), N = 2 * n + 2, d = 2 * n + 1, m = 2 * n + 2, q = 2 * n, ni = model_ninv(model);
+    kj_ctx c = {.model = model, .z = z, .zlo = zlo, .close = close, .wp = z[N - 1] + (zlo ? zlo[N - 1] : 0), .n = n,
+                .d = d, .m = m};
+    double *p = work, *xv;
+    double **slots[] = {&c.y, &c.yb, &c.g, &c.hs, &c.A, &c.F, &c.dx, &c.nv, &c.G, &c.tmp, &c.ys, &c.sc, &c.gc, &xv};
+    size_t sizes[] = {d, d, d, d * d, m * m, m, m, q, ni * q, 2 * ni + 8, d, q, d, m};
+    for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) {
+        *slots[i] = p;
+        p += sizes[i];
+    }
+    c.piv = (int *)p;
+    for (size_t i = 0; i < n; i++) {
+        xv[i] = dz[i];
+        xv[n + i] = dz[n + 1 + i];
+    }
+    xv[q] = *lambda;
+    xv[q + 1] = *mu;
+    double rprev = INFINITY, zs = 1e-300; /* the scale of (q, p): t plays no part (no bits depend on it) */
+    for (size_t j = 0; j < d; j++)
+        if (j != n) zs = fmax(zs, fabs(z[j]));
+    int it, rc = DTH_ENOCONV;
+    for (it = 1; it <= 40; it++) {
+        rc = DTH_ENOCONV;
+        int er = kj_eval(&c, xv);
+        if (er) {
+            rc = er;
+            break;
+        }
+        memcpy(c.dx, c.F, m * sizeof *c.dx);
+        dth__lu_solve(DTH_LINSOLVE_AUTO, (int)m, c.A, c.piv, 1, c.dx);
+        double r = 0, nn = 0;
+        for (size_t a = 0; a < m; a++) {
+            xv[a] -= c.dx[a];
+            if (!isfinite(xv[a])) return DTH_ENOCONV;
+        }
+        for (size_t a = 0; a < q; a++) nn += c.nv[a] * c.nv[a];
+        for (size_t a = 0; a <= q; a++) {
+            size_t j = a < n ? a : a < q ? a + 1 : n;
+            double sc = a == q ? fabs(xv[q]) + 1e-300 : fabs(z[j]) + fabs(c.y[j]) + 1e-300;
+            r = fmax(r, fabs(c.dx[a]) / sc);
+        }
+        r = fmax(r, fabs(c.dx[q + 1]) * sqrt(nn) / zs);
+        if (r <= 4 * DBL_EPSILON) {
+            rc = DTH_OK;
+            break;
+        }
+        if (it >= 3 && r > 0.25 * rprev) { /* no longer quadratic: accept at the noise floor, else give up late */
+            if (r < 1e-9) {
+                rc = DTH_OK;
+                break;
+            }
+            if (it > 15) break;
+        }
+        rprev = r;
+    }
+    if (iters) *iters = it;
+    if (rc) return rc;
+    kj_points(&c, xv);
+    rc = dth_model_eval(model, c.y, DTH_EVAL_H, &c.H, NULL, NULL);
+    if (rc) return rc;
+    for (size_t i = 0; i < n; i++) {
+        dz[i] = xv[i];
+        dz[n + 1 + i] = xv[n + i];
+    }
+    dz[n] = 0.5 * xv[q];
+    dz[N - 1] = 0;
+    *lambda = xv[q];
+    *mu = xv[q + 1];
+    if (residual) *residual = fabs(c.wp + c.H);
+    return DTH_OK;
+}
+
+size_t dth__kick_work_size(const dth_model *model)
+{
+    size_t n = dth_model_dof(model), ni = model_ninv(model);
+    return 2 * n + ni * 2 * n + 2 * ni + 8 + (2 * n + 1) + 2 * n + 3 * (2 * n + 1) + (2 * n + 1) * (2 * n + 1);
+}
+
+int dth__kick_at(const dth_model *model, const double *y, double *nv, double *work)
+{
+    size_t n = dth_model_dof(model), d = 2 * n + 1, q = 2 * n, ni = model_ninv(model);
+    double *G = work, *tmp = G + ni * q, *ys = tmp + 2 * ni + 8, *sc = ys + d, *g = sc + q, *hs = g + 3 * d;
+    int rc = dth__model_eval_raw(model, y, DTH_EVAL_GRAD | DTH_EVAL_HESS, NULL, g, hs);
+    if (rc) return rc;
+    kick_dir(model, n, y, g, hs, sc, G, ys, tmp, nv);
+    return DTH_OK;
 }

@@ -19,6 +19,7 @@ void dth_run_config_default(dth_run_config *cfg)
 {
     if (!cfg) return;
     memset(cfg, 0, sizeof *cfg);
+    cfg->size = sizeof *cfg;
     cfg->t0 = NAN;
     cfg->points = DTH_POINTS_VERTICES;
     cfg->every = 1;
@@ -137,6 +138,12 @@ typedef struct drv {
     dth_step_info seg;    /* the step za -> zb */
     long kseg;            /* index of za */
     int cb_failed;        /* a sample or checkpoint callback failed: no final checkpoint */
+    int too_many;         /* a step held more than DTH_RUN_MAX_SAMPLES_PER_STEP output times */
+    int cb;               /* the status in hand came from a sample, event or checkpoint callback */
+    int lo_closed;        /* the first segment's window includes its lower end (a fresh run) */
+    int ended_by;         /* dth_run_stop of the loop's end */
+    int stop_event;       /* the terminal event that ended it, -1: none */
+    double t_stop;        /* its time, NaN: none */
 } drv;
 
 static void vertex_now(drv *d, double *z) { memcpy(z, dth_integrator_vertex(d->it), d->N * sizeof *z); }
@@ -331,7 +338,11 @@ static int segment(drv *d, double lo, double hi, int lo_closed, double *stop_t, 
     }
     /* ---- output times up to the top of the window */
     if (cfg->points == DTH_POINTS_TIMES) {
-        for (;;) {
+        for (long count = 0;; count++) {
+            if (count >= DTH_RUN_MAX_SAMPLES_PER_STEP) { /* run.h: a step holds too many */
+                d->too_many = 1;
+                return DTH_EINVAL;
+            }
             double t;
             if (cfg->times) {
                 if ((size_t)st->j >= cfg->ntimes) break;
@@ -359,6 +370,7 @@ static void account(dth_run_state *st, const dth_step_info *s)
     int cross = (s->flags & DTH_STEP_CROSSING) != 0;
     if (cross) st->crossings++;
     if (s->flags & DTH_STEP_REGULARIZED) st->regularized++;
+    if (s->flags & (DTH_STEP_RESET | DTH_STEP_CLOCK)) st->nonreversible++;
     if ((cross || st->prev_crossing) && st->in.lambda != 0 && s->lambda != 0) {
         double q = fabs(s->lambda / st->in.lambda);
         st->max_ratio = fmax(st->max_ratio, fmax(q, 1 / q));
@@ -384,15 +396,30 @@ static void account_vertex(drv *d, const dth_step_info *s)
         st->t_lam_max = d->zb[n];
     }
     if (dth_integrator_error(d->it, &st->err_q, &st->err_p) != DTH_OK) st->err_q = st->err_p = NAN;
+    if (d->wp_fixed && d->cfg->stop_error > 0) { /* a baseline: its energy error (wp = -H_phys(z_0)) */
+        double H;
+        if (dth_model_eval(d->model, d->zb, DTH_EVAL_H | DTH_EVAL_GRAD, &H, d->zr, NULL) != DTH_OK) return;
+        st->e_err = fabs(d->zb[d->N - 1] + H);
+        if (!s) {
+            double sc = fabs(H);
+            for (size_t j = 0; j + 1 < d->N; j++)
+                if (j != n) sc += fabs(d->zb[j] * d->zr[j]);
+            st->e_scale = sc;
+        }
+    }
 }
 
 /* The stop rule of the error estimate (dth_run_config.stop_error): the steps ran away from h and
- * the error is a sizeable part of the orbit. */
+ * the error is a sizeable part of the orbit; or a fixed-step baseline's energy error is (its own
+ * estimate cannot see it: the shadow takes the same steps with a method of the same kind). */
 static int runaway(const drv *d)
 {
     const dth_run_state *st = d->st;
     double f = d->cfg->stop_error, h = fabs(dth__integrator_h(d->it));
-    return f > 0 && st->lam_max > d->cfg->step_ratio * h && (st->err_q > f * st->q_max || st->err_p > f * st->p_max);
+    if (!(f > 0)) return 0;
+    if (d->wp_fixed) return st->e_err > f * st->e_scale;
+    return d->cfg->step_ratio > 0 && st->lam_max > d->cfg->step_ratio * h &&
+           (st->err_q > f * st->q_max || st->err_p > f * st->p_max);
 }
 
 /* The local error estimate of the segment za -> zb: the defect of its cubic Hermite interpolant at
@@ -434,7 +461,10 @@ static double open_segment(drv *d, const dth_step_info *info, long k, const doub
     return d->cfg->has_t_end && before(d, d->cfg->t_end, hi) ? d->cfg->t_end : hi;
 }
 
-static int drive(drv *d)
+/* The start of a call: the run's first vertex (a fresh state), the events there, and for a resumed
+ * run whose last segment was cut (by t_end or a terminal event) the rest of that segment, rebuilt from
+ * the midpoint (round-off of z_(k-1) = 2 zbar - z_k). A callback's failure sets d->cb. */
+static int drive_begin(drv *d)
 {
     const dth_run_config *cfg = d->cfg;
     dth_run_state *st = d->st;
@@ -453,126 +483,151 @@ static int drive(drv *d)
     }
     st->t = d->zb[n];
     st->stop = DTH_RUN_RUNNING;
-    int lo_closed = st->samples == 0 && st->events == 0 && st->k == 0;
+    d->lo_closed = st->samples == 0 && st->events == 0 && st->k == 0;
+    d->cb = 1;
     for (size_t e = 0; e < cfg->nevents; e++)
-        if ((rc = ev_eval(d, e, d->zb, &d->gb[e])) != 0) goto cb;
-
-    /* a resumed run whose last segment was cut (by t_end or a terminal event): the rest of it,
-     * on the segment rebuilt from the midpoint (round-off of z_(k-1) = 2 zbar - z_k), or from the
-     * vertex before (order 4 keeps it) */
+        if ((rc = ev_eval(d, e, d->zb, &d->gb[e])) != 0) return rc;
+    /* a resumed run whose last segment was cut (by t_end or a terminal event): the rest of it, on the
+     * segment rebuilt from the midpoint (round-off of z_(k-1) = 2 zbar - z_k), or from the vertex
+     * before (order 4 keeps it) */
     const double *mid = dth_integrator_midpoint(d->it), *prev = dth__integrator_prev_vertex(d->it);
     if ((mid || prev) && st->k > 0 && before(d, st->t_stop, st->t)) {
         for (size_t j = 0; j < N; j++) d->za[j] = prev ? prev[j] : 2 * mid[j] - d->zb[j];
         d->ua_ok = d->ub_ok = 0;
         double hi = open_segment(d, &st->in, st->k - 1, mid), stop_t;
         for (size_t e = 0; e < cfg->nevents; e++)
-            if ((rc = ev_eval(d, e, d->za, &d->ga[e])) != 0) goto cb;
+            if ((rc = ev_eval(d, e, d->za, &d->ga[e])) != 0) return rc;
         int pend = st->pending, stop_e;
         st->pending = 0; /* za's own sample went out before */
-        if (before(d, st->t_stop, hi) && (rc = segment(d, st->t_stop, hi, 0, &stop_t, &stop_e)) != 0) goto cb;
+        if (before(d, st->t_stop, hi) && (rc = segment(d, st->t_stop, hi, 0, &stop_t, &stop_e)) != 0) return rc;
         st->pending = pend;
         st->t_stop = hi;
     }
+    d->cb = 0;
+    return DTH_OK;
+}
 
+/* One step and its segment's samples and events. 0: go on (d->ended_by = DTH_RUN_EVENT: a terminal
+ * event ended the run); else the step's status (d->ended_by says why), or a callback's (d->cb). */
+static int drive_step(drv *d)
+{
+    const dth_run_config *cfg = d->cfg;
+    dth_run_state *st = d->st;
+    dth_step_info info;
+    int rc = dth_integrator_step(d->it, &info);
+    if (rc) {
+        d->ended_by = DTH_RUN_FAILED;
+        return rc;
+    }
+    account(st, &info);
+    /* the new segment: za <- zb, zb <- the new vertex */
+    swap(&d->za, &d->zb);
+    swap(&d->ua, &d->ub);
+    swap(&d->aa, &d->ab);
+    swap(&d->ga, &d->gb);
+    d->ua_ok = d->ub_ok;
+    d->ub_ok = 0;
+    vertex_now(d, d->zb);
+    /* a regularizer's segment has its midpoint too (z_k + d) */
+    double hi = open_segment(d, &info, st->k, dth_integrator_midpoint(d->it));
+    if (cfg->local_error && local_error(d, &info.lerr) == DTH_OK) d->seg.lerr = info.lerr;
+    account_vertex(d, &info);
+    d->cb = 1;
+    for (size_t e = 0; e < cfg->nevents; e++)
+        if ((rc = ev_eval(d, e, d->zb, &d->gb[e])) != 0) return rc;
+    rc = segment(d, st->t_stop, hi, d->lo_closed, &d->t_stop, &d->stop_event);
+    d->lo_closed = 0;
+    /* the step is taken whatever the samples said: the state moves on */
+    st->in = info;
+    st->k++;
+    st->t = d->zb[d->n];
+    st->pending = 1;
+    st->t_stop = isnan(d->t_stop) ? hi : d->t_stop;
+    if (rc) return rc;
+    d->cb = 0;
+    if (!isnan(d->t_stop)) {
+        d->ended_by = DTH_RUN_EVENT; /* a terminal event: the loop's end */
+        return DTH_OK;
+    }
+    if (runaway(d)) {
+        d->ended_by = DTH_RUN_FAILED;
+        return DTH_EACCURACY;
+    }
+    return DTH_OK;
+}
+
+/* The steps until the run's end, a stop request, a failed step or a terminal event (d->ended_by);
+ * checkpoints and progress between them. */
+static int drive_steps(drv *d)
+{
+    const dth_run_config *cfg = d->cfg;
+    dth_run_state *st = d->st;
     long since_ckpt = 0, since_prog = 0;
-    int ended_by = DTH_RUN_END, stop_event = -1;
-    double t_stop = NAN;
+    d->ended_by = DTH_RUN_END;
+    d->stop_event = -1;
+    d->t_stop = NAN;
     for (;;) {
         int done = cfg->has_t_end ? !before(d, st->t, cfg->t_end) : st->k >= cfg->steps;
-        if (done) break;
+        if (done) return DTH_OK;
         if (cfg->checkpoint && cfg->checkpoint_every > 0 && since_ckpt >= cfg->checkpoint_every) {
-            if ((rc = cfg->checkpoint(cfg->user, st)) != 0) {
-                d->cb_failed = 1;
-                goto cb;
+            int rc = cfg->checkpoint(cfg->user, st);
+            if (rc) {
+                d->cb_failed = d->cb = 1;
+                return rc;
             }
             since_ckpt = 0;
         }
         if (cfg->progress && cfg->progress_every > 0 && since_prog >= cfg->progress_every) {
             since_prog = 0;
-            if ((rc = cfg->progress(cfg->user, st)) != 0) {
-                ended_by = DTH_RUN_CALLBACK;
-                break;
+            int rc = cfg->progress(cfg->user, st);
+            if (rc) {
+                d->ended_by = DTH_RUN_CALLBACK;
+                return rc;
             }
         }
-        dth_step_info info;
-        rc = dth_integrator_step(d->it, &info);
-        if (rc) {
-            ended_by = DTH_RUN_FAILED;
-            break;
-        }
-        account(st, &info);
-        /* the new segment: za <- zb, zb <- the new vertex */
-        swap(&d->za, &d->zb);
-        swap(&d->ua, &d->ub);
-        swap(&d->aa, &d->ab);
-        swap(&d->ga, &d->gb);
-        d->ua_ok = d->ub_ok;
-        d->ub_ok = 0;
-        vertex_now(d, d->zb);
-        /* a regularizer's segment has its midpoint too (z_k + d) */
-        double hi = open_segment(d, &info, st->k, dth_integrator_midpoint(d->it));
-        if (cfg->local_error && local_error(d, &info.lerr) == DTH_OK) d->seg.lerr = info.lerr;
-        account_vertex(d, &info);
-        for (size_t e = 0; e < cfg->nevents; e++)
-            if ((rc = ev_eval(d, e, d->zb, &d->gb[e])) != 0) goto cb;
-        rc = segment(d, st->t_stop, hi, lo_closed, &t_stop, &stop_event);
-        lo_closed = 0;
-        /* the step is taken whatever the samples said: the state moves on */
-        st->in = info;
-        st->k++;
-        st->t = d->zb[n];
-        st->pending = 1;
-        st->t_stop = isnan(t_stop) ? hi : t_stop;
-        if (rc) goto cb;
+        int rc = drive_step(d);
+        if (rc || d->ended_by == DTH_RUN_EVENT) return rc;
         since_ckpt++;
         since_prog++;
-        if (!isnan(t_stop)) {
-            ended_by = DTH_RUN_EVENT;
-            break;
-        }
-        if (runaway(d)) {
-            rc = DTH_EACCURACY;
-            ended_by = DTH_RUN_FAILED;
-            break;
-        }
     }
-    int step_rc = rc;
-    /* the final checkpoint: the integrator at its vertex, whose sample is still pending */
+}
+
+/* The end of a call: the final checkpoint (the integrator at its vertex, whose sample is still
+ * pending), and the last sample (the vertex where a step failed, or the end sample). */
+static int drive_end(drv *d, int step_rc)
+{
+    const dth_run_config *cfg = d->cfg;
+    dth_run_state *st = d->st;
+    int rc;
+    d->cb = 1;
     if (cfg->checkpoint && (rc = cfg->checkpoint(cfg->user, st)) != 0) {
         d->cb_failed = 1;
-        goto cb;
+        return rc;
     }
     if (step_rc) {
-        /* a failed step or a stop request: the last vertex closes the vertex samples */
-        st->stop = ended_by;
+        st->stop = d->ended_by;
         if (cfg->points == DTH_POINTS_VERTICES && st->pending) {
             dth_sample s = {DTH_SAMPLE_END, 0, st->k, d->zb, &st->in, 0, NULL, NULL, -1, 0, NAN, NAN};
             st->pending = 0;
             st->t_stop = st->t;
-            if ((rc = emit(d, &s)) != 0) goto cb;
+            if ((rc = emit(d, &s)) != 0) return rc;
         }
+        d->cb = 0;
         return step_rc;
     }
-    /* the end sample */
     int end_sample = cfg->points == DTH_POINTS_VERTICES ||
-                     (cfg->points == DTH_POINTS_TIMES && (cfg->has_t_end || ended_by == DTH_RUN_EVENT));
-    if (ended_by == DTH_RUN_EVENT) {
-        st->t_stop = t_stop;
-    } else if (cfg->has_t_end) {
-        st->t_stop = cfg->t_end;
-    } else {
-        st->t_stop = st->t;
-    }
+                     (cfg->points == DTH_POINTS_TIMES && (cfg->has_t_end || d->ended_by == DTH_RUN_EVENT));
+    st->t_stop = d->ended_by == DTH_RUN_EVENT ? d->t_stop : cfg->has_t_end ? cfg->t_end : st->t;
     if (end_sample) {
         double te = st->t_stop;
-        dth_sample s = {DTH_SAMPLE_END, 0, st->k, d->zb, &st->in, 0, NULL, NULL, stop_event, 0, NAN, NAN};
+        dth_sample s = {DTH_SAMPLE_END, 0, st->k, d->zb, &st->in, 0, NULL, NULL, d->stop_event, 0, NAN, NAN};
         int already = cfg->points == DTH_POINTS_TIMES && st->samples > 0 && st->j > 0 &&
                       (cfg->times ? cfg->times[st->j - 1] : st->t_first + d->dir * (double)(st->j - 1) * cfg->dt) == te;
         if (te != st->t) {
             if (!d->have_seg) { /* nothing to interpolate on (cannot happen after a step) */
                 already = 1;
             } else {
-                if ((rc = seg_flows(d)) != 0) goto cb;
+                if ((rc = seg_flows(d)) != 0) return rc;
                 dense(d, te, d->zi);
                 s.z = d->zi;
                 s.step = &d->seg;
@@ -582,25 +637,26 @@ static int drive(drv *d)
         } else {
             st->pending = 0; /* the end is the vertex itself */
         }
-        if (!already && (rc = emit(d, &s)) != 0) goto cb;
+        if (!already && (rc = emit(d, &s)) != 0) return rc;
     }
-    st->stop = ended_by;
+    st->stop = d->ended_by;
+    d->cb = 0;
     return DTH_OK;
-cb:
-    st->stop = DTH_RUN_CALLBACK;
+}
+
+static int drive(drv *d)
+{
+    int rc = drive_begin(d);
+    if (!rc) rc = drive_steps(d);
+    if (!d->cb) rc = drive_end(d, rc);
+    if (rc && d->cb) d->st->stop = d->too_many ? DTH_RUN_SAMPLES : DTH_RUN_CALLBACK;
     return rc;
 }
 
 int dth_run(dth_integrator *it, const dth_run_config *cfg, dth_run_state *st)
 {
-    if (!cfg || !st || !it) return DTH_EINVAL;
-    if (cfg->every < 1) return DTH_EINVAL;
-    if (cfg->points == DTH_POINTS_TIMES && !cfg->times && !(cfg->dt > 0 && isfinite(cfg->dt))) return DTH_EINVAL;
-    if (cfg->points == DTH_POINTS_MIDPOINTS && !dth__integrator_has_midpoints(it)) return DTH_EINVAL;
-    if (cfg->nevents && !cfg->events) return DTH_EINVAL;
-    for (size_t e = 0; e < cfg->nevents; e++)
-        if (!cfg->events[e].g) return DTH_EINVAL;
-    if (cfg->has_t_end && !isfinite(cfg->t_end)) return DTH_EINVAL;
+    int rc = dth_run_check(it, cfg, st, NULL, 0); /* every rule on cfg (run_check.c) */
+    if (rc) return rc;
     drv d;
     memset(&d, 0, sizeof d);
     d.cfg = cfg;
@@ -642,13 +698,7 @@ int dth_run(dth_integrator *it, const dth_run_config *cfg, dth_run_state *st)
         d.work5 = p;
     }
     d.dev = dev;
-    int rc = DTH_OK;
-    if (cfg->has_t_end && !st->started) {
-        double t = dth_integrator_vertex(it)[d.n];
-        double t0 = isnan(cfg->t0) ? t : cfg->t0;
-        if (d.dir * (cfg->t_end - t0) < 0) rc = DTH_EINVAL;
-    }
-    if (!rc) rc = drive(&d);
+    rc = drive(&d);
     dth_free(cfg->alloc, blk);
     dth_free(cfg->alloc, dev);
     return rc;

@@ -2,12 +2,13 @@
 /*
  * Scene files: an INI key store that remembers where each value came from (FILE:LINE or the
  * -s override), and its validation into a run setup (model, initial state, DTH step options of
- * the paper's section 2 and the start modes, output). Parsing uses inih; nothing is printed.
+ * the paper's section 2 and the start modes, output): each key by the table of scene_keys.c, the
+ * rules between keys here, the integrator's rules by dth_options_check. Parsing uses inih;
+ * nothing is printed.
  */
 #include <ctype.h>
 #include <errno.h>
 #include <ini.h>
-#include <limits.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdint.h>
@@ -15,13 +16,13 @@
 #include <stdlib.h>
 #include <string.h>
 #include "dth/scene.h"
-#include "dth/methods.h"
-#include "compose.h"
 #include "dth_internal.h"
+#include "scene_keys.h"
 
 typedef struct entry {
     char *section, *key, *value, *origin;
     size_t vlen, vcap; /* length of value and its allocation (continuation lines grow it) */
+    int override;      /* set by dth_scene_set / dth_scene_set_from, not read from a file */
 } entry;
 
 struct dth_scene {
@@ -106,6 +107,7 @@ static void put(dth_scene *s, entry *x)
     e->vlen = x->vlen;
     e->vcap = x->vcap;
     e->origin = x->origin;
+    e->override = x->override;
     dth_free(s->alloc, x->section);
     dth_free(s->alloc, x->key);
 }
@@ -118,6 +120,7 @@ static int make_entry(const dth_allocator *a, const char *section, size_t sl, co
     x->value = dup_n(a, value, vl);
     x->vlen = vl;
     x->vcap = vl + 1;
+    x->override = 0; /* dth_scene_set_from marks its own */
     x->origin = dup_s(a, origin);
     if (x->section && x->key && x->value && x->origin) return DTH_OK;
     entry_free(a, x);
@@ -240,7 +243,7 @@ static int handler(void *user, const char *section, const char *name, const char
     }
     char origin[4096 + 32];
     snprintf(origin, sizeof origin, "%s:%d", c->path, c->lineno);
-    entry x;
+    entry x = {0};
     if (reserve(c->tmp, 1) || make_entry(c->tmp->alloc, section, strlen(section), name, strlen(name),
                                          value, strlen(value), origin, &x)) {
         c->nomem = 1;
@@ -471,14 +474,37 @@ static void trim(const char **b, const char **e)
 
 int dth_scene_set(dth_scene *s, const char *assignment, char *err, size_t errlen)
 {
+    return dth_scene_set_from(s, NULL, assignment, err, errlen);
+}
+
+int dth_scene_check_entry(const char *section, const char *key, const char *value, char *err, size_t errlen)
+{
+    if (!section || !key || !value) {
+        dth__set_err(err, errlen, "invalid arguments to dth_scene_check_entry");
+        return DTH_EINVAL;
+    }
+    const char *why = unwritable(section, key, value);
+    if (why) {
+        dth__set_err(err, errlen, "%.49s.%.49s: a scene file cannot hold this (%s)", section, key, why);
+        return DTH_EPARSE;
+    }
+    return DTH_OK;
+}
+
+int dth_scene_set_from(dth_scene *s, const char *from, const char *assignment, char *err, size_t errlen)
+{
     if (!s || !assignment) {
         dth__set_err(err, errlen, "invalid arguments to dth_scene_set");
         return DTH_EINVAL;
     }
+    /* the override names itself in messages (and as its origin), cut after 80 characters */
+    char origin[80 + 8];
+    if (from) snprintf(origin, sizeof origin, "%.*s%s", AS_CUT(from));
+    else snprintf(origin, sizeof origin, "-s %.*s%s", AS_CUT(assignment));
     const char *eq = strchr(assignment, '=');
     const char *dot = eq ? memchr(assignment, '.', (size_t)(eq - assignment)) : NULL;
     if (!eq || !dot) {
-        dth__set_err(err, errlen, "-s %.*s%s: expected section.key=value", AS_CUT(assignment));
+        dth__set_err(err, errlen, "%s: expected section.key=value", origin);
         return DTH_EPARSE;
     }
     const char *sb = assignment, *se = dot, *kb = dot + 1, *ke = eq, *vb = eq + 1,
@@ -487,7 +513,7 @@ int dth_scene_set(dth_scene *s, const char *assignment, char *err, size_t errlen
     trim(&kb, &ke);
     trim(&vb, &ve);
     if (sb == se || kb == ke) {
-        dth__set_err(err, errlen, "-s %.*s%s: expected section.key=value", AS_CUT(assignment));
+        dth__set_err(err, errlen, "%s: expected section.key=value", origin);
         return DTH_EPARSE;
     }
     /* only what a scene file could hold (a checkpoint saves the scene as a file) */
@@ -507,20 +533,12 @@ int dth_scene_set(dth_scene *s, const char *assignment, char *err, size_t errlen
         dth_free(s->alloc, val);
     }
     if (why) {
-        dth__set_err(err, errlen, "-s %.*s%s: a scene file cannot hold this (%s)", AS_CUT(assignment), why);
+        dth__set_err(err, errlen, "%s: a scene file cannot hold this (%s)", origin, why);
         return DTH_EPARSE;
     }
-    /* the override names itself in messages, cut after 80 characters */
-    size_t olen = 80 + 8;
-    char *origin = dth_calloc(s->alloc, olen, 1);
     entry x = {0};
-    int rc = origin ? DTH_OK : DTH_ENOMEM;
-    if (!rc) {
-        snprintf(origin, olen, "-s %.*s%s", AS_CUT(assignment));
-        rc = make_entry(s->alloc, sb, (size_t)(se - sb), kb, (size_t)(ke - kb), vb, (size_t)(ve - vb),
-                        origin, &x);
-    }
-    dth_free(s->alloc, origin);
+    int rc = make_entry(s->alloc, sb, (size_t)(se - sb), kb, (size_t)(ke - kb), vb, (size_t)(ve - vb), origin, &x);
+    x.override = 1;
     if (!rc) rc = reserve(s, 1);
     if (rc) {
         if (x.section) entry_free(s->alloc, &x);
@@ -599,56 +617,6 @@ static int bad(char *err, size_t len, const entry *e, const char *fmt, ...)
     return DTH_EINVAL;
 }
 
-/* A count: a whole-string decimal integer, or a number with an integer value ("1e6"), in
- * [lo, hi]. 0, or PARSE_NOT_INT (not an integer), PARSE_LOW / PARSE_HIGH (an integer below lo,
- * above hi). */
-enum { PARSE_NOT_INT = -1, PARSE_LOW = -2, PARSE_HIGH = -3 };
-static int parse_long(const char *v, long lo, long hi, long *out)
-{
-    while (*v == ' ' || *v == '\t') v++;
-    if (!*v) return PARSE_NOT_INT;
-    char *end;
-    errno = 0;
-    long x = strtol(v, &end, 10);
-    const char *rest = end;
-    while (*rest == ' ' || *rest == '\t') rest++;
-    if (end == v || *rest) {
-        /* not plain decimal: a number whose value is an integer (1e6, 2.0) counts too */
-        double d;
-        if (dth_parse_double(v, &d) || d != floor(d)) return PARSE_NOT_INT;
-        if (d < (double)lo || !(d > -0x1p63)) return PARSE_LOW;
-        if (d > (double)hi || !(d < 0x1p63)) return PARSE_HIGH;
-        x = (long)d;
-    } else if (errno == ERANGE) {
-        return x < 0 ? PARSE_LOW : PARSE_HIGH;
-    }
-    if (x < lo) return PARSE_LOW;
-    if (x > hi) return PARSE_HIGH;
-    *out = x;
-    return 0;
-}
-
-static size_t count_items(const char *v)
-{
-    size_t k = 1;
-    for (; *v; v++) k += *v == ',';
-    return k;
-}
-
-/* List of finite doubles into a fresh array. */
-static int parse_vec(const dth_allocator *a, const char *v, double **out, size_t *n)
-{
-    size_t max = count_items(v);
-    double *x = dth_calloc(a, max, sizeof *x);
-    if (!x) return DTH_ENOMEM;
-    if (dth__parse_list(v, x, max, n)) {
-        dth_free(a, x);
-        return DTH_EINVAL;
-    }
-    *out = x;
-    return DTH_OK;
-}
-
 static void list_models(const dth_registry *reg, char *buf, size_t len)
 {
     size_t k = 0;
@@ -683,345 +651,69 @@ typedef struct setup_ctx {
     const dth_scene *s;
     char *err;
     size_t errlen;
-    const entry *q, *p, *t, *wp, *h, *steps, *t_end, *every, *dt, *start, *points, *method, *linsolve, *reversible;
-    const entry *order, *table, *band_time; /* [integrator] of order 4 (compose.c) */
-    /* [events] */
-    const entry *section, *section_value, *section_dir, *section_term, *time, *time_term, *dist, *dist_dofs,
-        *dist_dir, *dist_term;
-    int points_kind; /* -1 auto, else dth_points */
+    dth__scene_extra *x; /* what the table's keys set besides the run setup */
 } setup_ctx;
 
-/* The message for a count that parse_long refused. */
-static int bad_count(setup_ctx *c, const entry *e, int why, long lo, long hi)
+/* The entry of section.key, NULL if the scene does not set it. */
+static const entry *given(const setup_ctx *c, const char *section, const char *key)
 {
-    if (why == PARSE_HIGH)
-        return bad(c->err, c->errlen, e, "'%s' is too large (an integer from %ld to %ld)", e->value, lo, hi);
-    if (hi < LONG_MAX) return bad(c->err, c->errlen, e, "'%s' is not an integer in %ld..%ld", e->value, lo, hi);
-    return bad(c->err, c->errlen, e, "'%s' is not an integer >= %ld", e->value, lo);
+    long i = find(c->s, section, key);
+    return i < 0 ? NULL : &c->s->e[i];
 }
 
-static int check_initial(setup_ctx *c, dth_run_setup *rs, const entry *e)
+/* A [model] key: one of the model's parameters, collected for dth_model_new. */
+static int check_model_key(setup_ctx *c, const dth_model_type *type, const entry *e, dth_kv *kv,
+                           const entry **kv_entry, size_t *nkv)
 {
-    const dth_allocator *a = c->s->alloc;
-    const char *k = e->key;
-    if (strcmp(k, "q") == 0 || strcmp(k, "p") == 0) {
-        double **dst = k[0] == 'q' ? &rs->q0 : &rs->p0;
-        size_t cnt;
-        int rc = parse_vec(a, e->value, dst, &cnt);
-        if (rc == DTH_ENOMEM) return rc;
-        if (rc) return bad(c->err, c->errlen, e, "'%s' is not a comma-separated list of finite numbers", e->value);
-        if (k[0] == 'q') {
-            rs->n = cnt;
-            c->q = e;
-        } else {
-            c->p = e; /* its count is checked once q is known */
-        }
-        return DTH_OK;
+    if (strcmp(e->key, "name") == 0) return DTH_OK;
+    if (!dth__model_accepts_key(type, e->key)) {
+        char buf[256];
+        list_params(type, buf, sizeof buf);
+        dth__suggest sg;
+        dth__suggest_init(&sg, e->key);
+        for (size_t i = 0; i < type->n_params; i++) dth__suggest_offer(&sg, type->params[i].key);
+        return bad(c->err, c->errlen, e, "model '%s' has no parameter '%s' (its parameters: %s)%s%s%s", type->name,
+                   e->key, buf, sg.best ? "; did you mean " : "", sg.best ? sg.best : "", sg.best ? "?" : "");
     }
-    if (strcmp(k, "t") == 0) {
-        c->t = e;
-        if (dth_parse_double(e->value, &rs->t0)) return bad(c->err, c->errlen, e, "'%s' is not a finite number", e->value);
-        return DTH_OK;
-    }
-    if (strcmp(k, "wp") == 0) {
-        c->wp = e;
-        rs->opt.has_wp = 1;
-        if (dth_parse_double(e->value, &rs->opt.wp)) return bad(c->err, c->errlen, e, "'%s' is not a finite number", e->value);
-        return DTH_OK;
-    }
-    return bad(c->err, c->errlen, e, "unknown key (known in [initial]: q, p, t, wp)");
-}
-
-/* yes/true/1 or no/false/0; -1 (out untouched) otherwise */
-static int parse_bool(const char *v, int *out)
-{
-    if (!strcmp(v, "yes") || !strcmp(v, "true") || !strcmp(v, "1")) *out = 1;
-    else if (!strcmp(v, "no") || !strcmp(v, "false") || !strcmp(v, "0")) *out = 0;
-    else return -1;
-    return 0;
-}
-
-static int check_integrator(setup_ctx *c, dth_run_setup *rs, const entry *e)
-{
-    const char *k = e->key, *v = e->value;
-    long x;
-    if (strcmp(k, "method") == 0) {
-        c->method = e;
-        size_t i = 0;
-        while (dth_method_name(i) && strcmp(v, dth_method_name(i)) != 0) i++;
-        if (!dth_method_name(i)) {
-            char avail[256] = "";
-            for (size_t j = 0; dth_method_name(j); j++) {
-                size_t l = strlen(avail);
-                snprintf(avail + l, sizeof avail - l, "%s%s", j ? ", " : "", dth_method_name(j));
-            }
-            return bad(c->err, c->errlen, e, "unknown method '%s' (available: %s)", v, avail);
-        }
-        snprintf(rs->method, sizeof rs->method, "%s", v);
-        rs->opt.method = dth_method_name(i); /* static storage: the setup may be copied */
-    } else if (strcmp(k, "start") == 0) {
-        c->start = e;
-        if (strcmp(v, "midpoint") == 0) rs->opt.start = DTH_START_MIDPOINT;
-        else if (strcmp(v, "vertex") == 0) rs->opt.start = DTH_START_VERTEX;
-        else return bad(c->err, c->errlen, e, "'%s' is not one of midpoint, vertex", v);
-    } else if (strcmp(k, "h") == 0) {
-        c->h = e;
-        if (dth_parse_double(v, &rs->opt.h)) return bad(c->err, c->errlen, e, "'%s' is not a finite number", v);
-        if (rs->opt.h == 0) return bad(c->err, c->errlen, e, "the step must be nonzero (its sign sets the direction of time)");
-    } else if (strcmp(k, "steps") == 0) {
-        c->steps = e;
-        int pr = parse_long(v, 0, LONG_MAX, &rs->steps);
-        if (pr) return bad_count(c, e, pr, 0, LONG_MAX);
-    } else if (strcmp(k, "t_end") == 0) {
-        c->t_end = e;
-        if (dth_parse_double(v, &rs->t_end)) return bad(c->err, c->errlen, e, "'%s' is not a finite number", v);
-    } else if (strcmp(k, "max_iter") == 0) {
-        int pr = parse_long(v, 1, 100000, &x);
-        if (pr) return bad_count(c, e, pr, 1, 100000);
-        rs->opt.max_iter = (int)x;
-    } else if (strcmp(k, "K") == 0) {
-        if (dth_parse_double(v, &rs->opt.K) || rs->opt.K < 0)
-            return bad(c->err, c->errlen, e, "'%s' is not a finite number >= 0 (0: estimate K locally)", v);
-    } else if (strcmp(k, "branch_check") == 0) {
-        /* no: take whatever root Newton converges to, as raw DTH does (for comparison only) */
-        if (parse_bool(v, &rs->opt.branch_check)) return bad(c->err, c->errlen, e, "'%s' is not one of yes, no", v);
-    } else if (strcmp(k, "reversible") == 0) {
-        /* yes: the reversible finish (dth_options.compensate = 2); no: the compensated constraint */
-        c->reversible = e;
-        int rv;
-        if (parse_bool(v, &rv)) return bad(c->err, c->errlen, e, "'%s' is not one of yes, no", v);
-        rs->opt.finish = rv ? DTH_FINISH_REVERSIBLE : DTH_FINISH_COMPENSATED;
-    } else if (strcmp(k, "order") == 0) {
-        /* 2 or 4 (checked with the method once the model exists: dth_options_check's message) */
-        c->order = e;
-        int pr = parse_long(v, 1, 1000, &x);
-        if (pr) return bad_count(c, e, pr, 1, 1000);
-        rs->opt.order = (int)x;
-    } else if (strcmp(k, "table") == 0) {
-        /* order 4's coefficient table: its name in static storage (the setup may be copied) */
-        c->table = e;
-        const dth__table *t = dth__table_find(v);
-        if (!t) return bad(c->err, c->errlen, e, "'%s' is not one of suzuki4, yoshida4, yoshida6a, kahanli6, kahanli8", v);
-        rs->opt.table = t->name;
-    } else if (strcmp(k, "band_time") == 0) {
-        c->band_time = e;
-        if (dth_parse_double(v, &rs->opt.band_time) || rs->opt.band_time < 0)
-            return bad(c->err, c->errlen, e, "'%s' is not a finite time >= 0 (0: the default crossing rule)", v);
-    } else if (strcmp(k, "linsolve") == 0) {
-        c->linsolve = e;
-        dth_linsolve ls;
-        for (ls = DTH_LINSOLVE_AUTO; dth_linsolve_name(ls); ls++)
-            if (strcmp(v, dth_linsolve_name(ls)) == 0) break;
-        if (!dth_linsolve_name(ls))
-            return bad(c->err, c->errlen, e, "'%s' is not one of auto, dense, small, small-lu, banded, banded-lu", v);
-        rs->opt.linsolve = ls;
-    } else {
-        return bad(c->err, c->errlen, e,
-                   "unknown key (known in [integrator]: method, start, h, steps, t_end, max_iter, K, branch_check, reversible, linsolve, order, table, band_time)");
-    }
+    kv[*nkv] = (dth_kv){e->key, e->value};
+    kv_entry[(*nkv)++] = e;
     return DTH_OK;
 }
 
-static int check_output(setup_ctx *c, dth_run_setup *rs, const entry *e)
-{
-    const char *k = e->key, *v = e->value;
-    if (strcmp(k, "file") == 0) {
-        if (!v[0]) return bad(c->err, c->errlen, e, "empty file name (leave the key out to write to stdout)");
-        dth_free(c->s->alloc, rs->out_file);
-        rs->out_file = dup_s(c->s->alloc, v);
-        if (!rs->out_file) return DTH_ENOMEM;
-    } else if (strcmp(k, "points") == 0) {
-        c->points = e;
-        if (!strcmp(v, "auto")) c->points_kind = -1;
-        else if (!strcmp(v, "vertices")) c->points_kind = DTH_POINTS_VERTICES;
-        else if (!strcmp(v, "midpoints")) c->points_kind = DTH_POINTS_MIDPOINTS;
-        else return bad(c->err, c->errlen, e, "'%s' is not one of auto, vertices, midpoints", v);
-    } else if (strcmp(k, "every") == 0) {
-        c->every = e;
-        int pr = parse_long(v, 1, LONG_MAX, &rs->every);
-        if (pr) return bad_count(c, e, pr, 1, LONG_MAX);
-    } else if (strcmp(k, "dt") == 0) {
-        c->dt = e;
-        if (dth_parse_double(v, &rs->dt) || rs->dt < 0)
-            return bad(c->err, c->errlen, e, "'%s' is not a finite number >= 0 (0: write vertices)", v);
-    } else if (strcmp(k, "diagnostics") == 0) {
-        if (parse_bool(v, &rs->diagnostics)) return bad(c->err, c->errlen, e, "'%s' is not yes or no", v);
-    } else {
-        return bad(c->err, c->errlen, e, "unknown key (known in [output]: file, points, every, dt, diagnostics)");
-    }
-    return DTH_OK;
-}
-
-static int parse_direction(const char *v, int *out)
-{
-    if (!strcmp(v, "up")) *out = 1;
-    else if (!strcmp(v, "down")) *out = -1;
-    else if (!strcmp(v, "both")) *out = 0;
-    else return -1;
-    return 0;
-}
-
-/* [events]: each key on its own; the events are built once n is known (build_events). */
-static int check_events(setup_ctx *c, dth_run_setup *rs, const entry *e)
-{
-    const char *k = e->key, *v = e->value;
-    int b;
-    double x;
-    if (!strcmp(k, "file")) {
-        if (!v[0]) return bad(c->err, c->errlen, e, "empty file name");
-        dth_free(c->s->alloc, rs->events_file);
-        rs->events_file = dup_s(c->s->alloc, v);
-        return rs->events_file ? DTH_OK : DTH_ENOMEM;
-    }
-    if (!strcmp(k, "section")) {
-        c->section = e;
-        if ((v[0] != 'q' && v[0] != 'p') || parse_long(v + 1, 1, 1000000000L, &(long){0}))
-            return bad(c->err, c->errlen, e, "'%s' is not a coordinate q<i> or p<i> (1-based i)", v);
-    } else if (!strcmp(k, "section_value")) {
-        c->section_value = e;
-        if (dth_parse_double(v, &x)) return bad(c->err, c->errlen, e, "'%s' is not a finite number", v);
-    } else if (!strcmp(k, "section_direction") || !strcmp(k, "distance_direction")) {
-        if (k[1] == 'e') c->section_dir = e;
-        else c->dist_dir = e;
-        if (parse_direction(v, &b)) return bad(c->err, c->errlen, e, "'%s' is not one of up, down, both", v);
-    } else if (!strcmp(k, "section_terminal") || !strcmp(k, "time_terminal") || !strcmp(k, "distance_terminal")) {
-        if (k[0] == 's') c->section_term = e;
-        else if (k[0] == 't') c->time_term = e;
-        else c->dist_term = e;
-        if (parse_bool(v, &b)) return bad(c->err, c->errlen, e, "'%s' is not yes or no", v);
-    } else if (!strcmp(k, "time")) {
-        c->time = e;
-        size_t cnt = count_items(v);
-        double *list = dth_calloc(c->s->alloc, cnt, sizeof *list);
-        if (!list) return DTH_ENOMEM;
-        int r = dth__parse_list(v, list, cnt, &cnt);
-        dth_free(c->s->alloc, list);
-        if (r) return bad(c->err, c->errlen, e, "'%s' is not a comma-separated list of finite times", v);
-    } else if (!strcmp(k, "distance")) {
-        c->dist = e;
-        if (dth_parse_double(v, &x) || !(x > 0)) return bad(c->err, c->errlen, e, "'%s' is not a finite number > 0", v);
-    } else if (!strcmp(k, "distance_dofs")) {
-        c->dist_dofs = e;
-        for (const char *p = v; *p; p++)
-            if (!strchr("0123456789, \t", *p))
-                return bad(c->err, c->errlen, e, "'%s' is not a comma-separated list of degrees of freedom (1-based)", v);
-    } else {
-        return bad(c->err, c->errlen, e,
-                   "unknown key (known in [events]: section, section_value, section_direction, section_terminal, "
-                   "time, time_terminal, distance, distance_dofs, distance_direction, distance_terminal, file)");
-    }
-    return DTH_OK;
-}
-
-/* The events of [events], once the model's n is known. */
-static int build_events(setup_ctx *c, dth_run_setup *rs)
-{
-    const dth_allocator *a = c->s->alloc;
-    size_t n = rs->n, nt = c->time ? count_items(c->time->value) : 0;
-    size_t ne = (c->section ? 1 : 0) + nt + (c->dist ? 1 : 0);
-    const entry *orphan = !c->section ? (c->section_value ? c->section_value : c->section_dir ? c->section_dir : c->section_term)
-                                      : NULL;
-    if (orphan) return bad(c->err, c->errlen, orphan, "needs [events] section= (the coordinate of the section)");
-    orphan = !c->dist ? (c->dist_dofs ? c->dist_dofs : c->dist_dir ? c->dist_dir : c->dist_term) : NULL;
-    if (orphan) return bad(c->err, c->errlen, orphan, "needs [events] distance= (the radius)");
-    if (!c->time && c->time_term) return bad(c->err, c->errlen, c->time_term, "needs [events] time= (the times)");
-    if (!ne) return DTH_OK;
-    rs->events = dth_calloc(a, ne, sizeof *rs->events);
-    rs->event_specs = dth_calloc(a, ne, sizeof *rs->event_specs);
-    rs->event_names = dth_calloc(a, ne, sizeof *rs->event_names);
-    size_t nd = c->dist_dofs ? count_items(c->dist_dofs->value) : 0;
-    rs->event_dofs = dth_calloc(a, nd + 1, sizeof *rs->event_dofs);
-    if (!rs->events || !rs->event_specs || !rs->event_names || !rs->event_dofs) return DTH_ENOMEM;
-    size_t i = 0;
-    if (c->section) {
-        long idx;
-        parse_long(c->section->value + 1, 1, 1000000000L, &idx);
-        if ((size_t)idx > n)
-            return bad(c->err, c->errlen, c->section, "'%s': the model has %zu degrees of freedom", c->section->value, n);
-        dth_event_spec *sp = &rs->event_specs[i];
-        sp->index = c->section->value[0] == 'q' ? (size_t)idx - 1 : n + (size_t)idx;
-        if (c->section_value) dth_parse_double(c->section_value->value, &sp->value);
-        rs->events[i] = (dth_event){dth_event_coordinate, sp, 1, 0};
-        if (c->section_dir) parse_direction(c->section_dir->value, &rs->events[i].direction);
-        if (c->section_term) parse_bool(c->section_term->value, &rs->events[i].terminal);
-        rs->event_names[i++] = "section";
-    }
-    if (nt) {
-        double *list = dth_calloc(a, nt, sizeof *list);
-        if (!list) return DTH_ENOMEM;
-        dth__parse_list(c->time->value, list, nt, &nt);
-        int term = 0;
-        if (c->time_term) parse_bool(c->time_term->value, &term);
-        for (size_t j = 0; j < nt; j++, i++) {
-            rs->event_specs[i].value = list[j];
-            rs->events[i] = (dth_event){dth_event_time, &rs->event_specs[i], 0, term};
-            rs->event_names[i] = "time";
-        }
-        dth_free(a, list);
-    }
-    if (c->dist) {
-        dth_event_spec *sp = &rs->event_specs[i];
-        dth_parse_double(c->dist->value, &sp->value);
-        if (c->dist_dofs) {
-            const char *v = c->dist_dofs->value;
-            size_t m = 0;
-            while (*v) {
-                char *end;
-                long d = strtol(v, &end, 10);
-                if (end == v || d < 1 || (size_t)d > n)
-                    return bad(c->err, c->errlen, c->dist_dofs, "'%s': degrees of freedom are 1..%zu", c->dist_dofs->value, n);
-                rs->event_dofs[m++] = (size_t)d - 1;
-                v = end;
-                while (*v == ' ' || *v == '\t' || *v == ',') v++;
-            }
-            if (!m) return bad(c->err, c->errlen, c->dist_dofs, "empty list of degrees of freedom");
-            sp->dofs = rs->event_dofs;
-            sp->ndofs = m;
-        }
-        rs->events[i] = (dth_event){dth_event_distance, sp, 0, 0};
-        if (c->dist_dir) parse_direction(c->dist_dir->value, &rs->events[i].direction);
-        if (c->dist_term) parse_bool(c->dist_term->value, &rs->events[i].terminal);
-        rs->event_names[i++] = "distance";
-    }
-    rs->nevents = i;
-    return DTH_OK;
-}
-
-/* Every key on its own, in the order the keys were first set; collects the model's keys. */
+/* Every key on its own, in the order the keys were first set: the table's keys (scene_keys.c) into
+ * the run setup; collects the model's keys. */
 static int check_keys(setup_ctx *c, const dth_model_type *type, dth_run_setup *rs, dth_kv *kv,
                       const entry **kv_entry, size_t *nkv)
 {
     const dth_scene *s = c->s;
-    char buf[256];
+    const dth__scene_target t = {rs, c->x, s->alloc};
+    char msg[1024];
     for (size_t i = 0; i < s->n; i++) {
         const entry *e = &s->e[i];
-        const char *sec = e->section, *k = e->key;
+        const dth__scene_key *k;
         int rc = DTH_OK;
-        if (strcmp(sec, "model") == 0) {
-            if (strcmp(k, "name") == 0) continue;
-            if (!dth__model_accepts_key(type, k)) {
-                list_params(type, buf, sizeof buf);
-                return bad(c->err, c->errlen, e, "model '%s' has no parameter '%s' (its parameters: %s)",
-                           type->name, k, buf);
+        switch (dth__scene_section_kind(e->section)) {
+        case DTH__SECTION_MODEL:
+            rc = check_model_key(c, type, e, kv, kv_entry, nkv);
+            break;
+        case DTH__SECTION_REGULARIZE:
+            break; /* checked by setup_regularizer once the model exists */
+        case DTH__SECTION_KEYS:
+            k = dth__scene_key_find(e->section, e->key);
+            if (!k) {
+                dth__scene_unknown_key(e->section, e->key, msg, sizeof msg);
+                return bad(c->err, c->errlen, e, "%s", msg);
             }
-            kv[*nkv] = (dth_kv){k, e->value};
-            kv_entry[(*nkv)++] = e;
-        } else if (strcmp(sec, "initial") == 0) {
-            rc = check_initial(c, rs, e);
-        } else if (strcmp(sec, "integrator") == 0) {
-            rc = check_integrator(c, rs, e);
-        } else if (strcmp(sec, "regularize") == 0) {
-            continue; /* checked by setup_regularizer once the model exists */
-        } else if (strcmp(sec, "output") == 0) {
-            rc = check_output(c, rs, e);
-        } else if (strcmp(sec, "events") == 0) {
-            rc = check_events(c, rs, e);
-        } else if (!sec[0]) {
-            dth__set_err(c->err, c->errlen, "%s: key '%s' is outside any [section]", e->origin, k);
-            return DTH_EINVAL;
-        } else {
-            dth__set_err(c->err, c->errlen, "%s: unknown section [%s] (known: model, initial, integrator, regularize, output, events)",
-                    e->origin, sec);
+            rc = dth__scene_key_parse(k, e->value, &t, msg, sizeof msg);
+            if (rc == DTH_EINVAL) return bad(c->err, c->errlen, e, "%s", msg);
+            break;
+        default:
+            if (!e->section[0]) {
+                dth__set_err(c->err, c->errlen, "%s: key '%s' is outside any [section]", e->origin, e->key);
+                return DTH_EINVAL;
+            }
+            dth__scene_unknown_section(e->section, msg, sizeof msg);
+            dth__set_err(c->err, c->errlen, "%s: %s", e->origin, msg);
             return DTH_EINVAL;
         }
         if (rc == DTH_ENOMEM) dth__set_err(c->err, c->errlen, "out of memory");
@@ -1030,80 +722,237 @@ static int check_keys(setup_ctx *c, const dth_model_type *type, dth_run_setup *r
     return DTH_OK;
 }
 
-static int is_override(const entry *e) { return strncmp(e->origin, "-s ", 3) == 0; }
+static int is_override(const entry *e) { return e->override; }
+
+/* The run's extent: steps or t_end (an override of one replaces the other from the file), and a
+ * clock that moves with steps of h. */
+static int check_length(setup_ctx *c, dth_run_setup *rs, const char *src)
+{
+    const entry *steps = given(c, "integrator", "steps"), *t_end = given(c, "integrator", "t_end");
+    if (steps && t_end && is_override(steps) != is_override(t_end)) {
+        if (is_override(steps)) t_end = NULL;
+        else steps = NULL;
+    }
+    if (steps && t_end) {
+        const entry *later = steps > t_end ? steps : t_end, *first = later == steps ? t_end : steps;
+        return bad(c->err, c->errlen, later, "give either steps= or t_end=, not both (%s.%s set at %s)",
+                   first->section, first->key, first->origin);
+    }
+    if (!steps && !t_end) {
+        dth__set_err(c->err, c->errlen, "%s: missing [integrator] steps= or t_end= (how long to run)", src);
+        return DTH_EINVAL;
+    }
+    rs->has_t_end = t_end != NULL;
+    /* the time must move: a step below the resolution of t (t + h == t, or nearly) never
+     * advances it, and a run to t_end would never end */
+    const entry *t = given(c, "initial", "t");
+    double h = fabs(rs->opt.h);
+    if (!(h > 2 * DBL_EPSILON * fabs(rs->t0)))
+        return bad(c->err, c->errlen, t ? t : given(c, "integrator", "h"),
+                   "the time t = %.17g does not advance by steps of h = %.3g (t + h == t in double precision): "
+                   "start the clock nearer 0 or take a larger step", rs->t0, rs->opt.h);
+    if (t_end && !(h > 2 * DBL_EPSILON * fabs(rs->t_end)))
+        return bad(c->err, c->errlen, t_end,
+                   "t_end = %.17g cannot be reached by steps of h = %.3g (t + h == t in double precision long before)",
+                   rs->t_end, rs->opt.h);
+    if (t_end && (rs->t_end - rs->t0) * rs->opt.h < 0)
+        return bad(c->err, c->errlen, t_end, "t_end = %.17g lies behind t = %.17g for h = %.17g (the sign of h is the direction of time)",
+                   rs->t_end, rs->t0, rs->opt.h);
+    return DTH_OK;
+}
+
+/* What is written: dt against every and points, midpoints for DTH only, points=auto resolved. */
+static int check_rows(setup_ctx *c, dth_run_setup *rs)
+{
+    const entry *every = given(c, "output", "every"), *dt = given(c, "output", "dt"),
+                *points = given(c, "output", "points"), *method = given(c, "integrator", "method");
+    int kind = c->x->points; /* -1: auto */
+    if (every && dt && rs->dt > 0 && rs->every != 1)
+        return bad(c->err, c->errlen, dt, "dt > 0 resamples at uniform times and cannot be combined with every= (%s)",
+                   every->origin);
+    int is_dth = strcmp(rs->opt.method, "dth") == 0;
+    /* output times far denser than the steps: millions of rows per step fill a disk, they do not
+     * resolve the trajectory (the method's steps do) */
+    if (rs->dt > 0 && !(fabs(rs->opt.h) / rs->dt <= DTH_RUN_MAX_SAMPLES_PER_STEP))
+        return bad(c->err, c->errlen, dt, "%.3g asks for %.3g rows per step of h = %.3g: at most 1e6 (a larger dt)",
+                   rs->dt, fabs(rs->opt.h) / rs->dt, rs->opt.h);
+    if (rs->dt > 0) {
+        if (points && kind >= 0)
+            return bad(c->err, c->errlen, points, "dt > 0 writes output times and cannot be combined with points=%s (%s)",
+                       points->value, dt->origin);
+        rs->points = DTH_POINTS_TIMES;
+    } else if (points && kind >= 0) {
+        if (kind == DTH_POINTS_MIDPOINTS && !is_dth)
+            return bad(c->err, c->errlen, points, "midpoints exist for method = dth only (%s)",
+                       method ? method->origin : "method");
+        if (kind == DTH_POINTS_MIDPOINTS && rs->opt.order != 2) {
+            const entry *order = given(c, "integrator", "order");
+            return bad(c->err, c->errlen, points, "midpoints exist for order 2 only: order %d's substep midpoints lie on "
+                       "their levels, not on the energy surface (%s)", rs->opt.order, order ? order->origin : "order");
+        }
+        rs->points = (dth_points)kind;
+    } else {
+        rs->points = is_dth && rs->opt.order == 2 && rs->opt.start == DTH_START_MIDPOINT ? DTH_POINTS_MIDPOINTS
+                                                                                        : DTH_POINTS_VERTICES;
+    }
+    return DTH_OK;
+}
 
 /* Checks that involve several keys. */
 static int check_cross(setup_ctx *c, dth_run_setup *rs)
 {
     const char *src = c->s->source ? c->s->source : "scene";
-    if (!c->q || !c->p) {
-        dth__set_err(c->err, c->errlen, "%s: missing [initial] %s= (comma-separated initial values)", src, c->q ? "p" : "q");
+    const entry *q = given(c, "initial", "q"), *p = given(c, "initial", "p"), *wp = given(c, "initial", "wp");
+    if (!q || !p) {
+        dth__set_err(c->err, c->errlen, "%s: missing [initial] %s= (comma-separated initial values)", src, q ? "p" : "q");
         return DTH_EINVAL;
     }
-    size_t np = count_items(c->p->value);
-    if (np != rs->n)
-        return bad(c->err, c->errlen, c->p, "%zu values, but initial.q has %zu (%s)", np, rs->n, c->q->origin);
-    if (!c->h) {
+    if (c->x->np != rs->n)
+        return bad(c->err, c->errlen, p, "%zu value%s, but initial.q has %zu (%s)", c->x->np, c->x->np == 1 ? "" : "s",
+                   rs->n, q->origin);
+    if (!given(c, "integrator", "h")) {
         dth__set_err(c->err, c->errlen, "%s: missing [integrator] h= (the first step; its sign sets the direction)", src);
         return DTH_EINVAL;
     }
-    if (c->steps && c->t_end && is_override(c->steps) != is_override(c->t_end)) {
-        /* an override of the run length replaces the file's, whichever key the file used */
-        if (is_override(c->steps)) c->t_end = NULL;
-        else c->steps = NULL;
+    int rc = check_length(c, rs, src);
+    if (rc) return rc;
+    if (wp && rs->opt.start != DTH_START_VERTEX)
+        return bad(c->err, c->errlen, wp, "an explicit wp applies only with [integrator] start=vertex");
+    return check_rows(c, rs);
+}
+
+/* The model from [model] and n; a refusal names the parameter's line (else initial.q). */
+static int make_model(setup_ctx *c, const dth_model_type *type, dth_run_setup *rs, const dth_kv *kv,
+                      const entry *const *kv_entry, size_t nkv)
+{
+    char merr[256];
+    const entry *q = given(c, "initial", "q");
+    int rc = dth_model_new(type, kv, nkv, rs->n, c->s->alloc, &rs->model, merr, sizeof merr);
+    if (rc == DTH_ENOMEM) {
+        dth__set_err(c->err, c->errlen, "out of memory");
+        return rc;
     }
-    if (c->steps && c->t_end) {
-        const entry *later = c->steps > c->t_end ? c->steps : c->t_end, *first = later == c->steps ? c->t_end : c->steps;
-        return bad(c->err, c->errlen, later, "give either steps= or t_end=, not both (%s.%s set at %s)",
-                   first->section, first->key, first->origin);
+    if (rc) {
+        const entry *at = q;
+        for (size_t i = 0; i < nkv; i++)
+            if (names_key(merr, kv[i].key)) at = kv_entry[i];
+        return bad(c->err, c->errlen, at, "model '%s': %s", type->name, merr);
     }
-    if (!c->steps && !c->t_end) {
-        dth__set_err(c->err, c->errlen, "%s: missing [integrator] steps= or t_end= (how long to run)", src);
-        return DTH_EINVAL;
+    if (dth_model_dof(rs->model) != rs->n)
+        return bad(c->err, c->errlen, q, "model '%s' has %zu degree%s of freedom, but %zu q value%s given", type->name,
+                   dth_model_dof(rs->model), dth_model_dof(rs->model) == 1 ? "" : "s", rs->n, rs->n == 1 ? " is" : "s are");
+    return DTH_OK;
+}
+
+/* The key an options refusal concerns: the last one in the scene whose default value (as the table
+ * stores it in dth_options; [regularize] method: no regularizer) makes the refusal go away or change.
+ * A rule between two keys (linsolve and reversible, method and [regularize] method) so names the one
+ * set later. NULL if no key does (the model's size is the matter). */
+static const entry *options_key(const setup_ctx *c, const dth_run_setup *rs, const char *msg)
+{
+    dth_options def;
+    dth_options_default(&def);
+    const size_t base = offsetof(dth_run_setup, opt);
+    for (size_t i = c->s->n; i-- > 0;) {
+        const entry *e = &c->s->e[i];
+        const dth__scene_key *k = dth__scene_key_find(e->section, e->key);
+        dth_options o = rs->opt;
+        const dth__scene_slot *sl[2] = {k ? &k->to : NULL, k ? &k->given : NULL};
+        int hit = 0;
+        for (int j = 0; j < 2; j++)
+            if (sl[j] && sl[j]->base == DTH__IN_SETUP && sl[j]->off >= base && sl[j]->off < base + sizeof o) {
+                memcpy((char *)&o + (sl[j]->off - base), (const char *)&def + (sl[j]->off - base), sl[j]->size);
+                hit = 1;
+            }
+        if (!k && !strcmp(e->section, "regularize") && !strcmp(e->key, "method")) {
+            o.regularizer = NULL;
+            hit = 1;
+        }
+        if (!hit) continue;
+        char again[512];
+        if (dth_options_check(rs->model, &o, again, sizeof again) == DTH_OK || strcmp(again, msg)) return e;
     }
-    rs->has_t_end = c->t_end != NULL;
-    /* the time must move: a step below the resolution of t (t + h == t, or nearly) never
-     * advances it, and a run to t_end would never end */
-    double h = fabs(rs->opt.h);
-    if (!(h > 2 * DBL_EPSILON * fabs(rs->t0)))
-        return bad(c->err, c->errlen, c->t ? c->t : c->h,
-                   "the time t = %.17g does not advance by steps of h = %.3g (t + h == t in double precision): "
-                   "start the clock nearer 0 or take a larger step", rs->t0, rs->opt.h);
-    if (c->t_end && !(h > 2 * DBL_EPSILON * fabs(rs->t_end)))
-        return bad(c->err, c->errlen, c->t_end,
-                   "t_end = %.17g cannot be reached by steps of h = %.3g (t + h == t in double precision long before)",
-                   rs->t_end, rs->opt.h);
-    if (c->t_end && (rs->t_end - rs->t0) * rs->opt.h < 0)
-        return bad(c->err, c->errlen, c->t_end, "t_end = %.17g lies behind t = %.17g for h = %.17g (the sign of h is the direction of time)",
-                   rs->t_end, rs->t0, rs->opt.h);
-    if (c->wp && rs->opt.start != DTH_START_VERTEX)
-        return bad(c->err, c->errlen, c->wp, "an explicit wp applies only with [integrator] start=vertex");
-    if (c->every && c->dt && rs->dt > 0 && rs->every != 1)
-        return bad(c->err, c->errlen, c->dt, "dt > 0 resamples at uniform times and cannot be combined with every= (%s)",
-                   c->every->origin);
-    int is_dth = strcmp(rs->method, "dth") == 0;
-    /* output times far denser than the steps: millions of rows per step fill a disk, they do not
-     * resolve the trajectory (the method's steps do) */
-    if (rs->dt > 0 && !(fabs(rs->opt.h) / rs->dt <= 1e6))
-        return bad(c->err, c->errlen, c->dt, "%.3g asks for %.3g rows per step of h = %.3g: at most 1e6 (a larger dt)",
-                   rs->dt, fabs(rs->opt.h) / rs->dt, rs->opt.h);
-    if (rs->dt > 0) {
-        if (c->points && c->points_kind >= 0)
-            return bad(c->err, c->errlen, c->points, "dt > 0 writes output times and cannot be combined with points=%s (%s)",
-                       c->points->value, c->dt->origin);
-        rs->points = DTH_POINTS_TIMES;
-    } else if (c->points && c->points_kind >= 0) {
-        if (c->points_kind == DTH_POINTS_MIDPOINTS && !is_dth)
-            return bad(c->err, c->errlen, c->points, "midpoints exist for method = dth only (%s)",
-                       c->method ? c->method->origin : "method");
-        if (c->points_kind == DTH_POINTS_MIDPOINTS && rs->opt.order != 2)
-            return bad(c->err, c->errlen, c->points, "midpoints exist for order 2 only: order %d's substep midpoints lie on "
-                       "their levels, not on the energy surface (%s)", rs->opt.order, c->order ? c->order->origin : "order");
-        rs->points = (dth_points)c->points_kind;
-    } else {
-        rs->points = is_dth && rs->opt.order == 2 && rs->opt.start == DTH_START_MIDPOINT ? DTH_POINTS_MIDPOINTS
-                                                                                        : DTH_POINTS_VERTICES;
+    return NULL;
+}
+
+/* The integrator-level rules, dth_options_check's (the method, the linear solver and the finish
+ * against the model, a regularizer with a baseline), each refusal at the line of the key concerned.
+ * On success the method is its static name, also in rs->method. */
+static int check_options(setup_ctx *c, dth_run_setup *rs)
+{
+    dth_options o = rs->opt;
+    char msg[512];
+    int rc = dth_options_check(rs->model, &o, msg, sizeof msg);
+    if (rc == DTH_ENOMEM) {
+        dth__set_err(c->err, c->errlen, "out of memory");
+        return rc;
     }
+    if (rc) {
+        const entry *at = options_key(c, rs, msg);
+        return bad(c->err, c->errlen, at ? at : given(c, "initial", "q"), "%s", msg);
+    }
+    rs->opt.method = o.method;
+    snprintf(rs->method, sizeof rs->method, "%s", o.method);
+    return DTH_OK;
+}
+
+/* The events of [events] from the values the keys gave (dth__scene_extra), once n is known; the
+ * rules between the keys first (a key of an event that is not there). */
+static int build_events(setup_ctx *c, dth_run_setup *rs)
+{
+    const dth_allocator *a = c->s->alloc;
+    const dth__scene_extra *x = c->x;
+    const entry *sec = given(c, "events", "section"), *dist = given(c, "events", "distance"),
+                *time = given(c, "events", "time"), *dofs = given(c, "events", "distance_dofs");
+    const entry *orphan = NULL;
+    if (!sec && !(orphan = given(c, "events", "section_value")) && !(orphan = given(c, "events", "section_direction")))
+        orphan = given(c, "events", "section_terminal");
+    if (orphan) return bad(c->err, c->errlen, orphan, "needs [events] section= (the coordinate of the section)");
+    if (!dist && !(orphan = dofs) && !(orphan = given(c, "events", "distance_direction")))
+        orphan = given(c, "events", "distance_terminal");
+    if (orphan) return bad(c->err, c->errlen, orphan, "needs [events] distance= (the radius)");
+    if (!time && (orphan = given(c, "events", "time_terminal")))
+        return bad(c->err, c->errlen, orphan, "needs [events] time= (the times)");
+    size_t n = rs->n, ne = (sec ? 1 : 0) + x->ntimes + (dist ? 1 : 0);
+    if (!ne) return DTH_OK;
+    rs->events = dth_calloc(a, ne, sizeof *rs->events);
+    rs->event_specs = dth_calloc(a, ne, sizeof *rs->event_specs);
+    rs->event_names = dth_calloc(a, ne, sizeof *rs->event_names);
+    rs->event_dofs = dth_calloc(a, x->ndofs + 1, sizeof *rs->event_dofs);
+    if (!rs->events || !rs->event_specs || !rs->event_names || !rs->event_dofs) return DTH_ENOMEM;
+    size_t i = 0;
+    if (sec) {
+        size_t idx = (size_t)labs(x->section);
+        if (idx > n)
+            return bad(c->err, c->errlen, sec, "'%s': the model has %zu degree%s of freedom", sec->value, n, n == 1 ? "" : "s");
+        dth_event_spec *sp = &rs->event_specs[i];
+        sp->index = x->section > 0 ? idx - 1 : n + idx;
+        sp->value = x->section_value;
+        rs->events[i] = (dth_event){dth_event_coordinate, sp, x->section_direction, x->section_terminal};
+        rs->event_names[i++] = "section";
+    }
+    for (size_t j = 0; j < x->ntimes; j++, i++) {
+        rs->event_specs[i].value = x->times[j];
+        rs->events[i] = (dth_event){dth_event_time, &rs->event_specs[i], 0, x->time_terminal};
+        rs->event_names[i] = "time";
+    }
+    if (dist) {
+        dth_event_spec *sp = &rs->event_specs[i];
+        sp->value = x->distance;
+        if (dofs) {
+            if (!x->ndofs) return bad(c->err, c->errlen, dofs, "empty list of degrees of freedom");
+            for (size_t m = 0; m < x->ndofs; m++) {
+                if (x->dofs[m] > n)
+                    return bad(c->err, c->errlen, dofs, "'%s': degrees of freedom are 1..%zu", dofs->value, n);
+                rs->event_dofs[m] = x->dofs[m] - 1;
+            }
+            sp->dofs = rs->event_dofs;
+            sp->ndofs = x->ndofs;
+        }
+        rs->events[i] = (dth_event){dth_event_distance, sp, x->distance_direction, x->distance_terminal};
+        rs->event_names[i++] = "distance";
+    }
+    rs->nevents = i;
     return DTH_OK;
 }
 
@@ -1119,20 +968,32 @@ static int setup_regularizer(const dth_scene *s, const dth_registry *reg, dth_ru
             if (!strcmp(s->e[i].key, "method")) em = &s->e[i];
             else np++;
         }
-    /* default: `smooth` for DTH (ordinary steps, a changeover around psi = 0), none for baselines */
-    const char *def = strcmp(rs->method, "dth") ? "none" : "smooth";
-    const dth_regularizer_type *t = dth_registry_find_regularizer(reg, em ? em->value : def);
-    if (!t) {
+    /* default: `land` for DTH (raw DTH, one replaced step per psi = 0 crossing), none for baselines */
+    const char *def = strcmp(rs->method, "dth") ? "none" : "land";
+    const char *name = em ? em->value : def;
+    const dth_regularizer_type *t = dth_registry_find_regularizer(reg, name);
+    if (!t && !em && strcmp(name, "none")) {
+        /* a registry built without the regularizers (a program's own, holding models only) */
+        dth__set_err(err, errlen, "%s: [regularize]: the default regularizer '%s' is not in the registry (register "
+                     "it, e.g. with dth_registry_add_builtin, or give [regularize] method = none)",
+                     s->source ? s->source : "scene", def);
+        return DTH_EINVAL;
+    }
+    if (!t && strcmp(name, "none")) {
         char names[256];
         size_t len = 0;
         names[0] = '\0';
         for (size_t i = 0; i < dth_registry_regularizer_count(reg) && len < sizeof names; i++)
             len += (size_t)snprintf(names + len, sizeof names - len, "%s%s", i ? ", " : "",
                                     dth_registry_regularizer_at(reg, i)->name);
+        if (!strcmp(em->value, "smooth")) /* retired with issue 23 */
+            return bad(err, errlen, em, "regularizer 'smooth' was retired: it replaced steps where nothing crosses and "
+                       "lost order; 'land', the default, crosses psi = 0 at second order (docs/regularization.md; "
+                       "available: %s)", names);
         return bad(err, errlen, em, "unknown regularizer '%s' (available: %s)", em->value, names);
     }
-    snprintf(rs->regularize, sizeof rs->regularize, "%s", t->name);
-    if (!strcmp(t->name, "none")) {
+    snprintf(rs->regularize, sizeof rs->regularize, "%s", t ? t->name : "none");
+    if (!t || !strcmp(t->name, "none")) { /* none (raw DTH, the baselines' default) needs no registered type */
         for (size_t i = 0; i < s->n; i++)
             if (!strcmp(s->e[i].section, "regularize") && strcmp(s->e[i].key, "method"))
                 return bad(err, errlen, &s->e[i], "unknown key (regularizer 'none' takes no parameters)");
@@ -1190,7 +1051,7 @@ static int check_start(setup_ctx *c, dth_run_setup *rs, const char *model)
     int rc = dth_model_domain_check(rs->model, y, why, sizeof why);
     dth_free(c->s->alloc, y);
     if (rc == DTH_ENOMEM) dth__set_err(c->err, c->errlen, "out of memory");
-    else if (rc) rc = bad(c->err, c->errlen, c->q, "the model '%s' cannot start here (initial.q, initial.p): %s", model, why);
+    else if (rc) rc = bad(c->err, c->errlen, given(c, "initial", "q"), "the model '%s' cannot start here (initial.q, initial.p): %s", model, why);
     return rc;
 }
 
@@ -1216,18 +1077,9 @@ int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *
     }
 
     dth_run_setup rs;
-    memset(&rs, 0, sizeof rs);
-    rs.alloc = s->alloc;
-    dth_options_default(&rs.opt);
-    rs.opt.estimate = 1; /* scene runs report an error estimate (integrator.h) */
-    rs.stop_error = 0.25;
-    rs.warn_ratio = 16;
-    rs.opt.alloc = s->alloc;
-    snprintf(rs.method, sizeof rs.method, "dth");
-    snprintf(rs.regularize, sizeof rs.regularize, "none");
-    rs.every = 1;
-
-    setup_ctx c = {.s = s, .err = err, .errlen = errlen};
+    dth__scene_extra x;
+    dth__scene_defaults(&rs, &x, s->alloc);
+    setup_ctx c = {.s = s, .err = err, .errlen = errlen, .x = &x};
     dth_kv *kv = dth_calloc(s->alloc, s->n + 1, sizeof *kv);
     const entry **kv_entry = dth_calloc(s->alloc, s->n + 1, sizeof *kv_entry);
     size_t nkv = 0;
@@ -1235,48 +1087,17 @@ int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *
     if (rc) dth__set_err(err, errlen, "out of memory");
     if (!rc) rc = check_keys(&c, type, &rs, kv, kv_entry, &nkv);
     if (!rc) rc = check_cross(&c, &rs);
-    if (!rc) {
-        char merr[256];
-        rc = dth_model_new(type, kv, nkv, rs.n, s->alloc, &rs.model, merr, sizeof merr);
-        if (rc == DTH_ENOMEM) {
-            dth__set_err(err, errlen, "out of memory");
-        } else if (rc) {
-            /* name the line of the parameter the model complains about; else the q values */
-            const entry *at = c.q;
-            for (size_t i = 0; i < nkv; i++)
-                if (names_key(merr, kv[i].key)) at = kv_entry[i];
-            rc = bad(err, errlen, at, "model '%s': %s", type->name, merr);
-        } else if (dth_model_dof(rs.model) != rs.n) {
-            rc = bad(err, errlen, c.q, "model '%s' has %zu degrees of freedom, but %zu q values are given",
-                     type->name, dth_model_dof(rs.model), rs.n);
-        } else if ((rs.opt.linsolve == DTH_LINSOLVE_BANDED || rs.opt.linsolve == DTH_LINSOLVE_BANDED_LU) &&
-                   !dth__model_banded(rs.model)) {
-            rc = bad(err, errlen, c.linsolve, "'%s' needs a model with a banded Hessian (model '%s' has a dense one)",
-                     dth_linsolve_name(rs.opt.linsolve), type->name);
-        } else if (rs.opt.finish == DTH_FINISH_REVERSIBLE &&
-                   (rs.opt.linsolve == DTH_LINSOLVE_BANDED || rs.opt.linsolve == DTH_LINSOLVE_BANDED_LU ||
-                    (rs.opt.linsolve == DTH_LINSOLVE_AUTO && dth__model_banded(rs.model)))) {
-            /* the reversible finish reads the dense Hessian at its coarse point (integrator.c, coarse_n) */
-            rc = bad(err, errlen, c.reversible,
-                     "the reversible finish needs a dense Hessian, and model '%s' takes the banded solver here: "
-                     "add integrator.linsolve = dense",
-                     type->name);
-        } else if (c.order || c.table || c.band_time) {
-            /* the order, its table and band against the method and the model (dth_options_check) */
-            dth_options o = rs.opt;
-            char m[256];
-            const entry *at = c.order ? c.order : c.table ? c.table : c.band_time;
-            if (dth_options_check(rs.model, &o, m, sizeof m)) rc = bad(err, errlen, at, "%s", m);
-            else rc = check_start(&c, &rs, type->name);
-        } else {
-            rc = check_start(&c, &rs, type->name);
-        }
-    }
+    if (!rc) rc = make_model(&c, type, &rs, kv, kv_entry, nkv);
+    if (!rc) rc = check_options(&c, &rs);
+    if (!rc) rc = check_start(&c, &rs, type->name);
     dth_free(s->alloc, kv);
     dth_free(s->alloc, kv_entry);
     if (!rc) rc = build_events(&c, &rs);
     if (rc == DTH_ENOMEM) dth__set_err(err, errlen, "out of memory");
     if (!rc) rc = setup_regularizer(s, reg, &rs, err, errlen);
+    /* the options again with the regularizer: a baseline takes none */
+    if (!rc && rs.regularizer) rc = check_options(&c, &rs);
+    dth__scene_extra_clear(&x, s->alloc);
     if (rc) {
         dth_run_setup_clear(&rs);
         return rc < 0 ? rc : DTH_EINVAL;

@@ -15,7 +15,7 @@ int dth_registry_add_builtin(dth_registry *r)
         int rc = dth_registry_add_model(r, builtin[i]);
         if (rc) return rc;
     }
-    static const dth_regularizer_type *const regs[] = {&dth_reg_smooth, &dth_reg_none, &dth_reg_prescribed};
+    static const dth_regularizer_type *const regs[] = {&dth_reg_land, &dth_reg_none, &dth_reg_prescribed};
     for (size_t i = 0; i < sizeof regs / sizeof regs[0]; i++) {
         int rc = dth_registry_add_regularizer(r, regs[i]);
         if (rc) return rc;

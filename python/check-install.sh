@@ -12,7 +12,7 @@ meson install -C "$build" --destdir "$tmp/root" --no-rebuild --quiet >/dev/null
 cfg=$(find "$tmp/root" -path '*/dth/_config.py' | head -n 1)
 [ -n "$cfg" ] || { echo "check-install: the Python package was not installed" >&2; exit 1; }
 site=$(dirname "$(dirname "$cfg")")
-for f in __init__.py _core.py _ffi.py scenes/pendulum.ini; do
+for f in __init__.py _core.py _ffi.py _formula.py include/dth/model.h include/dth/status.h scenes/pendulum.ini; do
     [ -f "$site/dth/$f" ] || { echo "check-install: dth/$f not installed" >&2; exit 1; }
 done
 # _config.LIBRARY names the library at its final place (prefix/libdir): here under the destdir

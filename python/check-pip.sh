@@ -51,6 +51,20 @@ assert len(libs) == 1 and next(iter(libs)).startswith(os.path.realpath(venv) + o
 for p in [here] + list(libs):      # neither checkout: not this one, not the copy pip built from
     for c in (src, copy):
         assert not p.startswith(os.path.realpath(c) + os.sep), "%s is in the checkout %s" % (p, c)
+# a model from a formula compiles against the package's own headers (dth/include), not a checkout's
+try:
+    import sympy  # noqa: F401  (Debian python3-sympy, seen through --system-site-packages)
+except ImportError:
+    sympy = None
+if sympy is not None:
+    import tempfile
+    from dth import _formula
+    inc = _formula.include_dirs()[0]
+    assert inc.startswith(os.path.realpath(venv) + os.sep), "from_hamiltonian's headers from %s" % inc
+    m = dth.Model.from_hamiltonian("p1**2/2 + q1**2/2", n=1, name="osc-pip", cache_dir=tempfile.mkdtemp())
+    r = dth.run({"model": {"name": "osc-pip"}, "initial": {"q": 1, "p": 0}, "integrator": {"h": 0.1, "steps": 10}},
+                models=[m])
+    assert r.status == 0 and len(r.t) == 10, r
 print("check-pip: the venv's dth (%s) ran %s and its own scenes/pendulum.ini: t[-1] = %s, as the build's "
       "library; libdth from %s" % (os.path.dirname(here), scene, ref, next(iter(libs))))
 EOF

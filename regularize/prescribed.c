@@ -12,7 +12,7 @@
  * (dH/dmu = |n|^2/2 != 0 away from equilibria). Energy is
  * exact (wp untouched, midpoints on H = 0), quadratic invariants are kept; the kick gives up
  * symplecticity at every step. (Its former hybrid `band`, ordinary steps away from psi = 0 behind
- * a hard switch, was not reversible; the default regularizer `smooth` is that hybrid done right.)
+ * a hard switch, was not reversible; the default regularizer `land` replaces only the crossing step.)
  */
 #include <float.h>
 #include <math.h>

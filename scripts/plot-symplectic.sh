@@ -6,7 +6,7 @@
 set -eu
 . "$(dirname "$0")/plot-lib.sh"   # plot_init, render
 plot_init "$@"
-methods="none smooth prescribed gauss4 midpoint midpoint-proj"
+methods="none land prescribed gauss4 midpoint midpoint-proj"
 
 # one data file per (case, method): fput e1 series, time-averaged mode energies
 # (every 4th sample of e1: one per period of mode 1, enough for the plot and 4 times smaller)

@@ -200,7 +200,7 @@ static void test_registry_enomem(void)
 static int scene_scenario(const dth_allocator *al, const dth_registry *reg)
 {
     static const char text[] = "[model]\nname = harmonic\nomega = 1,\n  2\n[initial]\nq = 1, 0.5\np = 0, 0\n"
-                               "[integrator]\nh = 0.1\nsteps = 10\n[regularize]\nmethod = smooth\nouter = 3.5\n"
+                               "[integrator]\nh = 0.1\nsteps = 10\n[regularize]\nmethod = land\nkappa = 0.02\n"
                                "[output]\nfile = out.csv\n";
     char err[256];
     dth_scene *s = NULL;

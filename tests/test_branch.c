@@ -386,6 +386,34 @@ static void test_random(void)
 }
 
 /* A failed search leaves nothing half done: bad arguments are refused. */
+/* A range far beyond the vertex's root scale (issue 24): the rotating pendulum's vertex (q = 0,
+ * p = 2.2, wp of scenes/pendulum-rotation.ini) has its physical roots at +-0.0500346. With L = 1e10
+ * the coarse grid once labelled +-24003 minus and plus; from 1e14 on it stopped at +-0.05 with no
+ * root, and neither said it was incomplete. Now the scan reaches 1024 root scales (+-51.2), finds
+ * the physical pair, and reports the set as truncated with the range it covered. */
+static void test_huge_range(void)
+{
+    dth_model *m = pendulum();
+    dth_rootfinder *rf = finder(m);
+    double z[4] = {0, 0, 2.2, -1.4184875000000003};
+    const double Ls[] = {0.8, 1e3, 1e10, 1e14, 1e20, 1e308};
+    for (size_t k = 0; k < sizeof Ls / sizeof *Ls; k++) {
+        dth_root_set s;
+        CU_ASSERT_EQUAL_FATAL(dth_find_roots(rf, z, Ls[k], &s), DTH_OK);
+        CU_ASSERT_EQUAL(count_class(&s, DTH_BRANCH_MINUS), 1);
+        CU_ASSERT_EQUAL(count_class(&s, DTH_BRANCH_PLUS), 1);
+        for (size_t i = 0; i < s.count; i++)
+            if (s.root[i].cls == DTH_BRANCH_MINUS || s.root[i].cls == DTH_BRANCH_PLUS)
+                CU_ASSERT(fabs(fabs(s.root[i].lambda) / 0.0500345545194426 - 1) < 1e-12);
+        int whole = s.lo <= -Ls[k] && s.hi >= Ls[k];
+        CU_ASSERT_EQUAL(s.truncated, !whole);
+        CU_ASSERT_EQUAL(whole, Ls[k] <= 51.2);  /* 1024 times the root scale sqrt(8 H/psi) = 0.05 */
+        CU_ASSERT(s.hi <= 51.2 * (1 + 1e-12) && s.hi > 0.8 * (1 - 1e-12));
+    }
+    dth_rootfinder_free(rf);
+    dth_model_free(m);
+}
+
 static void test_args(void)
 {
     dth_model *m = pendulum();
@@ -413,6 +441,7 @@ static CU_TestInfo roots_tests[] = {
     {"Theorems EU_2 / ghost: lambda+- -> 0, |lambda*| > 6/5 |psi/psi'|", test_ghost},
     {"every root solves the step; none missed by a dense scan", test_random},
     {"invalid arguments", test_args},
+    {"a range beyond the grid's reach: the physical roots, reported as truncated", test_huge_range},
     CU_TEST_INFO_NULL,
 };
 

@@ -10,6 +10,7 @@
  * orbit (E = 1/6); a regularizer's step ends the indicators.
  */
 #include <math.h>
+#include <stdlib.h>
 #include <stdio.h>
 #include <string.h>
 #include "cu_main.h"
@@ -157,7 +158,7 @@ static void test_regularized_step_ends_it(void)
     dth_model *m = model(&dth_model_pendulum, NULL, 0, 1);
     dth_regularizer *rg = NULL;
     char err[256];
-    CU_ASSERT_EQUAL_FATAL(dth_regularizer_new(&dth_reg_smooth, NULL, 0, m, NULL, &rg, err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL_FATAL(dth_regularizer_new(&dth_reg_land, NULL, 0, m, NULL, &rg, err, sizeof err), DTH_OK);
     double q = 0, p = 2.2; /* rotation: psi = 0 is crossed every half turn */
     dth_megno_result r;
     follow(m, &q, &p, 0.05, 20, rg, 0, &r);
@@ -183,6 +184,20 @@ static void test_arguments(void)
     CU_ASSERT_EQUAL(dth_megno_new(it, bad, NULL, &g), DTH_EINVAL);
     CU_ASSERT_EQUAL(dth_megno_new(NULL, NULL, NULL, &g), DTH_EINVAL);
     CU_ASSERT_EQUAL(dth_megno_update(NULL, it), DTH_EINVAL);
+    /* a vector of the wrong length (2 values for 2n+2 = 4) is refused before a value is read: on the
+     * heap, so that a sanitizer build (scripts/ci-sanitize.sh) sees any read past it */
+    double *two = malloc(2 * sizeof *two);
+    CU_ASSERT_FATAL(two != NULL);
+    two[0] = 1, two[1] = 2;
+    CU_ASSERT_EQUAL(dth_megno_new_len(it, two, 2, NULL, &g), DTH_EINVAL);
+    CU_ASSERT_EQUAL(dth_megno_new_len(it, NULL, 4, NULL, &g), DTH_EINVAL);
+    CU_ASSERT_EQUAL(dth_megno_new_len(NULL, two, 2, NULL, &g), DTH_EINVAL);
+    free(two);
+    double four[4] = {1, 0, 0.5, 0};
+    CU_ASSERT_EQUAL_FATAL(dth_megno_new_len(it, four, 4, NULL, &g), DTH_OK);
+    dth_megno_free(g);
+    CU_ASSERT_EQUAL_FATAL(dth_megno_new_len(it, NULL, 0, NULL, &g), DTH_OK);
+    dth_megno_free(g);
     CU_ASSERT_EQUAL_FATAL(dth_megno_new(it, NULL, NULL, &g), DTH_OK);
     dth_megno_result r;
     dth_megno_get(g, &r);

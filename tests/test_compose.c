@@ -262,7 +262,7 @@ static void test_symplectic(void)
     /* through psi = 0: band steps (the midpoint rule's maps) too */
     dth_regularizer *reg = NULL;
     char err[256];
-    CU_ASSERT_EQUAL_FATAL(dth_regularizer_new(&dth_reg_smooth, NULL, 0, pm, NULL, &reg, err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL_FATAL(dth_regularizer_new(&dth_reg_land, NULL, 0, pm, NULL, &reg, err, sizeof err), DTH_OK);
     check_symplectic(pm, 0.05, (double[]){0}, (double[]){2.2}, 300, reg, &nm);
     CU_ASSERT(nm >= 280);
     dth_regularizer_free(reg);
@@ -356,7 +356,7 @@ static void test_checkpoint(void)
     resume_case(km, 0.01, (double[]){0.4, 0}, (double[]){0, 2}, NULL, 301, 400, 0);
     dth_regularizer *reg = NULL;
     char err[256];
-    CU_ASSERT_EQUAL_FATAL(dth_regularizer_new(&dth_reg_smooth, NULL, 0, pm, NULL, &reg, err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL_FATAL(dth_regularizer_new(&dth_reg_land, NULL, 0, pm, NULL, &reg, err, sizeof err), DTH_OK);
     resume_case(pm, 0.05, (double[]){0}, (double[]){2.2}, reg, 5, 300, 1); /* saved inside a band */
     /* an order-2 checkpoint does not restore into order 4 */
     dth_options o;
@@ -487,7 +487,7 @@ static void cross_case(const dth_model *m, const double *q0, const double *p0, d
 {
     dth_regularizer *reg = NULL;
     char err[256];
-    CU_ASSERT_EQUAL_FATAL(dth_regularizer_new(&dth_reg_smooth, NULL, 0, m, NULL, &reg, err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL_FATAL(dth_regularizer_new(&dth_reg_land, NULL, 0, m, NULL, &reg, err, sizeof err), DTH_OK);
     dth_options o;
     dth_options_default(&o);
     o.order = 4;
@@ -525,7 +525,7 @@ static void test_crossings(void)
      * (steps up to 21 h; the straight line of psi predicted a crossing, its parabola does not) */
     dth_regularizer *reg = NULL;
     char err[256];
-    CU_ASSERT_EQUAL_FATAL(dth_regularizer_new(&dth_reg_smooth, NULL, 0, km, NULL, &reg, err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL_FATAL(dth_regularizer_new(&dth_reg_land, NULL, 0, km, NULL, &reg, err, sizeof err), DTH_OK);
     dth_options o;
     dth_options_default(&o);
     o.order = 4;

@@ -108,7 +108,7 @@ static void test_tiny_steps(void)
         dth_options_default(&opt);
         opt.h = 1e-7;
         dth_regularizer *rg = NULL;
-        if (reg) CU_ASSERT_FATAL(dth_regularizer_new(&dth_reg_smooth, NULL, 0, m, NULL, &rg, NULL, 0) == DTH_OK);
+        if (reg) CU_ASSERT_FATAL(dth_regularizer_new(&dth_reg_land, NULL, 0, m, NULL, &rg, NULL, 0) == DTH_OK);
         opt.regularizer = rg;
         dth_integrator *it;
         CU_ASSERT_FATAL(dth_integrator_new(m, &opt, &it) == DTH_OK);
@@ -122,7 +122,7 @@ static void test_tiny_steps(void)
             regularized += (inf.flags & DTH_STEP_REGULARIZED) != 0;
             k++;
         }
-        printf("\n    pendulum h = 1e-7 to t = 0.1 %s: %ld steps, %ld regularized", reg ? "(smooth)" : "(none)", k,
+        printf("\n    pendulum h = 1e-7 to t = 0.1 %s: %ld steps, %ld regularized", reg ? "(land)" : "(none)", k,
                regularized);
         CU_ASSERT(rc == DTH_OK);
         CU_ASSERT(k > 950000 && k < 1050000);

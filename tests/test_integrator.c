@@ -475,7 +475,35 @@ static void test_regions(void)
     dth_model_free(m);
 }
 
+/* Every accessor and call accepts NULL (issue 21: dth_integrator_energy(NULL) gave NaN while others
+ * crashed): NULL, NaN, 0 or a status back, never a crash. */
+static void test_null_handle(void)
+{
+    double z[4] = {0}, M[16], eq, ep;
+    dth_step_info inf;
+    dth_integrator_free(NULL);
+    dth_integrator_reverse(NULL);
+    CU_ASSERT(dth_integrator_vertex(NULL) == NULL);
+    CU_ASSERT(dth_integrator_midpoint(NULL) == NULL);
+    CU_ASSERT(isnan(dth_integrator_lambda(NULL)));
+    CU_ASSERT(isnan(dth_integrator_direction(NULL)));
+    CU_ASSERT(isnan(dth_integrator_energy(NULL)));
+    CU_ASSERT(dth_integrator_steps(NULL) == 0);
+    CU_ASSERT(dth_integrator_dim(NULL) == 0);
+    CU_ASSERT(dth_integrator_model(NULL) == NULL);
+    CU_ASSERT(dth_integrator_method(NULL) == NULL);
+    CU_ASSERT(dth_integrator_order(NULL) == 0);
+    CU_ASSERT(dth_integrator_errmsg(NULL) != NULL);
+    CU_ASSERT(dth_integrator_start(NULL, z, z, 0) == DTH_EINVAL);
+    CU_ASSERT(dth_integrator_set_vertex(NULL, z, 0.1) == DTH_EINVAL);
+    CU_ASSERT(dth_integrator_step(NULL, &inf) == DTH_EINVAL);
+    CU_ASSERT(dth_integrator_error(NULL, &eq, &ep) != DTH_OK);
+    CU_ASSERT(dth_integrator_error_at(NULL, z, &eq, &ep) != DTH_OK);
+    CU_ASSERT(dth_integrator_tangent(NULL, M) != DTH_OK);
+}
+
 static CU_TestInfo energy[] = {
+    {"a NULL handle: every accessor and call answers, none crashes", test_null_handle},
     {"pendulum: midpoint energy and wp over 1e5 steps", test_energy_pendulum},
     {"harmonic 3-D: midpoint energy and wp over 1e5 steps", test_energy_harmonic},
     CU_TEST_INFO_NULL,

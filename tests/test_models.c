@@ -110,6 +110,56 @@ static int bad_create(const dth_model_args *a, void **self, dth_model_info *info
 static const dth_model_type bad_type = {DTH_MODEL_TYPE_HEAD, .name = "bad_pendulum", .doc = "pendulum with a wrong Hessian sign",
                                         .create = bad_create, .eval = bad_eval};
 
+/* Pendulums whose eval writes one double past the gradient, past the Hessian, or before the gradient
+ * (issue 24: a model library that writes past an output changed results with no report; the run's
+ * outputs are adjacent slices of one block). The selector is the model's parameter-free self. */
+static int over_kind;
+static int over_eval(const void *self, const double *y, unsigned what, double *H, double *grad, double *hess)
+{
+    (void)self;
+    if (what & DTH_EVAL_H) *H = 0.5 * y[2] * y[2] - cos(y[0]);
+    if (what & DTH_EVAL_GRAD) {
+        grad[0] = sin(y[0]), grad[1] = 0, grad[2] = y[2];
+        if (over_kind == 0) grad[3] = 1; /* past the end */
+        if (over_kind == 2) grad[-1] = 1; /* before the start */
+    }
+    if (what & DTH_EVAL_HESS) {
+        for (int i = 0; i < 9; i++) hess[i] = 0;
+        hess[0] = cos(y[0]);
+        hess[8] = 1;
+        if (over_kind == 1) hess[9] = 1;
+    }
+    return 0;
+}
+
+static const dth_model_type over_type = {DTH_MODEL_TYPE_HEAD, .name = "overrun", .doc = "writes past its outputs",
+                                         .create = bad_create, .eval = over_eval};
+
+static void test_check_overrun(void)
+{
+    const char *says[] = {"wrote past the end of its gradient", "wrote past the end of its Hessian",
+                          "wrote before the start of its gradient"};
+    double y[3] = {0.7, 0, 0.3};
+    for (int k = 0; k < 3; k++) {
+        over_kind = k;
+        dth_model *m = NULL;
+        char err[128];
+        CU_ASSERT_FATAL(dth_model_new(&over_type, NULL, 0, 1, NULL, &m, err, sizeof err) == DTH_OK);
+        dth_model_check_report rep;
+        CU_ASSERT(dth_model_check(m, y, &rep) == DTH_OK);
+        CU_ASSERT(rep.pass == 0);
+        CU_ASSERT(strstr(rep.message, says[k]) != NULL);
+        CU_ASSERT(strstr(rep.message, "'overrun'") != NULL);
+        dth_model_free(m);
+    }
+    over_kind = -1; /* the same model without the overrun passes */
+    dth_model *m = NULL;
+    CU_ASSERT_FATAL(dth_model_new(&over_type, NULL, 0, 1, NULL, &m, NULL, 0) == DTH_OK);
+    dth_model_check_report rep;
+    CU_ASSERT(dth_model_check(m, y, &rep) == DTH_OK && rep.pass == 1);
+    dth_model_free(m);
+}
+
 static void test_check_verdict(void)
 {
     dth_model *m = NULL;
@@ -125,6 +175,62 @@ static void test_check_verdict(void)
     CU_ASSERT(strstr(rep.message, "threshold 1.0e-05") != NULL);
     printf("  %s\n", rep.message);
     dth_model_free(m);
+}
+
+/* ---- a model's contract checked by dth_model_new (issue 24): one with parameters must return an
+ * instance (a plugin that leaves *self NULL crashed in its own eval), and every invariant must have a
+ * name a CSV column can take (a NULL one became "(null)_drift"). Stateless models without parameters
+ * may leave self NULL (bad_type above). */
+static const dth_param_spec one_param[] = {{"k", "1", "a parameter"}};
+static const char *inv_names_given[2];
+static size_t two_inv(const void *self) { return (void)self, 2; }
+static const char *inv_name(const void *self, size_t i) { return (void)self, inv_names_given[i]; }
+static int inv_eval(const void *self, const double *y, double *out)
+{
+    (void)self;
+    out[0] = y[0];
+    out[1] = y[2];
+    return 0;
+}
+
+static void test_contract(void)
+{
+    dth_model *m = NULL;
+    char err[256] = "";
+    /* parameters, but no instance */
+    dth_model_type t = bad_type;
+    t.name = "lost";
+    t.params = one_param;
+    t.n_params = 1;
+    CU_ASSERT_EQUAL(dth_model_new(&t, NULL, 0, 1, NULL, &m, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT(m == NULL);
+    CU_ASSERT(strstr(err, "create succeeded without an instance (*self = NULL)") != NULL);
+    /* invariants: a missing name, an empty one, one with a comma; two good ones pass */
+    dth_model_type u = bad_type;
+    u.n_invariants = two_inv;
+    u.invariants = inv_eval;
+    u.invariant_name = inv_name;
+    const char *cases[][2] = {{"q", NULL}, {"", "p"}, {"q", "p,1"}, {"q", "p"}};
+    const char *want[] = {"invariant 2 of 2 has no name (invariant_name returned NULL)",
+                          "invariant 1 of 2 has no name (invariant_name returned '')",
+                          "invariant 2 of 2 has a name that cannot be a CSV column (invariant_name returned 'p,1')", NULL};
+    for (int i = 0; i < 4; i++) {
+        inv_names_given[0] = cases[i][0];
+        inv_names_given[1] = cases[i][1];
+        err[0] = '\0';
+        int rc = dth_model_new(&u, NULL, 0, 1, NULL, &m, err, sizeof err);
+        CU_ASSERT_EQUAL(rc, want[i] ? DTH_EINVAL : DTH_OK);
+        if (want[i]) {
+            CU_ASSERT(strstr(err, want[i]) != NULL);
+        } else {
+            CU_ASSERT_STRING_EQUAL(dth_model_invariant_name(m, 1), "p");
+        }
+        dth_model_free(m);
+        m = NULL;
+    }
+    u.invariant_name = NULL; /* invariants without the name callback */
+    CU_ASSERT_EQUAL(dth_model_new(&u, NULL, 0, 1, NULL, &m, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT(strstr(err, "invariant 1 of 2 has no name") != NULL);
 }
 
 /* psi' = [psi, H] = grad psi . J grad H, computed by differencing psi along the flow. */
@@ -391,12 +497,14 @@ static CU_TestInfo conformance[] = {
     {"exact solutions solve the equations of motion", test_exact},
     {"invariants are constant along the flow", test_invariants},
     {"a wrong Hessian sign fails the check, naming the entry", test_check_verdict},
+    {"a model writing past or before an output fails the check, naming it", test_check_overrun},
     {"tables of an unknown layout are refused with a message", test_table_layout},
     {"the derivative check scales with the model (Kepler pericentres)", test_check_scaled},
     CU_TEST_INFO_NULL,
 };
 static CU_TestInfo params[] = {
     {"bad parameters are rejected naming the key", test_bad_params},
+    {"an instance for a model with parameters; a CSV name for each invariant", test_contract},
     {"pendulum psi and psi' match the paper", test_pendulum_psi},
     CU_TEST_INFO_NULL,
 };

@@ -3,7 +3,7 @@
  * Regularization across psi = 0 (paper, section 7): the cubic-model roots, the kicked segment
  * (midpoint on H = 0, exact time advance, reversal symmetry, quadratic invariants kept), the
  * registry, and raw DTH's fold at vertex 15 on the rotating pendulum (the regularizers have their
- * own suites: test_smooth, test_prescribed).
+ * own suites: test_land, test_prescribed).
  */
 #include <float.h>
 #include <math.h>
@@ -149,12 +149,13 @@ static void test_registry(void)
     CU_ASSERT_FATAL(dth_registry_add_builtin(reg) == DTH_OK);
     CU_ASSERT(dth_registry_regularizer_count(reg) >= 3);
     CU_ASSERT_PTR_EQUAL(dth_registry_find_regularizer(reg, "none"), &dth_reg_none);
-    CU_ASSERT_PTR_EQUAL(dth_registry_find_regularizer(reg, "smooth"), &dth_reg_smooth);
+    CU_ASSERT_PTR_EQUAL(dth_registry_find_regularizer(reg, "land"), &dth_reg_land);
+    CU_ASSERT_PTR_NULL(dth_registry_find_regularizer(reg, "smooth")); /* retired (issue 23) */
     CU_ASSERT_PTR_EQUAL(dth_registry_find_regularizer(reg, "prescribed"), &dth_reg_prescribed);
     CU_ASSERT_PTR_NULL(dth_registry_find_regularizer(reg, "reseed")); /* retired */
     CU_ASSERT_PTR_NULL(dth_registry_find_regularizer(reg, "symkick"));
     CU_ASSERT_PTR_NULL(dth_registry_find_regularizer(reg, "nope"));
-    CU_ASSERT_PTR_EQUAL(dth_registry_regularizer_at(reg, 0), &dth_reg_smooth); /* the default first */
+    CU_ASSERT_PTR_EQUAL(dth_registry_regularizer_at(reg, 0), &dth_reg_land); /* the default first */
     CU_ASSERT_PTR_NULL(dth_registry_regularizer_at(reg, 99));
     CU_ASSERT_EQUAL(dth_registry_add_regularizer(reg, &dth_reg_none), DTH_EINVAL); /* duplicate */
     dth_registry_free(reg);
@@ -162,11 +163,11 @@ static void test_registry(void)
     dth_model *m = model(&dth_model_pendulum, NULL, 0, 1);
     dth_regularizer *r = NULL;
     char err[256] = "";
-    dth_kv bad = {"nosuch", "1"}, badv = {"inner", "-1"};
-    CU_ASSERT_EQUAL(dth_regularizer_new(&dth_reg_smooth, &bad, 1, m, NULL, &r, err, sizeof err), DTH_EINVAL);
+    dth_kv bad = {"nosuch", "1"}, badv = {"kappa", "-1"};
+    CU_ASSERT_EQUAL(dth_regularizer_new(&dth_reg_land, &bad, 1, m, NULL, &r, err, sizeof err), DTH_EINVAL);
     CU_ASSERT_PTR_NOT_NULL(strstr(err, "nosuch"));
-    CU_ASSERT_EQUAL(dth_regularizer_new(&dth_reg_smooth, &badv, 1, m, NULL, &r, err, sizeof err), DTH_EINVAL);
-    CU_ASSERT_PTR_NOT_NULL(strstr(err, "inner"));
+    CU_ASSERT_EQUAL(dth_regularizer_new(&dth_reg_land, &badv, 1, m, NULL, &r, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "kappa"));
     CU_ASSERT_PTR_NULL(r);
     dth_model_free(m);
 }

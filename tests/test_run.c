@@ -596,6 +596,120 @@ static void test_threads(void)
     CU_ASSERT(memcmp(b.out, b1.out, sizeof b.out) == 0);
 }
 
+/* ------------------------------------------------------------------ what dth_run refuses */
+
+static int count_sample(void *user, const dth_sample *s)
+{
+    (void)s;
+    ++*(long *)user;
+    return 0;
+}
+
+/* dth_run_check's rules (one place; dth_run calls it on every call): each refused with DTH_EINVAL and
+ * a message naming the setting, before any sample; a step holding more output times than
+ * DTH_RUN_MAX_SAMPLES_PER_STEP stops the run (DTH_RUN_SAMPLES) instead of filling memory. */
+static void test_refusals(void)
+{
+    dth_model *m = model(&dth_model_pendulum, NULL, 0, 1);
+    double q0 = 1, p0 = 0;
+    dth_integrator *it = start(m, 0.05, DTH_START_MIDPOINT, &q0, &p0, 0);
+    long count = 0;
+    char err[256];
+    dth_run_state st;
+    dth_run_config c;
+    dth_run_config_default(&c);
+    c.sample = count_sample;
+    c.user = &count;
+    c.has_t_end = 1;
+    c.t_end = 5;
+    c.points = DTH_POINTS_TIMES;
+    /* a configuration of another layout (not filled by dth_run_config_default) */
+    c.size = sizeof c - 8;
+    dth_run_state_init(&st);
+    CU_ASSERT(dth_run_check(it, &c, &st, err, sizeof err) == DTH_EINVAL);
+    CU_ASSERT(strstr(err, "dth_run_config.size") != NULL);
+    CU_ASSERT(dth_run(it, &c, &st) == DTH_EINVAL);
+    c.size = sizeof c;
+    static const struct {
+        double times[3];
+        const char *says;
+    } bad[] = {{{1, NAN, 3}, "times[1]"}, {{5, 1, 3}, "times[1] = 1 lies before times[0] = 5"},
+               {{1, 3, INFINITY}, "times[2]"}};
+    for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
+        c.times = bad[i].times;
+        c.ntimes = 3;
+        dth_run_state_init(&st);
+        CU_ASSERT(dth_run_check(it, &c, &st, err, sizeof err) == DTH_EINVAL);
+        CU_ASSERT(strstr(err, bad[i].says) != NULL);
+        CU_ASSERT(dth_run(it, &c, &st) == DTH_EINVAL);
+        CU_ASSERT(count == 0 && dth_integrator_steps(it) == 0);
+    }
+    /* equal times are fine */
+    double eq[3] = {1, 1, 3};
+    c.times = eq;
+    dth_run_state_init(&st);
+    CU_ASSERT(dth_run_check(it, &c, &st, err, sizeof err) == DTH_OK);
+    /* a dt asking for more than 1e6 rows per step of 0.05, known before the run */
+    c.times = NULL;
+    c.ntimes = 0;
+    c.dt = 1e-300;
+    CU_ASSERT(dth_run(it, &c, &st) == DTH_EINVAL);
+    CU_ASSERT(dth_run_check(it, &c, &st, err, sizeof err) == DTH_EINVAL && strstr(err, "rows per step"));
+    c.dt = 0.05 / 1e6; /* exactly the bound: accepted */
+    CU_ASSERT(dth_run_check(it, &c, &st, err, sizeof err) == DTH_OK);
+    /* negative steps */
+    c.points = DTH_POINTS_VERTICES;
+    c.has_t_end = 0;
+    c.steps = -5;
+    CU_ASSERT(dth_run(it, &c, &st) == DTH_EINVAL);
+    CU_ASSERT(dth_run_check(it, &c, &st, err, sizeof err) == DTH_EINVAL && strstr(err, "steps = -5"));
+    CU_ASSERT(count == 0);
+    /* t_end behind: at the start, and on a later call behind where the first one ended */
+    c.has_t_end = 1;
+    c.t_end = -1;
+    CU_ASSERT(dth_run(it, &c, &st) == DTH_EINVAL);
+    c.t_end = 2;
+    CU_ASSERT_FATAL(dth_run(it, &c, &st) == DTH_OK);
+    CU_ASSERT(count > 0 && st.t_stop == 2);
+    long k = st.k, before = count;
+    c.t_end = 1;
+    CU_ASSERT(dth_run(it, &c, &st) == DTH_EINVAL);
+    CU_ASSERT(dth_run_check(it, &c, &st, err, sizeof err) == DTH_EINVAL && strstr(err, "where the run stands"));
+    CU_ASSERT(st.k == k && count == before && st.t_stop == 2);
+    c.has_t_end = 0;
+    c.steps = k - 1;
+    CU_ASSERT(dth_run(it, &c, &st) == DTH_EINVAL);
+    c.steps = k; /* where it stands: nothing to do */
+    CU_ASSERT(dth_run(it, &c, &st) == DTH_OK);
+    dth_integrator_free(it);
+
+    /* a list of times cannot be judged before the run: the driver stops inside the first step */
+    it = start(m, 0.05, DTH_START_VERTEX, &q0, &p0, 0);
+    size_t nt = 3 * (size_t)DTH_RUN_MAX_SAMPLES_PER_STEP / 2;
+    double *tt = malloc(nt * sizeof *tt);
+    CU_ASSERT_FATAL(tt != NULL);
+    for (size_t i = 0; i < nt; i++) tt[i] = 0.01 * (double)i / (double)nt;
+    dth_run_config_default(&c);
+    c.sample = count_sample;
+    c.user = &count;
+    c.has_t_end = 1;
+    c.t_end = 1;
+    c.t0 = 0;
+    c.points = DTH_POINTS_TIMES;
+    c.times = tt;
+    c.ntimes = nt;
+    count = 0;
+    dth_run_state_init(&st);
+    CU_ASSERT(dth_run_check(it, &c, &st, err, sizeof err) == DTH_OK);
+    CU_ASSERT(dth_run(it, &c, &st) == DTH_EINVAL);
+    CU_ASSERT(st.stop == DTH_RUN_SAMPLES);
+    CU_ASSERT(count == DTH_RUN_MAX_SAMPLES_PER_STEP);
+    CU_ASSERT(st.k == 1);
+    free(tt);
+    dth_integrator_free(it);
+    dth_model_free(m);
+}
+
 static CU_TestInfo run_tests[] = {
     {"dense output reproduces cubics (quartics with the midpoint)", test_dense_polynomials},
     {"dense output converges at order 2 at fixed times", test_dense_order},
@@ -605,6 +719,7 @@ static CU_TestInfo run_tests[] = {
     {"event direction and terminal events", test_events_direction_terminal},
     {"a run resumed from its checkpoint gives the same samples and events", test_resume},
     {"separate integrators in two threads: the same bits", test_threads},
+    {"bad configurations refused with a message; a step with too many output times stops", test_refusals},
     CU_TEST_INFO_NULL};
 
 CU_SuiteInfo dth_test_suites[] = {{"run", NULL, NULL, NULL, NULL, run_tests}, CU_SUITE_INFO_NULL};

@@ -9,6 +9,7 @@
 #include <unistd.h>
 #include "cu_main.h"
 #include "dth/dth.h"
+#include "dth_internal.h" /* dth__parse_list */
 
 /* A scene file with the given text; path receives its name (remove it with unlink). */
 static void write_scene(const char *text, char *path, size_t len)
@@ -264,7 +265,7 @@ static const bad_case bad_cases[] = {
     {BASE_PEND "steps = 10\n[initial]\nwp = 1\n", 10, "initial.wp", "start=vertex"},
     {BASE_PEND "steps = 10\n[initial]\nx = 1\n", 10, "initial.x", "unknown key"},
     {BASE_PEND "steps = 10\n[regularize]\nmethod = tunnel\n", 10, "regularize.method", "tunnel"},
-    {BASE_PEND "steps = 10\n[regularize]\neps = 1\n", 10, "regularize.eps", "'smooth' has no parameter"},
+    {BASE_PEND "steps = 10\n[regularize]\neps = 1\n", 10, "regularize.eps", "'land' has no parameter"},
     {BASE_PEND "steps = 10\n[regularize]\nmethod = none\neps = 1\n", 11, "regularize.eps", "no parameters"},
     {BASE_PEND "steps = 10\n[output]\nevery = 0\n", 10, "output.every", "0"},
     {BASE_PEND "steps = 10\n[output]\ndt = -1\n", 10, "output.dt", "-1"},
@@ -563,8 +564,75 @@ static void test_nul_and_line_limit(void)
     dth_scene_free(s);
 }
 
-/* Without [regularize] method=, DTH runs get the default regularizer `smooth` (a new scene crosses
- * psi = 0) and the baselines none; method = none keeps raw DTH. */
+/* dth_scene_set_from (issue 25): the caller names the override's source, in messages and in
+ * dth_scene_origin; it is an override all the same (one of steps/t_end replaces a file's other). */
+static void test_set_from_vary(void)
+{
+    dth_registry *reg = registry();
+    dth_scene *s;
+    char err[512] = "";
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    const char *text = BASE_PEND "t_end = 5\n";
+    CU_ASSERT_FATAL(dth_scene_load_mem(s, "f.ini", text, strlen(text), err, sizeof err) == DTH_OK);
+    CU_ASSERT(dth_scene_set_from(s, "--vary integrator.hh=1", "integrator.hh=1", err, sizeof err) == DTH_OK);
+    CU_ASSERT_STRING_EQUAL(dth_scene_origin(s, "integrator", "hh"), "--vary integrator.hh=1");
+    dth_run_setup rs;
+    CU_ASSERT_EQUAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT(strncmp(err, "--vary integrator.hh=1: integrator.hh: unknown key", 50) == 0);
+    CU_ASSERT(dth_scene_set_from(s, "list.csv:3", "integratorhh=1", err, sizeof err) == DTH_EPARSE);
+    CU_ASSERT_STRING_EQUAL(err, "list.csv:3: expected section.key=value");
+    CU_ASSERT(dth_scene_set(s, "integrator.hh=2", err, sizeof err) == DTH_OK); /* the -s form as before */
+    CU_ASSERT_STRING_EQUAL(dth_scene_origin(s, "integrator", "hh"), "-s integrator.hh=2");
+    dth_scene_free(s);
+    /* steps from the caller replaces the file's t_end, as a -s does */
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    CU_ASSERT_FATAL(dth_scene_load_mem(s, "f.ini", text, strlen(text), err, sizeof err) == DTH_OK);
+    CU_ASSERT(dth_scene_set_from(s, "row 3", "integrator.steps=7", err, sizeof err) == DTH_OK);
+    CU_ASSERT_EQUAL_FATAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_OK);
+    CU_ASSERT(!rs.has_t_end && rs.steps == 7);
+    dth_run_setup_clear(&rs);
+    dth_scene_free(s);
+    dth_registry_free(reg);
+}
+
+/* A number may be as long as a line allows (issue 24): 190 digits in a list (as a file line, and as
+ * an override) read as the number they spell; one digit more than a line holds is a line error. */
+static void test_long_number(void)
+{
+    dth_registry *reg = registry();
+    char num[200], text[600], set[240], err[512];
+    snprintf(num, sizeof num, "0.5%0187d", 1); /* 0.5000...0001: 190 characters */
+    CU_ASSERT_FATAL(strlen(num) == 190);
+    for (int via_set = 0; via_set < 2; via_set++) {
+        snprintf(text, sizeof text, "[model]\nname = harmonic\n[initial]\nq = %s,\n  %s\np = 0, 0\n"
+                 "[integrator]\nh = 0.1\nsteps = 3\n", via_set ? "1" : num, via_set ? "2" : num);
+        dth_scene *s;
+        dth_run_setup rs;
+        CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+        CU_ASSERT_FATAL(dth_scene_load_mem(s, "long.ini", text, strlen(text), err, sizeof err) == DTH_OK);
+        snprintf(set, sizeof set, "initial.q = %s, 2", num);
+        if (via_set) CU_ASSERT_FATAL(dth_scene_set(s, set, err, sizeof err) == DTH_OK);
+        int rc = dth_scene_setup(s, reg, &rs, err, sizeof err);
+        CU_ASSERT_EQUAL(rc, DTH_OK);
+        if (rc) {
+            printf("  %s\n", err);
+        } else {
+            CU_ASSERT(rs.n == 2 && rs.q0[0] == 0.5 && rs.q0[1] == (via_set ? 2 : 0.5));
+            dth_run_setup_clear(&rs);
+        }
+        dth_scene_free(s);
+    }
+    double x[2];
+    size_t n;
+    CU_ASSERT(dth__parse_list(num, x, 2, &n) == 0 && n == 1 && x[0] == 0.5);
+    CU_ASSERT(dth__parse_list("1, 2x", x, 2, &n) != 0);  /* still whole items only */
+    CU_ASSERT(dth__parse_list("1,,2", x, 2, &n) != 0);
+    CU_ASSERT(dth__parse_list(" 1 , 2 ", x, 2, &n) == 0 && n == 2 && x[1] == 2);
+    dth_registry_free(reg);
+}
+
+/* Without [regularize] method=, DTH runs get the default regularizer `land` (a new scene crosses
+ * psi = 0) and the baselines none; method = none keeps raw DTH; the retired `smooth` is named as such. */
 static void test_default_regularizer(void)
 {
     dth_registry *reg = registry();
@@ -572,10 +640,10 @@ static void test_default_regularizer(void)
         const char *text, *want;
         int has;
     } c[] = {
-        {BASE_PEND "steps = 10\n", "smooth", 1},
+        {BASE_PEND "steps = 10\n", "land", 1},
         {BASE_PEND "method = gauss4\nsteps = 10\n", "none", 0},
         {BASE_PEND "steps = 10\n[regularize]\nmethod = none\n", "none", 0},
-        {BASE_PEND "steps = 10\n[regularize]\nouter = 5\n", "smooth", 1},
+        {BASE_PEND "steps = 10\n[regularize]\nkappa = 0.02\n", "land", 1},
     };
     for (size_t i = 0; i < sizeof c / sizeof c[0]; i++) {
         char path[64], err[512];
@@ -592,6 +660,53 @@ static void test_default_regularizer(void)
         dth_scene_free(s);
         unlink(path);
     }
+    char path[64], err[512];
+    write_scene(BASE_PEND "steps = 10\n[regularize]\nmethod = smooth\n", path, sizeof path);
+    dth_scene *s;
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    CU_ASSERT_FATAL(dth_scene_load(s, path, err, sizeof err) == DTH_OK);
+    dth_run_setup rs;
+    CU_ASSERT_EQUAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT(strstr(err, "regularizer 'smooth' was retired") != NULL);
+    CU_ASSERT(strstr(err, "available: land, none, prescribed") != NULL);
+    dth_scene_free(s);
+    unlink(path);
+    dth_registry_free(reg);
+}
+
+/* A program's own registry holding a model but no regularizer: the default regularizer (smooth, for
+ * DTH) cannot be found, which is a message naming it and the fix, not a crash; none (the fix, and a
+ * baseline's default) needs no registered type. */
+static void test_registry_without_regularizers(void)
+{
+    dth_registry *reg = NULL;
+    CU_ASSERT_FATAL(dth_registry_new(NULL, &reg) == DTH_OK);
+    CU_ASSERT_FATAL(dth_registry_add_model(reg, &dth_model_harmonic) == DTH_OK);
+    static const char *base = "[model]\nname = harmonic\n[initial]\nq = 1\np = 0\n[integrator]\nh = 0.1\nsteps = 3\n";
+    char err[512] = "";
+    dth_scene *s;
+    dth_run_setup rs;
+    memset(&rs, 0, sizeof rs);
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    CU_ASSERT_FATAL(dth_scene_load_mem(s, "own.ini", base, strlen(base), err, sizeof err) == DTH_OK);
+    CU_ASSERT_EQUAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT(strstr(err, "own.ini: [regularize]: the default regularizer 'land' is not in the registry") != NULL);
+    CU_ASSERT(strstr(err, "method = none") != NULL);
+    CU_ASSERT(rs.model == NULL); /* untouched on failure */
+    /* the fix the message names, and a baseline (default none) */
+    const char *fixes[] = {"regularize.method=none", "integrator.method=rk4"};
+    for (int i = 0; i < 2; i++) {
+        dth_scene *t;
+        CU_ASSERT_FATAL(dth_scene_new(NULL, &t) == DTH_OK);
+        CU_ASSERT_FATAL(dth_scene_load_mem(t, "own.ini", base, strlen(base), err, sizeof err) == DTH_OK);
+        CU_ASSERT_FATAL(dth_scene_set(t, fixes[i], err, sizeof err) == DTH_OK);
+        CU_ASSERT_EQUAL_FATAL(dth_scene_setup(t, reg, &rs, err, sizeof err), DTH_OK);
+        CU_ASSERT_STRING_EQUAL(rs.regularize, "none");
+        CU_ASSERT(rs.regularizer == NULL);
+        dth_run_setup_clear(&rs);
+        dth_scene_free(t);
+    }
+    dth_scene_free(s);
     dth_registry_free(reg);
 }
 
@@ -609,7 +724,7 @@ static void test_default_regularizer_bad_key_and_events(void)
         {"regularize.ste'p=1", "regularize.ste'p"},
         {"output.points=midpoints", NULL},
         {"events.section=p1", NULL},
-        {"events.section=p2", "the model has 1 degrees of freedom"},
+        {"events.section=p2", "the model has 1 degree of freedom"},
         {"events.distance_dofs=", "needs [events] distance="},
         {"events.time=1,nan", "not a comma-separated list"},
         {"events.frobnicate=1", "unknown key (known in [events]"},
@@ -639,6 +754,85 @@ static void test_default_regularizer_bad_key_and_events(void)
     dth_registry_free(reg);
 }
 
+/* An override named by its caller (dth_scene_set_from: a binding's set=): messages and the origin name
+ * it, and it is an override like -s (steps= replaces the file's t_end=). */
+static void test_set_from(void)
+{
+    char path[64], err[512];
+    write_scene(good_pendulum, path, sizeof path);
+    dth_registry *reg = registry();
+    dth_scene *s;
+    dth_run_setup rs;
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    CU_ASSERT_FATAL(dth_scene_load(s, path, err, sizeof err) == DTH_OK);
+    CU_ASSERT_EQUAL(dth_scene_set_from(s, "set={'integrator.hh': 1}", "integrator.hh=1", err, sizeof err), DTH_OK);
+    CU_ASSERT_STRING_EQUAL(dth_scene_origin(s, "integrator", "hh"), "set={'integrator.hh': 1}");
+    CU_ASSERT_EQUAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT(strncmp(err, "set={'integrator.hh': 1}: integrator.hh: unknown key", 51) == 0);
+    CU_ASSERT(strstr(err, "-s") == NULL);
+    dth_scene_free(s);
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &s) == DTH_OK);
+    CU_ASSERT_FATAL(dth_scene_load(s, path, err, sizeof err) == DTH_OK);
+    CU_ASSERT_EQUAL(dth_scene_set_from(s, "set={'integrator.steps': 5}", "integrator.steps=5", err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL_FATAL(dth_scene_setup(s, reg, &rs, err, sizeof err), DTH_OK);
+    CU_ASSERT(rs.has_t_end == 0 && rs.steps == 5);
+    dth_run_setup_clear(&rs);
+    /* refusals name it too */
+    CU_ASSERT_EQUAL(dth_scene_set_from(s, "set={'model.name': ...}", "model.name=pendulum\nomega2 = 4", err, sizeof err),
+                    DTH_EPARSE);
+    CU_ASSERT(strncmp(err, "set={'model.name': ...}: a scene file cannot hold this (a control character)", 70) == 0);
+    CU_ASSERT_EQUAL(dth_scene_set_from(s, "set=[('x', 1)]", "x=1", err, sizeof err), DTH_EPARSE);
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "set=[('x', 1)]: expected section.key=value"));
+    /* what a scene file holds, checked alone (a caller writing scene text) */
+    CU_ASSERT_EQUAL(dth_scene_check_entry("model", "name", "pendulum", err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL(dth_scene_check_entry("model", "name", "pendulum\nomega2 = 4", err, sizeof err), DTH_EPARSE);
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "model.name: a scene file cannot hold this (a control character)"));
+    CU_ASSERT_EQUAL(dth_scene_check_entry("model]\n[x", "name", "p", err, sizeof err), DTH_EPARSE);
+    CU_ASSERT_EQUAL(dth_scene_check_entry("model", "a=b", "p", err, sizeof err), DTH_EPARSE);
+    CU_ASSERT_EQUAL(dth_scene_check_entry("model", "name", "p ; c", err, sizeof err), DTH_EPARSE);
+    dth_scene_free(s);
+    dth_registry_free(reg);
+    unlink(path);
+}
+
+/* What a resume may change (one rule for dth run --resume and the Python package): the run's length
+ * and the file names; with DTH_RESUME_ROWS also every and diagnostics; anything else is named. */
+static void test_resume_rule(void)
+{
+    static const char text[] = "[model]\nname=pendulum\n[initial]\nq=1\np=0\n[integrator]\nh=0.05\nsteps=100\n"
+                               "[output]\nfile=o.csv\n";
+    char err[512];
+    dth_scene *saved, *now;
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &saved) == DTH_OK && dth_scene_new(NULL, &now) == DTH_OK);
+    CU_ASSERT_FATAL(dth_scene_load_mem(saved, "s.ini", text, strlen(text), err, sizeof err) == DTH_OK);
+    CU_ASSERT_FATAL(dth_scene_load_mem(now, "s.ini", text, strlen(text), err, sizeof err) == DTH_OK);
+    const char *ok[] = {"integrator.steps=500", "integrator.t_end=9", "output.file=b.csv", "events.file=e.csv", NULL};
+    for (int i = 0; ok[i]; i++) CU_ASSERT(dth_scene_set(now, ok[i], err, sizeof err) == DTH_OK);
+    CU_ASSERT(dth_scene_resume_check(saved, now, 0, "--resume", err, sizeof err) == DTH_OK);
+    CU_ASSERT(dth_scene_set_from(now, "set={'output.every': 5}", "output.every=5", err, sizeof err) == DTH_OK);
+    CU_ASSERT(dth_scene_resume_check(saved, now, 0, "--resume", err, sizeof err) == DTH_EINVAL);
+    CU_ASSERT(strncmp(err, "set={'output.every': 5}: output.every = '5' would change the checkpointed run", 70) == 0);
+    CU_ASSERT(dth_scene_resume_check(saved, now, DTH_RESUME_ROWS, NULL, err, sizeof err) == DTH_OK);
+    CU_ASSERT(dth_scene_set_from(now, "set={'model.omega2': 1.1}", "model.omega2=1.1", err, sizeof err) == DTH_OK);
+    CU_ASSERT(dth_scene_resume_check(saved, now, DTH_RESUME_ROWS, NULL, err, sizeof err) == DTH_EINVAL);
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "set={'model.omega2': 1.1}: model.omega2 = '1.1' would change the checkpointed "
+                                       "run (it ran without it)"));
+    CU_ASSERT_PTR_NOT_NULL(strstr(err, "output.file, output.every, output.diagnostics and events.file"));
+    /* a key the resumed scene lacks is named by `what` */
+    dth_scene_free(now);
+    CU_ASSERT_FATAL(dth_scene_new(NULL, &now) == DTH_OK);
+    CU_ASSERT(dth_scene_resume_check(saved, now, 0, "--resume", err, sizeof err) == DTH_EINVAL);
+    CU_ASSERT(strncmp(err, "--resume: model.name = (unset) would change", 40) == 0);
+    const char *fixed[][2] = {{"model", "omega2"}, {"initial", "q"}, {"integrator", "h"}, {"integrator", "method"},
+                              {"regularize", "method"}, {"output", "dt"}, {"output", "points"}, {"events", "section"}};
+    for (size_t i = 0; i < sizeof fixed / sizeof *fixed; i++)
+        CU_ASSERT(!dth_scene_resume_may_change(fixed[i][0], fixed[i][1], DTH_RESUME_ROWS));
+    CU_ASSERT(dth_scene_resume_may_change("output", "every", DTH_RESUME_ROWS));
+    CU_ASSERT(!dth_scene_resume_may_change("output", "every", 0));
+    dth_scene_free(saved);
+    dth_scene_free(now);
+}
+
 static CU_TestInfo scene_tests[] = {
     {"scene text from memory", test_load_mem},
     {"indented lines continue a list", test_continuation},
@@ -650,8 +844,13 @@ static CU_TestInfo scene_tests[] = {
     {"bad override values name the override", test_bad_override_values},
     {"dth_scene_text loads back to the same entries (random overrides and files)", test_text_round_trip},
     {"a NUL byte is refused; the 197-character line limit, exactly", test_nul_and_line_limit},
-    {"default regularizer: smooth for DTH, none for baselines", test_default_regularizer},
+    {"a number as long as a line", test_long_number},
+    {"overrides named by their caller: --vary, list rows (dth_scene_set_from)", test_set_from_vary},
+    {"default regularizer: land for DTH, none for baselines", test_default_regularizer},
+    {"a registry without regularizers: a message, not a crash", test_registry_without_regularizers},
     {"the default regularizer refusing a key; [output] points and [events]", test_default_regularizer_bad_key_and_events},
+    {"an override named by its caller (dth_scene_set_from); dth_scene_check_entry", test_set_from},
+    {"what a resume may change (dth_scene_resume_check)", test_resume_rule},
     CU_TEST_INFO_NULL,
 };
 

@@ -14,7 +14,7 @@ pcdir=$(dirname "$(find "$tmp/root" -name dth.pc | head -n 1)")
 # the install carries the plot scripts, the documentation with its figures, and the examples
 for f in share/dth/scripts/plot.sh share/dth/scripts/plot-map.sh share/dth/scripts/plot-poincare.sh \
          share/doc/dth/user-guide.md share/doc/dth/figures/henon-heiles-section.png share/doc/dth/examples/embed.c \
-         share/doc/dth/examples/poincare.c share/dth/scenes/pendulum.ini include/dth/run.h; do
+         share/doc/dth/examples/poincare.c share/dth/scenes/pendulum.ini include/dth/run.h include/dth/version.h; do
     [ -n "$(find "$tmp/root" -path "*/$f" | head -n 1)" ] || { echo "check-pkgconfig: $f not installed" >&2; exit 1; }
 done
 export PKG_CONFIG_PATH="$pcdir" PKG_CONFIG_SYSROOT_DIR="$tmp/root"

@@ -37,7 +37,7 @@ static int on_sample(void *user, const dth_sample *s)
     for (size_t i = 0; i < n; i++) printf(",%.17g", z[i]);
     for (size_t i = 0; i < n; i++) printf(",%.17g", z[n + 1 + i]);
     printf(",%.17g,%.17g,%.17g", z[N - 1], z[N - 1] + E, E);
-    /* with a regularizer (the default `smooth`): was the step an ordinary (symplectic) DTH step? */
+    /* with a regularizer (the default `land`): was the step an ordinary (symplectic) DTH step? */
     if (rs->regularizer) printf(",%d", (s->step->flags & DTH_STEP_REGULARIZED) ? 0 : 1);
     printf("\n");
     if (s->kind == DTH_SAMPLE_MIDPOINT) o->worst = fmax(o->worst, fabs(E - o->E0) / fmax(fabs(o->E0), 1e-300));

@@ -24,9 +24,9 @@ except ImportError as _e:
         "(a pyenv or conda Python does not see Debian's modules: pip install cffi numpy there). See "
         "docs/python.md." % (_sys.executable, _e.name or str(_e)), name=_e.name) from _e
 
-from ._core import (DthError, OutsideDomain, Scene, Simulation, Result, Events, Roots, Map, Model, CModel,
-                    load_model, run, roots, map, models, strerror, status_name)
+from ._core import (DthError, OutsideDomain, Scene, Simulation, Event, Result, Events, Roots, Map, Model, CModel,
+                    FormulaModel, load_model, run, roots, map, models, strerror, status_name)
 
 __version__ = "0.1.0"
-__all__ = ["DthError", "OutsideDomain", "Scene", "Simulation", "Result", "Events", "Roots", "Map", "Model", "CModel",
-           "load_model", "run", "roots", "map", "models", "strerror", "status_name"]
+__all__ = ["DthError", "OutsideDomain", "Scene", "Simulation", "Event", "Result", "Events", "Roots", "Map", "Model",
+           "CModel", "FormulaModel", "load_model", "run", "roots", "map", "models", "strerror", "status_name"]

@@ -5,13 +5,14 @@ import contextlib
 import json
 import math
 import numbers
+import threading
 
 import numpy as np
 
 from ._ffi import ffi, lib
 
-__all__ = ["DthError", "OutsideDomain", "Scene", "Simulation", "Result", "Events", "Roots", "Map", "Model",
-           "CModel", "load_model", "run", "roots", "map", "models", "strerror", "status_name"]
+__all__ = ["DthError", "OutsideDomain", "Scene", "Simulation", "Event", "Result", "Events", "Roots", "Map", "Model",
+           "CModel", "FormulaModel", "load_model", "run", "roots", "map", "models", "strerror", "status_name"]
 
 _ERRLEN = 1024
 
@@ -28,7 +29,7 @@ _STATUS = ffi.typeof("dth_status").relements
 DTH_EMODEL = _STATUS["DTH_EMODEL"]
 
 # Exceptions raised inside callbacks that C called: re-raised once control is back in Python.
-_pending = []
+_tls = threading.local()  # .pending: per thread, so that one thread never raises another's
 
 
 def strerror(status):
@@ -42,11 +43,13 @@ def status_name(status):
 
 
 class DthError(Exception):
-    """A hard error of the library (negative status) or bad input (scene, overrides, arguments)."""
+    """A hard error of the library (negative status) or bad input (scene, overrides, arguments).
+    `result`: the samples a run returned before it stopped, where it has some (else None)."""
 
-    def __init__(self, status, message=None):
+    def __init__(self, status, message=None, result=None):
         self.status = status
         self.name = status_name(status)
+        self.result = result
         super().__init__(message or strerror(status))
 
 
@@ -56,15 +59,15 @@ class OutsideDomain(Exception):
 
 
 def _raise_pending():
-    if _pending:
-        exc = _pending[0]
-        del _pending[:]
+    exc = getattr(_tls, "pending", None)
+    if exc is not None:
+        _tls.pending = None
         raise exc
 
 
 def _onerror(exc_type, exc, tb):
-    if not _pending:
-        _pending.append(exc.with_traceback(tb) if exc is not None else exc_type())
+    if getattr(_tls, "pending", None) is None:  # the first one of the call counts
+        _tls.pending = exc.with_traceback(tb) if exc is not None else exc_type()
 
 
 def _err(buf):
@@ -83,7 +86,9 @@ def _fmt(v):
     if isinstance(v, str):
         return v
     if isinstance(v, (list, tuple, np.ndarray)):
-        return ", ".join(_fmt(x) for x in np.asarray(v, dtype=object).ravel())
+        # no blank after the commas: a long list may then be split over continuation lines at any
+        # comma (what dth_scene_check_entry and dth_scene_set accept, scene.h)
+        return ",".join(_fmt(x) for x in np.asarray(v, dtype=object).ravel())
     raise TypeError("dth: cannot write %r as a scene value" % (v,))
 
 
@@ -103,13 +108,20 @@ def _ini_lines(key, text):
 
 
 def _ini_from_dict(d):
+    """INI text of a dict scene; every entry checked by the library's rule of what a scene file can
+    hold (dth_scene_check_entry, the rule dth_scene_set applies), so that no value can add a line."""
     out = []
+    err = ffi.new("char[]", _ERRLEN)
     for sec, keys in d.items():
         if not isinstance(keys, dict):
             raise TypeError("dth: scene section %r must be a dict of keys" % (sec,))
         out.append("[%s]" % sec)
         for k, v in keys.items():
-            out.extend(_ini_lines(k, _fmt(v)))
+            text = _fmt(v)
+            rc = lib().dth_scene_check_entry(str(sec).encode(), str(k).encode(), text.encode(), err, _ERRLEN)
+            if rc:
+                raise DthError(rc, "dict scene: %s" % _err(err))
+            out.extend(_ini_lines(k, text))
     return "\n".join(out) + "\n"
 
 
@@ -147,10 +159,14 @@ class Scene:
                 self.set(k, v)
 
     def set(self, key, value):
-        """Override section.key (applied after the file, in order, like dth run -s)."""
-        if "." not in key:
-            raise ValueError("dth: an override names section.key, not %r" % key)
-        self.overrides.append("%s=%s" % (key, _fmt(value)))
+        """Override section.key (applied after the file, in order, like dth run -s; messages name it
+        as set={'section.key': value})."""
+        if not isinstance(key, str) or "." not in key:
+            raise ValueError("dth: an override names section.key, not %r" % (key,))
+        origin = "set={%r: %r}" % (key, value)
+        if len(origin) > 80:
+            origin = origin[:76] + "...}"
+        self.overrides.append((origin, "%s=%s" % (key, _fmt(value))))
         return self
 
     def __setitem__(self, key, value):
@@ -173,8 +189,8 @@ class Scene:
                 rc = L.dth_scene_load_mem(s, self.name.encode(), t, len(t), err, _ERRLEN)
             if rc:
                 raise DthError(rc, _err(err))
-            for o in self.overrides:
-                rc = L.dth_scene_set(s, o.encode(), err, _ERRLEN)
+            for origin, o in self.overrides:
+                rc = L.dth_scene_set_from(s, origin.encode(), o.encode(), err, _ERRLEN)
                 if rc:
                     raise DthError(rc, _err(err))
         except BaseException:
@@ -235,7 +251,12 @@ class Model:
             def grad(self, q, t, p): ...   # 2n+1 values: dH/dq, dH/dt, dH/dp
             def hess(self, q, t, p): ...   # (2n+1, 2n+1) over y
 
-    Optional: invariant_names = ("L",) with invariants(self, q, t, p) (a sequence of floats).
+    Optional: invariant_names = ("L",) with invariants(self, q, t, p) (a sequence of floats), and
+    the optional entries of the C table (model.h), used where a subclass defines them:
+        def third(self, q, t, p, u): ...   # sum H_ijk u_i u_j u_k over y, u of 2n+1 values (psi')
+        def hdiff(self, q1, t1, p1, q0, t0, p0): ...   # H(y1) - H(y0) without cancellation, exactly
+                                           # antisymmetric (the step's compensated constraint uses it)
+        def domain(self, q, t, p): ...     # None inside the domain, else a few words saying why not
     Parameters reach the instance as self.params (floats where the text is a number). Raise
     dth.OutsideDomain where the point is outside the model's domain. Pass the class to a run:
     dth.run(scene, models=[HenonHeiles]).
@@ -264,6 +285,40 @@ class Model:
 
     def invariants(self, q, t, p):
         return ()
+
+    @staticmethod
+    def from_hamiltonian(formula, n, name, params=None, doc=None, cache_dir=None):
+        """A compiled model from the formula of H_phys (text SymPy reads, or a SymPy expression) in
+        q1..qn, p1..pn, t and the parameters `params` {name: default, None: required}:
+
+            hh = dth.Model.from_hamiltonian(
+                "p1**2/2 + p2**2/2 + (q1**2 + q2**2)/2 + q1**2*q2 - q2**3/3", n=2, name="hh-formula")
+            dth.run("docs/examples/henon-heiles.ini", models=[hh], set={"model.name": "hh-formula"})
+
+        SymPy derives the gradient, the Hessian, the third derivative along u (sum H_ijk u_i u_j u_k) and
+        hdiff (H(y1) - H(y0) by differences of monomials and of sin, cos, exp, log, sqrt, 1/x, exactly
+        antisymmetric); the C source (m.source) is compiled by the system C compiler (cc -O2 -shared -fPIC
+        -ffp-contract=off) into a shared object cached by a hash of everything that enters it (in
+        $DTH_MODEL_CACHE, else $XDG_CACHE_HOME/dth/models, else ~/.cache/dth/models; or cache_dir), and
+        loaded like dth.load_model. m.write_library(path) copies it for dth sweep --model-lib
+        PATH:SYMBOL (returned). Needs SymPy (python3-sympy) and a C compiler."""
+        from . import _formula
+        return FormulaModel(_formula, formula, n, name, params, doc, cache_dir)
+
+    # optional (model.h): defined by a subclass, they enter the C table; these stand for "absent"
+    def third(self, q, t, p, u):
+        raise NotImplementedError
+
+    def hdiff(self, q1, t1, p1, q0, t0, p0):
+        raise NotImplementedError
+
+    def domain(self, q, t, p):
+        raise NotImplementedError
+
+
+def _overrides(mc, name):
+    """Whether the Model subclass mc defines `name` itself (not the base class's stand-in)."""
+    return getattr(mc, name, None) is not getattr(Model, name)
 
 
 def _number(text):
@@ -314,6 +369,9 @@ class _PyModelType:
         t.create, t.destroy, t.eval = cb["create"], cb["destroy"], cb["eval"]
         if mc.invariant_names:
             t.n_invariants, t.invariant_name, t.invariants = cb["n_inv"], cb["inv_name"], cb["inv"]
+        for name in ("third", "hdiff", "domain"):
+            if _overrides(mc, name):
+                setattr(t, name, cb[name])
         self._keep.append(cb)
 
     def _callbacks(self):
@@ -407,8 +465,41 @@ class _PyModelType:
             ffi.memmove(out, v, 8 * ninv)
             return 0
 
+        @ffi.callback("int(const void *, const double *, const double *, double *)", error=DTH_EMODEL,
+                      onerror=_onerror)
+        def third(selfp, y, u, d3):
+            inst, n, q, t, p = split(selfp, y)
+            uv = np.frombuffer(ffi.buffer(u, 8 * (2 * n + 1)), dtype=np.float64)
+            try:
+                d3[0] = float(inst.third(q, t, p, uv))
+            except OutsideDomain:
+                return 1
+            return 0
+
+        @ffi.callback("int(const void *, const double *, const double *, double *)", error=DTH_EMODEL,
+                      onerror=_onerror)
+        def hdiff(selfp, y1, y0, dH):
+            inst, n, q1, t1, p1 = split(selfp, y1)
+            _, _, q0, t0, p0 = split(selfp, y0)
+            try:
+                dH[0] = float(inst.hdiff(q1, t1, p1, q0, t0, p0))
+            except OutsideDomain:
+                return 1
+            return 0
+
+        @ffi.callback("int(const void *, const double *, char *, size_t)", error=DTH_EMODEL, onerror=_onerror)
+        def domain(selfp, y, why, length):
+            inst, n, q, t, p = split(selfp, y)
+            r = inst.domain(q, t, p)
+            if not r:
+                return 0
+            if why != ffi.NULL and length > 0:
+                b = str(r).encode()[: length - 1] + b"\0"
+                ffi.memmove(why, b, len(b))
+            return 1
+
         return {"create": create, "destroy": destroy, "eval": eval_, "n_inv": n_inv, "inv_name": inv_name,
-                "inv": inv}
+                "inv": inv, "third": third, "hdiff": hdiff, "domain": domain}
 
 
 def _args_error(args, msg):
@@ -438,6 +529,31 @@ class CModel:
         self.name = ffi.string(self.table.name).decode()
 
 
+class FormulaModel(CModel):
+    """A model compiled from a Hamiltonian's formula (Model.from_hamiltonian): a CModel with
+    formula (the SymPy expression), n, source (the C text), path (the cached shared object),
+    symbol, key (the cache hash) and hdiff_exact (False where a term had no cancellation-free
+    difference and hdiff falls back to H(y1) - H(y0) for it)."""
+
+    def __init__(self, gen, formula, n, name, params, doc, cache_dir):
+        self.formula, self.source, symbol, self.key, self.hdiff_exact = gen.generate(formula, n, name, params, doc)
+        self.n = n
+        path = gen.build(self.source, symbol, self.key, cache_dir)
+        super().__init__(path, symbol)
+
+    def write_library(self, path):
+        """Copy the shared object to `path` (and its C source to path + '.c'); returns
+        'PATH:SYMBOL' for dth sweep --model-lib."""
+        import shutil
+        shutil.copyfile(self.path, path)
+        with open(path + ".c", "w") as f:
+            f.write(self.source)
+        return "%s:%s" % (path, self.symbol)
+
+    def __repr__(self):
+        return "<dth.FormulaModel %s: H = %s>" % (self.name, self.formula)
+
+
 def load_model(path, symbol):
     """Load a C model type (a `const dth_model_type` named `symbol`) from the shared object `path`."""
     return CModel(path, symbol)
@@ -452,6 +568,8 @@ def _table(m):
 
 
 class _Registry:
+    ptr = None  # a partly built one (an exception in __init__) is closed without errors
+
     def __init__(self, models=()):
         L = lib()
         rp = ffi.new("dth_registry **")
@@ -473,7 +591,8 @@ class _Registry:
             lib().dth_registry_free(self.ptr)
             self.ptr = None
 
-    __del__ = close
+    def __del__(self):
+        self.close()
 
 
 def models(models=()):
@@ -515,6 +634,27 @@ class Events:
     def __len__(self):
         return len(self.t)
 
+    def to_pandas(self):
+        """The events as a pandas DataFrame: i, name, which, direction, k, t, q1..qn, p1..pn, wp, H, E
+        (needs pandas: Debian python3-pandas)."""
+        pd = _pandas()
+        n = self.q.shape[1]
+        cols = {"i": self.i, "name": self.name, "which": self.which, "direction": self.direction, "k": self.k,
+                "t": self.t}
+        cols.update({"q%d" % (j + 1): self.q[:, j] for j in range(n)})
+        cols.update({"p%d" % (j + 1): self.p[:, j] for j in range(n)})
+        cols.update({"wp": self.wp, "H": self.H, "E": self.E})
+        return pd.DataFrame(cols)
+
+
+def _pandas():
+    try:
+        import pandas
+    except ImportError as e:
+        raise ImportError("to_pandas needs pandas (Debian: apt-get install python3-pandas; bash scripts/setup.sh "
+                          "installs it)") from e
+    return pandas
+
 
 class Result:
     """What a run gives, as numpy arrays over its samples (rows as dth run writes them):
@@ -527,6 +667,63 @@ class Result:
     t_stop, crossings, regularized, max_ratio; megno, lyapunov, megno_span, megno_t_stop where
     asked for.
     """
+
+    def to_pandas(self):
+        """The samples as a pandas DataFrame, one row per sample with dth run's columns: k, kind, t,
+        lam, q1..qn, p1..pn, wp, H, E, iters, branch, ordinary, the invariants by name and, with
+        diagnostics, psi, dpsi, region (needs pandas: Debian python3-pandas). r.events.to_pandas()
+        gives the events."""
+        pd = _pandas()
+        n = self.q.shape[1]
+        cols = {"k": self.k, "kind": self.kind, "t": self.t, "lam": self.lam}
+        cols.update({"q%d" % (j + 1): self.q[:, j] for j in range(n)})
+        cols.update({"p%d" % (j + 1): self.p[:, j] for j in range(n)})
+        cols.update({"wp": self.wp, "H": self.H, "E": self.E, "iters": self.iters, "branch": self.branch,
+                     "ordinary": self.ordinary})
+        cols.update(self.inv)
+        if hasattr(self, "psi"):
+            cols.update({"psi": self.psi, "dpsi": self.dpsi, "region": self.region})
+        return pd.DataFrame(cols)
+
+    def plot(self, path=None, title=None):
+        """A figure of the run (matplotlib; Debian python3-matplotlib): q and p against t, the orbit
+        (q1, p1) for one degree of freedom, else (q1, q2), with the located events marked, and the
+        relative energy error (E - E0)/|E0| against t. Returns the Figure; with `path`, also saves it."""
+        import matplotlib.pyplot as plt
+        n = self.q.shape[1]
+        fig, ax = plt.subplots(1, 3, figsize=(14, 4))
+        for j in range(n):
+            ax[0].plot(self.t, self.q[:, j], lw=0.8, label="q%d" % (j + 1))
+            ax[0].plot(self.t, self.p[:, j], lw=0.8, ls="--", label="p%d" % (j + 1))
+        ax[0].set_xlabel("t")
+        ax[0].set_title("coordinates and momenta")
+        if 2 * n <= 8:
+            ax[0].legend(fontsize=7)
+        x, y, lx, ly = (self.q[:, 0], self.p[:, 0], "q1", "p1") if n == 1 else (self.q[:, 0], self.q[:, 1], "q1", "q2")
+        ax[1].plot(x, y, lw=0.6)
+        if len(self.events):
+            ex, ey = (self.events.q[:, 0], self.events.p[:, 0]) if n == 1 else (self.events.q[:, 0], self.events.q[:, 1])
+            ax[1].plot(ex, ey, "r.", ms=4, label="events")
+            ax[1].legend(fontsize=7)
+        ax[1].set_xlabel(lx)
+        ax[1].set_ylabel(ly)
+        ax[1].set_title("orbit")
+        if len(self.E) and self.E[0] != 0:
+            ax[2].plot(self.t, (self.E - self.E[0]) / abs(self.E[0]), lw=0.6)
+            ax[2].set_ylabel("(E - E0) / |E0|")
+        else:
+            ax[2].plot(self.t, self.E - (self.E[0] if len(self.E) else 0), lw=0.6)
+            ax[2].set_ylabel("E - E0")
+        ax[2].set_xlabel("t")
+        kinds = sorted(set(self.kind))
+        ax[2].set_title("energy error at the %s samples" % "/".join(kinds))
+        fig.suptitle(title or "%d samples to t = %.6g (stop: %s, status %s)" % (
+            len(self.t), self.t[-1] if len(self.t) else math.nan, getattr(self, "stop", "?"),
+            getattr(self, "status_name", "?")))
+        fig.tight_layout()
+        if path is not None:
+            fig.savefig(path, dpi=100)
+        return fig
 
     def __repr__(self):
         return "<dth.Result %d samples, t %.6g .. %.6g, stop %s, status %s>" % (
@@ -629,14 +826,23 @@ class _Collect:
 class _Megno:
     """dth_megno (chaos.h) over the legs of a run."""
 
-    def __init__(self, it, delta0):
+    g = None  # a partly built one (an exception in __init__) is closed without errors
+
+    def __init__(self, it, delta0, N):
         L = lib()
         self.it = it
         gp = ffi.new("dth_megno **")
-        d = ffi.NULL if delta0 is None else ffi.new("double[]", [float(x) for x in delta0])
-        rc = L.dth_megno_new(it, d, ffi.NULL, gp)
+        if delta0 is None:
+            d, nd = ffi.NULL, 0
+        else:
+            v = np.asarray(delta0, dtype=np.float64).ravel()
+            if len(v) != N:
+                raise ValueError("dth: megno: the deviation vector has %d values, not 2n+2 = %d (over q, t, p, wp)"
+                                 % (len(v), N))
+            d, nd = ffi.new("double[]", v.tolist()), len(v)
+        rc = L.dth_megno_new_len(it, d, nd, ffi.NULL, gp)
         if rc:
-            raise DthError(rc, "cannot follow a deviation vector (delta0 of 2n+2 values, not all zero)")
+            raise DthError(rc, "megno: cannot follow the deviation vector (2n+2 = %d finite values, not all zero)" % N)
         self.g = gp[0]
 
     def update(self):
@@ -654,10 +860,39 @@ class _Megno:
             lib().dth_megno_free(self.g)
             self.g = None
 
-    __del__ = close
+    def __del__(self):
+        self.close()
 
 
 _POINTS = {"vertices": 0, "midpoints": 1, "times": 2}
+
+
+class Event:
+    """An event function of the trajectory, located by the run driver like the scene's [events]:
+    g(t, q, p) -> float is evaluated at every vertex, and where it changes sign over a step (in
+    `direction`: +1 increasing, -1 decreasing, 0 both) the crossing is located on the dense output to
+    round-off in t (run.h). `terminal`: the run ends at the first one. `name`: how r.events names it
+    (default: the function's __name__).
+
+        dth.run(scene, events=[dth.Event(lambda t, q, p: q[1], direction=+1, name="q2-up")])
+
+    A plain callable is an Event with direction 0, not terminal. Exceptions raised by g end the run
+    and are re-raised by run(); g must not call the Simulation it belongs to.
+    """
+
+    def __init__(self, g, direction=0, terminal=False, name=None):
+        if not callable(g):
+            raise TypeError("dth: an event is a callable g(t, q, p), not %r" % (g,))
+        if direction not in (-1, 0, 1):
+            raise ValueError("dth: an event's direction is +1, -1 or 0, not %r" % (direction,))
+        self.g, self.direction, self.terminal = g, int(direction), bool(terminal)
+        self.name = name or getattr(g, "__name__", "event")
+        if self.name == "<lambda>":
+            self.name = "event"
+
+
+def _as_event(e):
+    return e if isinstance(e, Event) else Event(e)
 
 
 class Simulation:
@@ -670,15 +905,27 @@ class Simulation:
         blob = sim.checkpoint()            # bytes (or a file: sim.checkpoint("p.ckpt"))
         b = sim.run(t_end=20)
         c = dth.Simulation.resume(blob).run(t_end=20)    # c's samples are b's, bit for bit
+
+    Threads: a Simulation holds a lock. A call from another thread while one runs (run, close,
+    checkpoint, a property) waits until it returns; a call from inside the run (a model, event or
+    progress callback of the same thread) raises DthError. After close() every method and property
+    raises DthError ("the Simulation is closed").
     """
 
-    def __init__(self, scene, set=None, models=(), check_model=True, _restore=None):
+    _lock = None  # a partly built one (an exception in __init__) closes without errors
+    _it = ffi.NULL
+    _rs = None
+    _reg = None
+    _megno = None
+    _owner = None
+
+    def __init__(self, scene, set=None, models=(), check_model=True, events=(), _restore=None):
         L = lib()
+        self._lock = threading.Lock()
+        self._keep = []
         self.scene = Scene(scene, set)
         self._reg = _Registry(models)
         self._rs = ffi.new("dth_run_setup *")
-        self._it = ffi.NULL
-        self._megno = None
         self._st = ffi.new("dth_run_state *")
         err = ffi.new("char[]", _ERRLEN)
         s = self.scene._load()
@@ -686,15 +933,23 @@ class Simulation:
             rc = L.dth_scene_setup(s, self._reg.ptr, self._rs, err, _ERRLEN)
             _raise_pending()
             if rc:
+                self._rs = None
                 raise DthError(rc, _err(err))
             self._text = _scene_text(s, bool(self._rs.has_t_end))
+        except BaseException:
+            self.close()
+            raise
         finally:
             L.dth_scene_free(s)
         rs = self._rs
         self.n = rs.n
         self.method = ffi.string(rs.method).decode()
-        self.event_names = [ffi.string(rs.event_names[i]).decode() for i in range(rs.nevents)]
         self.model_name = ffi.string(L.dth_model_get_type(rs.model).name).decode()
+        try:
+            self._events_setup(events)
+        except BaseException:
+            self.close()
+            raise
         if check_model and _restore is None and rs.n <= 200:
             y = ffi.new("double[]", 2 * rs.n + 1)
             ffi.memmove(y, rs.q0, 8 * rs.n)
@@ -702,7 +957,11 @@ class Simulation:
             ffi.memmove(y + rs.n + 1, rs.p0, 8 * rs.n)
             rep = ffi.new("dth_model_check_report *")
             rc = L.dth_model_check(rs.model, y, rep)
-            _raise_pending()
+            try:
+                _raise_pending()
+            except BaseException:
+                self.close()
+                raise
             if rc == 0 and not getattr(rep, "pass"):
                 self.close()
                 raise DthError(-1, "%s: model '%s' fails its derivative check at the initial state: %s "
@@ -724,36 +983,108 @@ class Simulation:
         if _restore is not None:
             buf, st = _restore
             rc = L.dth_checkpoint_restore(self._it, buf, len(buf), err, _ERRLEN)
-            _raise_pending()
+            try:
+                _raise_pending()
+            except BaseException:
+                self.close()
+                raise
             if rc:
                 self.close()
                 raise DthError(rc, _err(err))
             ffi.memmove(self._st, st, ffi.sizeof("dth_run_state"))
         else:
             rc = L.dth_integrator_start(self._it, rs.q0, rs.p0, rs.t0)
-            _raise_pending()
+            try:
+                _raise_pending()
+            except BaseException:
+                self.close()
+                raise
             if rc:
                 msg = ffi.string(L.dth_integrator_errmsg(self._it)).decode()
                 self.close()
                 raise DthError(rc, "%s: cannot start at the initial state: %s (%s)" % (
                     self.scene.name, strerror(rc), msg))
 
-    def close(self):
-        """Free the C objects (also done when the object is collected)."""
-        L = lib()
-        if getattr(self, "_megno", None) is not None:
-            self._megno.close()
-            self._megno = None
-        if getattr(self, "_it", ffi.NULL) != ffi.NULL:
-            L.dth_integrator_free(self._it)
-            self._it = ffi.NULL
-        if getattr(self, "_rs", None) is not None:
-            L.dth_run_setup_clear(self._rs)
-            self._rs = None
-        if getattr(self, "_reg", None) is not None:
-            self._reg.close()
+    def _events_setup(self, events):
+        """The run's events: the scene's [events], then the Python ones (cffi callbacks)."""
+        rs = self._rs
+        self.event_names = [ffi.string(rs.event_names[i]).decode() for i in range(rs.nevents)]
+        self.py_events = [_as_event(e) for e in (events or ())]
+        self._nevents = rs.nevents + len(self.py_events)
+        self._events = rs.events
+        if not self.py_events:
+            return
+        n = rs.n
+        arr = ffi.new("dth_event[]", self._nevents)
+        for i in range(rs.nevents):
+            arr[i] = rs.events[i]
+        pe = self.py_events
 
-    __del__ = close
+        @ffi.callback("int(void *, size_t, const double *, double *)", error=DTH_EMODEL, onerror=_onerror)
+        def g_cb(user, nn, z, g):
+            e = pe[int(ffi.cast("uintptr_t", user))]
+            zv = np.frombuffer(ffi.buffer(z, 8 * (2 * n + 2)), dtype=np.float64)
+            g[0] = float(e.g(zv[n], zv[:n], zv[n + 1:2 * n + 1]))
+            return 0
+
+        for j, e in enumerate(pe):
+            a = arr[rs.nevents + j]
+            a.g, a.user = g_cb, ffi.cast("void *", j)
+            a.direction, a.terminal = e.direction, 1 if e.terminal else 0
+            self.event_names.append(e.name)
+        self._events = arr
+        self._keep += [arr, g_cb]
+
+    @contextlib.contextmanager
+    def _use(self, closing=False):
+        """Hold the Simulation's lock for a call (see the class: waits for another thread's call,
+        refuses a call from inside its own run, and a closed Simulation)."""
+        lock = self._lock
+        if lock is None:  # partly built
+            if closing:
+                yield
+                return
+            raise DthError(_STATUS["DTH_EINVAL"], "the Simulation was not built")
+        me = threading.get_ident()
+        if self._owner == me:
+            raise DthError(_STATUS["DTH_EINVAL"], "Simulation: called from inside its own run (a callback of "
+                           "this thread): close() and the other methods wait for the run to return")
+        with lock:
+            self._owner = me
+            try:
+                if not closing and self._it == ffi.NULL:
+                    raise DthError(_STATUS["DTH_EINVAL"], "the Simulation is closed")
+                yield
+            finally:
+                self._owner = None
+
+    def close(self):
+        """Free the C objects (also done when the object is collected). From another thread during a
+        run it waits for the run to return; after it, every method raises DthError."""
+        with self._use(closing=True):
+            L = lib()
+            if self._megno is not None:
+                self._megno.close()
+                self._megno = None
+            if self._it != ffi.NULL:
+                L.dth_integrator_free(self._it)
+                self._it = ffi.NULL
+            if self._rs is not None:
+                L.dth_run_setup_clear(self._rs)
+                self._rs = None
+            if self._reg is not None:
+                self._reg.close()
+
+    @property
+    def closed(self):
+        """True once close() ran (or the Simulation could not be built)."""
+        return self._it == ffi.NULL
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:  # noqa: BLE001  (never from a finalizer)
+            pass
 
     def __enter__(self):
         return self
@@ -764,13 +1095,47 @@ class Simulation:
     @property
     def vertex(self):
         """The current vertex z_k (q, t, p, wp) as a numpy array (DTH), or the state (q, t, p, wp)."""
-        N = 2 * self.n + 2
-        return np.array(ffi.unpack(lib().dth_integrator_vertex(self._it), N))
+        with self._use():
+            N = 2 * self.n + 2
+            return np.array(ffi.unpack(lib().dth_integrator_vertex(self._it), N))
 
     @property
     def steps(self):
         """Vertex index k (steps from the start)."""
-        return self._st.k
+        with self._use():
+            return self._st.k
+
+    @property
+    def t(self):
+        """Time of the current vertex."""
+        with self._use():
+            return float(lib().dth_integrator_vertex(self._it)[self.n])
+
+    def check_model(self, y=None):
+        """The model's derivatives against finite differences (dth_model_check, model.h) at y (2n+1
+        values over q, t, p; default: the initial state): a dict with grad_err, hess_err, sym_err,
+        third_err (0 without a third derivative), band_err, tol, pass and message."""
+        with self._use():
+            rs, L = self._rs, lib()
+            yy = ffi.new("double[]", 2 * rs.n + 1)
+            if y is None:
+                ffi.memmove(yy, rs.q0, 8 * rs.n)
+                yy[rs.n] = rs.t0
+                ffi.memmove(yy + rs.n + 1, rs.p0, 8 * rs.n)
+            else:
+                v = np.asarray(y, dtype=np.float64).ravel()
+                if len(v) != 2 * rs.n + 1:
+                    raise ValueError("dth: check_model: y has %d values, not 2n+1 = %d" % (len(v), 2 * rs.n + 1))
+                ffi.memmove(yy, np.ascontiguousarray(v), 8 * len(v))
+            rep = ffi.new("dth_model_check_report *")
+            rc = L.dth_model_check(rs.model, yy, rep)
+            _raise_pending()
+            if rc:
+                raise DthError(rc, "check_model: the model's evaluation failed: %s" % strerror(rc))
+            out = {k: getattr(rep, k) for k in ("grad_err", "hess_err", "sym_err", "third_err", "band_err", "tol")}
+            out["pass"] = bool(getattr(rep, "pass"))
+            out["message"] = ffi.string(rep.message).decode()
+            return out
 
     def run(self, t_end=None, steps=None, points=None, every=None, dt=None, times=None, diagnostics=None,
             megno=False, progress=None):
@@ -781,11 +1146,15 @@ class Simulation:
         r.megno_span; they end at the first regularized step, r.megno_t_stop; DTH only); the
         indicator continues over consecutive legs that all ask for it. progress: a callable(state)
         called every step, returning True to stop. Returns a Result holding this leg's samples
-        and events."""
+        and events. What the driver refuses (dth_run_check: times not finite or out of order,
+        negative steps, t_end or steps behind where the run stands, a dt asking for more than 1e6
+        rows per step) raises DthError with its message before anything runs."""
+        with self._use():
+            return self._run(t_end, steps, points, every, dt, times, diagnostics, megno, progress)
+
+    def _run(self, t_end, steps, points, every, dt, times, diagnostics, megno, progress):
         L = lib()
         rs = self._rs
-        if rs is None:
-            raise DthError(-1, "the simulation is closed")
         cfg = ffi.new("dth_run_config *")
         L.dth_run_config_default(cfg)
         cfg.has_t_end, cfg.t_end, cfg.steps = rs.has_t_end, rs.t_end, rs.steps
@@ -794,6 +1163,8 @@ class Simulation:
         if t_end is not None:
             cfg.has_t_end, cfg.t_end = 1, float(t_end)
         if steps is not None:
+            if isinstance(steps, bool) or not isinstance(steps, numbers.Integral):
+                raise TypeError("dth: steps is an integer (a vertex index), not %r" % (steps,))
             cfg.has_t_end, cfg.steps = 0, int(steps)
         cfg.t0 = rs.t0
         cfg.points, cfg.every, cfg.dt = rs.points, rs.every, rs.dt
@@ -801,15 +1172,21 @@ class Simulation:
             cfg.points, cfg.dt = 2, float(dt)
         tbuf = None
         if times is not None:
-            tbuf = ffi.new("double[]", [float(x) for x in times])
-            cfg.points, cfg.times, cfg.ntimes = 2, tbuf, len(tbuf)
+            tv = np.asarray(times, dtype=np.float64).ravel()
+            tbuf = ffi.new("double[]", max(len(tv), 1))
+            ffi.memmove(tbuf, np.ascontiguousarray(tv), 8 * len(tv))
+            cfg.points, cfg.times, cfg.ntimes = 2, tbuf, len(tv)
         if points is not None:
             if points not in _POINTS:
                 raise ValueError("dth: points is one of %s" % ", ".join(_POINTS))
             cfg.points = _POINTS[points]
         if every is not None:
             cfg.every = int(every)
-        cfg.events, cfg.nevents = rs.events, rs.nevents
+        cfg.events, cfg.nevents = self._events, self._nevents
+        err = ffi.new("char[]", _ERRLEN)
+        rc = L.dth_run_check(self._it, cfg, self._st, err, _ERRLEN)
+        if rc:
+            raise DthError(rc, "run: %s" % _err(err))
         col = _Collect(rs, bool(rs.diagnostics) if diagnostics is None else bool(diagnostics))
 
         @ffi.callback("int(void *, const dth_sample *)", error=-1, onerror=_onerror)
@@ -823,12 +1200,13 @@ class Simulation:
         cfg.sample, cfg.on_event = on_sample, on_event
         meg = None
         if megno is not False and megno is not None:
-            if self._it == ffi.NULL:
+            if self.method != "dth":
                 raise DthError(-8, "MEGNO needs the DTH tangent map (method = dth)")
             if self._megno is None or megno is not True:  # start (or restart with a given vector)
                 if self._megno is not None:
                     self._megno.close()
-                self._megno = _Megno(self._it, None if megno is True else megno)
+                    self._megno = None
+                self._megno = _Megno(self._it, None if megno is True else megno, 2 * self.n + 2)
             meg = self._megno
         elif self._megno is not None:  # a leg without it: the indicator cannot continue
             self._megno.close()
@@ -847,8 +1225,6 @@ class Simulation:
         _raise_pending()
         if meg is not None:
             meg.update()  # the last step (no progress call follows it)
-        if rc < 0:
-            raise DthError(rc, "%s at k=%d, t=%.17g" % (strerror(rc), st.k, st.t))
         r = col.result(self.event_names)
         r.status = rc
         r.status_name = status_name(rc)
@@ -861,7 +1237,12 @@ class Simulation:
         r.crossings, r.regularized, r.max_ratio = st.crossings, st.regularized, st.max_ratio
         if meg is not None:
             r.megno, r.lyapunov, r.megno_span, r.megno_t_stop = meg.result()
-            meg.close()
+        if st.stop == L.DTH_RUN_SAMPLES:
+            raise DthError(rc, "stopped at k=%d, t=%.17g: the output times asked for more than %d rows within one "
+                           "step (a larger dt, or points='vertices'; the rows so far are in this exception's "
+                           "result)" % (st.k, st.t, L.DTH_RUN_MAX_SAMPLES_PER_STEP), result=r)
+        if rc < 0:
+            raise DthError(rc, "%s at k=%d, t=%.17g" % (strerror(rc), st.k, st.t), result=r)
         return r
 
     # ---- checkpoints (checkpoint.h: the public save/restore API only)
@@ -870,9 +1251,20 @@ class Simulation:
         """The integrator's checkpoint (dth_checkpoint_save) with two blobs: "scene" (the scene as
         INI text, as dth run stores it) and "python" (the run driver's state and the package's
         format version). Returns the bytes; with `path`, also writes them crash-safely."""
+        with self._use():
+            data = self._checkpoint()
+        if path is not None:
+            import os
+            tmp = "%s.tmp" % path
+            with open(tmp, "wb") as f:
+                f.write(data)
+                f.flush()
+                os.fsync(f.fileno())
+            os.replace(tmp, path)
+        return data
+
+    def _checkpoint(self):
         L = lib()
-        if self._it == ffi.NULL:
-            raise DthError(-1, "the simulation is closed")
         scene = self._text.encode()
         meta = json.dumps({"version": 1, "scene_name": self.scene.name}).encode()
         st = bytes(ffi.buffer(self._st))
@@ -887,22 +1279,16 @@ class Simulation:
         rc = L.dth_checkpoint_save(self._it, b, 3, buf, ln[0], ln)
         if rc:
             raise DthError(rc, "cannot save the checkpoint")
-        data = bytes(ffi.buffer(buf, ln[0]))
-        if path is not None:
-            import os
-            tmp = "%s.tmp" % path
-            with open(tmp, "wb") as f:
-                f.write(data)
-                f.flush()
-                os.fsync(f.fileno())
-            os.replace(tmp, path)
-        return data
+        return bytes(ffi.buffer(buf, ln[0]))
 
     @classmethod
-    def resume(cls, source, models=(), set=None):
+    def resume(cls, source, models=(), set=None, events=()):
         """A Simulation continued from a checkpoint (bytes, or a file written by checkpoint()).
-        User models must be given again (the checkpoint names its model type). `set` overrides
-        scene keys that do not change the trajectory's state (e.g. output.every)."""
+        User models and Python events must be given again (the checkpoint names its model type).
+        `set` may change what the library lets a resume change (dth_scene_resume_check, scene.h,
+        the rule dth run --resume follows): integrator.t_end, integrator.steps, the file names, and
+        output.every and output.diagnostics (each leg's rows are their own Result); anything else
+        would change the checkpointed run and raises DthError naming the key."""
         L = lib()
         data = source if isinstance(source, (bytes, bytearray)) else open(source, "rb").read()
         err = ffi.new("char[]", _ERRLEN)
@@ -922,17 +1308,29 @@ class Simulation:
         st = blob("python-run-state")
         if meta.get("version") != 1 or len(st) != ffi.sizeof("dth_run_state"):
             raise DthError(-6, "the checkpoint's run state is of another version of the package")
-        sc = Scene(text, set)
-        sc.name = meta.get("scene_name", "<checkpoint>")
-        return cls(sc, models=models, _restore=(data, st))
+        name = meta.get("scene_name", "<checkpoint>")
+        saved = Scene(text)
+        saved.name = name
+        sc = Scene(saved, set)
+        if sc.overrides:
+            a, b = saved._load(), sc._load()
+            try:
+                rc = L.dth_scene_resume_check(a, b, L.DTH_RESUME_ROWS, b"Simulation.resume", err, _ERRLEN)
+            finally:
+                L.dth_scene_free(a)
+                L.dth_scene_free(b)
+            if rc:
+                raise DthError(rc, _err(err))
+        return cls(sc, models=models, events=events, _restore=(data, st))
 
 
-def run(scene, set=None, models=(), check_model=True, **kw):
+def run(scene, set=None, models=(), check_model=True, events=(), **kw):
     """Run a scene (a path, INI text, a dict or a Scene) from its start through the library's
     driver dth_run and return a Result. `set`: overrides {"section.key": value}; `models`: user
-    model types (dth.Model subclasses, dth.load_model results). Keywords of Simulation.run:
-    t_end, steps, points, every, dt, times, diagnostics, megno, progress."""
-    with Simulation(scene, set=set, models=models, check_model=check_model) as sim:
+    model types (dth.Model subclasses, dth.load_model results, dth.Model.from_hamiltonian results);
+    `events`: Python event functions (dth.Event, or callables g(t, q, p)). Keywords of
+    Simulation.run: t_end, steps, points, every, dt, times, diagnostics, megno, progress."""
+    with Simulation(scene, set=set, models=models, check_model=check_model, events=events) as sim:
         return sim.run(**kw)
 
 
@@ -941,7 +1339,9 @@ def run(scene, set=None, models=(), check_model=True, **kw):
 class Roots:
     """Every real root of the step constraint at a vertex, classified (dth_find_roots): arrays
     lam, s, residual, slope, flags; cls (names: minus, plus, ghost, double, zero); the vertex's
-    H, psi, dpsi, K, region; the range scanned lo, hi; truncated."""
+    H, psi, dpsi, K, region; the range asked for [-L, L] and the range scanned lo, hi; truncated:
+    the list may be incomplete (more roots than the library holds, or the scan stopped short of
+    [-L, L]: lo > -L or hi < L)."""
 
     def __repr__(self):
         return "<dth.Roots %d roots at region %s: %s>" % (
@@ -981,8 +1381,11 @@ def roots(scene, set=None, models=(), L=None, z=None):
             if len(zz) != 2 * rs.n + 2:
                 raise ValueError("dth: z has %d values, not 2n+2 = %d" % (len(zz), 2 * rs.n + 2))
         out = ffi.new("dth_root_set *")
+        LL = float(L) if L else 16 * abs(rs.opt.h)
+        if not (LL > 0 and math.isfinite(LL)):
+            raise ValueError("dth: roots: L = %r is not a positive, finite range" % (L,))
         with _rootfinder(rs) as rf:
-            rc = lb.dth_find_roots(rf, zz, float(L) if L else 16 * abs(rs.opt.h), out)
+            rc = lb.dth_find_roots(rf, zz, LL, out)
             _raise_pending()
         if rc:
             raise DthError(rc, "root search failed at the vertex: %s" % strerror(rc))
@@ -998,7 +1401,9 @@ def roots(scene, set=None, models=(), L=None, z=None):
         v = out.vertex
         r.H, r.psi, r.dpsi, r.K = v.H, v.psi, v.dpsi, v.K
         r.region = ffi.string(lb.dth_region_name(v.region)).decode()
-        r.lo, r.hi, r.truncated = out.lo, out.hi, bool(out.truncated)
+        r.L, r.lo, r.hi = LL, out.lo, out.hi
+        # honest about a scan that stopped short of [-L, L], whatever the library's flag says
+        r.truncated = bool(out.truncated) or out.lo > -LL or out.hi < LL
         r.z = np.array(ffi.unpack(zz, 2 * rs.n + 2))
         return r
 

@@ -160,7 +160,7 @@ typedef struct dth_step_info {
     int proj_iters;
     double lerr;
 } dth_step_info;
-enum { DTH_STEP_REGULARIZED = 1, DTH_STEP_CROSSING = 2 };
+enum { DTH_STEP_REGULARIZED = 1, DTH_STEP_CROSSING = 2, DTH_STEP_RESET = 4, DTH_STEP_CLOCK = 8 };
 typedef struct dth_integrator dth_integrator;
 int dth_options_check(const dth_model *model, dth_options *opt, char *err, size_t errlen);
 int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integrator **out);
@@ -229,8 +229,10 @@ typedef struct dth_event_spec {
     size_t ndofs;
 } dth_event_spec;
 typedef enum dth_run_stop {
-    DTH_RUN_RUNNING = 0, DTH_RUN_END = 1, DTH_RUN_EVENT = 2, DTH_RUN_CALLBACK = 3, DTH_RUN_FAILED = 4
+    DTH_RUN_RUNNING = 0, DTH_RUN_END = 1, DTH_RUN_EVENT = 2, DTH_RUN_CALLBACK = 3, DTH_RUN_FAILED = 4,
+    DTH_RUN_SAMPLES = 5
 } dth_run_stop;
+#define DTH_RUN_MAX_SAMPLES_PER_STEP 1000000
 typedef struct dth_run_state {
     int started;
     int pending;
@@ -252,9 +254,12 @@ typedef struct dth_run_state {
     double q_max, p_max;
     double lam_max;
     double t_lam_max;
+    long nonreversible;
+    double e_err, e_scale;
 } dth_run_state;
 void dth_run_state_init(dth_run_state *st);
 typedef struct dth_run_config {
+    size_t size;
     int has_t_end;
     double t_end;
     long steps;
@@ -279,7 +284,10 @@ typedef struct dth_run_config {
     int local_error;
 } dth_run_config;
 void dth_run_config_default(dth_run_config *cfg);
+int dth_run_check(const dth_integrator *it, const dth_run_config *cfg, const dth_run_state *st, char *err,
+                  size_t errlen);
 int dth_run(dth_integrator *it, const dth_run_config *cfg, dth_run_state *st);
+int dth_event_coordinate(void *user, size_t n, const double *z, double *g);
 
 /* scene.h */
 typedef struct dth_scene dth_scene;
@@ -288,10 +296,17 @@ void dth_scene_free(dth_scene *s);
 int dth_scene_load(dth_scene *s, const char *path, char *err, size_t errlen);
 int dth_scene_load_mem(dth_scene *s, const char *name, const char *text, size_t len, char *err, size_t errlen);
 int dth_scene_set(dth_scene *s, const char *assignment, char *err, size_t errlen);
+int dth_scene_set_from(dth_scene *s, const char *from, const char *assignment, char *err, size_t errlen);
+int dth_scene_check_entry(const char *section, const char *key, const char *value, char *err, size_t errlen);
+const char *dth_scene_origin(const dth_scene *s, const char *section, const char *key);
 const char *dth_scene_get(const dth_scene *s, const char *section, const char *key);
 size_t dth_scene_count(const dth_scene *s);
 int dth_scene_entry(const dth_scene *s, size_t i, const char **section, const char **key, const char **value,
                     const char **origin);
+enum { DTH_RESUME_ROWS = 1 };
+int dth_scene_resume_may_change(const char *section, const char *key, unsigned flags);
+int dth_scene_resume_check(const dth_scene *saved, const dth_scene *now, unsigned flags, const char *what,
+                           char *err, size_t errlen);
 typedef struct dth_run_setup {
     dth_model *model;
     size_t n;
@@ -379,6 +394,8 @@ typedef struct dth_megno_result {
     double t_stop;
 } dth_megno_result;
 int dth_megno_new(const dth_integrator *it, const double *delta0, const dth_allocator *alloc, dth_megno **out);
+int dth_megno_new_len(const dth_integrator *it, const double *delta0, size_t len, const dth_allocator *alloc,
+                      dth_megno **out);
 void dth_megno_free(dth_megno *g);
 int dth_megno_update(dth_megno *g, dth_integrator *it);
 void dth_megno_get(const dth_megno *g, dth_megno_result *r);

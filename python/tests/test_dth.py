@@ -295,7 +295,7 @@ class TestRootsCheckpointsMegno(unittest.TestCase):
 
     def test_checkpoint_resume_bit_for_bit(self):
         self.check_resume("pendulum.ini")
-        w = self.check_resume("pendulum-rotation.ini")  # the smooth regularizer's state travels too
+        w = self.check_resume("pendulum-rotation.ini")  # the land regularizer's state travels too
         self.assertGreater(w.regularized, 0)
 
     def test_checkpoint_file(self):

@@ -76,6 +76,18 @@ rc=$?
 grep -q '^dth: interrupted at k=' "$T/hup.err" || fail "SIGHUP message: $(cat "$T/hup.err")"
 [ -s "$T/hup.csv" ] || fail "SIGHUP: no file"
 ls "$T" | grep -q '^hup\.csv\.tmp' && fail "SIGHUP: a temporary file is left"
+# with --checkpoint the message says how to continue (issue 25), and that continues it
+"$DTH" run "$P" -s integrator.steps=100000000 -o "$T/int.csv" --checkpoint "$T/int.ckpt" 2>"$T/int.err" &
+pid=$!
+sleep 1
+kill -INT $pid
+wait $pid
+rc=$?
+[ $rc -eq 130 ] || fail "SIGINT with --checkpoint: exit $rc, want 130"
+k=$(sed -n "s/.*; to continue: dth run --resume .*int\.ckpt (its checkpoint of step \([0-9]*\))$/\1/p" "$T/int.err")
+[ -n "$k" ] || fail "SIGINT with --checkpoint: no resume advice: $(cat "$T/int.err")"
+"$DTH" run --resume "$T/int.ckpt" -s integrator.steps=$((k + 10)) 2>"$T/int2.err" >/dev/null &&
+    [ "$(tail -1 "$T/int.csv" | cut -d, -f1)" -ge $((k - 1)) ] || fail "the advised resume: $(cat "$T/int2.err")"
 # 5e5 rows per step: the request is seen between rows, not after the step
 "$DTH" run "$P" -s integrator.t_end=1e5 -s output.dt=1e-7 -o "$T/dense.csv" 2>"$T/dense.err" &
 pid=$!
@@ -110,7 +122,17 @@ wait $p1
 rc1=$?
 [ $rc1 -eq 0 ] && [ $rc2 -eq 0 ] || fail "two runs sharing a checkpoint path: exit $rc1, $rc2 ($(cat "$T/a1.err" "$T/a2.err"))"
 ls "$T" | grep -q '^shared\.ckpt\.tmp' && fail "shared checkpoint path: a temporary is left"
-ok "temporaries: a dead run's removed, a running one's kept; a shared checkpoint path"
+# a killed run's checkpoint temporary (killed while writing it) is removed by a successful resume,
+# with or without --checkpoint of its own (issue 24: it survived)
+"$DTH" run "$P" -s integrator.steps=100 -o "$T/k.csv" --checkpoint "$T/k.ckpt" --checkpoint-every 30 2>/dev/null ||
+    fail "checkpointed run for the stale checkpoint temporary"
+for ck in "" "--checkpoint $T/k2.ckpt"; do
+    : >"$T/k.ckpt.tmp.999997.QwErTy"   # no such process
+    "$DTH" run --resume "$T/k.ckpt" -s integrator.steps=150 -o "$T/k-res.csv" $ck 2>"$T/k.err" || fail "resume: $(cat "$T/k.err")"
+    [ -e "$T/k.ckpt.tmp.999997.QwErTy" ] && fail "resume ${ck:-without --checkpoint}: the killed run's checkpoint temporary stays"
+    grep -q "removed 1 temporary of '$T/k.ckpt'" "$T/k.err" || fail "resume ${ck:-without --checkpoint}: $(cat "$T/k.err")"
+done
+ok "temporaries: a dead run's removed, a running one's kept; a shared checkpoint path; a resumed checkpoint's"
 
 # ---- inputs refused up front, naming the key (exit 2), or the first step's failure naming h (exit 3)
 expect 2 "initial.t: the time t = 1.0000000000000001e+300 does not advance" "$DTH" run "$P" -s initial.t=1e300 -s integrator.steps=3

@@ -54,11 +54,13 @@ typedef struct dth_root_set {
     int psi_zero;      /**< psi_k is zero to round-off (region III or an equilibrium) */
     int sign_H_psi;    /**< sign of H_k/psi_k (0 if H_k = 0 or psi_zero) */
     int sign_H_dpsi;   /**< sign of H_k/psi'_k (0 if H_k = 0 or psi'_k = 0) */
-    double lo, hi;     /**< the range actually scanned (the decoupled solve may fail before -L, L) */
+    double lo, hi;     /**< the range actually scanned (the decoupled solve may fail before -L, L; the
+                            grid reaches at most 1024 times the vertex's root scale) */
     double tol;        /**< round-off level of g used for double roots */
     long evals;        /**< decoupled solves spent */
     size_t count;      /**< roots in root[], increasing lambda */
-    int truncated;     /**< more than DTH_MAX_ROOTS roots */
+    int truncated;     /**< the list may be incomplete: more than DTH_MAX_ROOTS roots, or the scan
+                            stopped short of [-L, L] (lo > -L or hi < L) */
     dth_root root[DTH_MAX_ROOTS];
 } dth_root_set;
 
@@ -84,7 +86,11 @@ DTH_API int dth_rootfinder_new(const dth_model *model, const dth_root_options *o
 DTH_API void dth_rootfinder_free(dth_rootfinder *rf);
 
 /**
- * Find and classify every real root of g in [-L, L] at the vertex z (length 2n+2).
+ * Find and classify every real root of g in [-L, L] at the vertex z (length 2n+2). The grid's reach
+ * is at most 1024 ell, ell the vertex's root scale (the largest real root of g's Taylor model
+ * H_k - psi_k lambda^2/8 - psi'_k lambda^3/24, or 6 |psi_k/psi'_k|): a longer range is scanned that
+ * far only, and the set says so (truncated, lo, hi). Beyond such a reach the coarse grid would follow
+ * g across branches of zbar, miss the physical pair and misname a far root as physical.
  * The vertex K (region) is, in order: opt.K if > 0; the model's dth_model_info.K if > 0; else the
  * local estimate K = max |g(lambda) - (H_k - psi_k lambda^2/8 - psi'_k lambda^3/24)| / lambda^4
  * over the scanned grid points with |lambda| >= L/8 (Lemma g_taylor inverted on the range).

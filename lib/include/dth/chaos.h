@@ -59,6 +59,14 @@ typedef struct dth_megno_result {
  */
 DTH_API int dth_megno_new(const dth_integrator *it, const double *delta0, const dth_allocator *alloc,
                           dth_megno **out);
+/**
+ * dth_megno_new with the length of delta0 given and checked: `len` must be 2n+2 (0 with delta0 NULL).
+ * For callers whose vector comes from outside the program's control (a language binding, a file):
+ * dth_megno_new reads 2n+2 values from delta0 whatever it holds.
+ * @return as dth_megno_new; DTH_EINVAL also for another length.
+ */
+DTH_API int dth_megno_new_len(const dth_integrator *it, const double *delta0, size_t len, const dth_allocator *alloc,
+                              dth_megno **out);
 /** Free; NULL is a no-op. */
 DTH_API void dth_megno_free(dth_megno *g);
 

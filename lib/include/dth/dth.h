@@ -3,8 +3,7 @@
 #ifndef DTH_DTH_H
 #define DTH_DTH_H
 
-#define DTH_VERSION_STRING "0.1.0"
-
+#include "dth/version.h" /* DTH_VERSION_STRING, generated from meson.build's project version */
 #include "dth/status.h"
 #include "dth/model.h"
 #include "dth/models.h"

@@ -61,6 +61,18 @@ typedef struct dth_reg_event {
                                  computes it and takes it, or ends the step with its status */
 } dth_reg_event;
 
+/** What the integrator tells `observe` about an ordinary step it takes (borrowed for the call). */
+typedef struct dth_reg_step {
+    const dth_model *model; /**< the model */
+    size_t N;               /**< extended dimension 2n+2 */
+    const double *za;       /**< the step's start vertex z_k */
+    const double *zbar;     /**< its midpoint */
+    const double *zb;       /**< its end vertex z_(k+1) */
+    double lambda;          /**< its time step */
+    double dir;             /**< direction of travel */
+    double psi_a, dpsi_a;   /**< psi and psi' at z_k, NaN where the integrator did not compute them */
+} dth_reg_step;
+
 /** dth_reg_action.what. */
 enum {
     DTH_REG_KEEP = 0u,   /**< keep the ordinary step (its status is returned if it failed) */
@@ -80,6 +92,14 @@ typedef struct dth_reg_action {
     int iters;       /**< iterations spent (for the step record) */
     const char *why; /**< with a nonzero return: why, in a few words (static storage), or NULL;
                           dth_integrator_errmsg() then includes it */
+    double *jump;    /**< REPLACE: the integrator owns it (N doubles, zeroed): a displacement of the segment's
+                          end vertex, z_(k+1) = z_k + 2 d + jump, no time passing (a reset of its vertex
+                          offset); a nonzero jump makes the step neither symplectic nor reversible
+                          (DTH_STEP_RESET). wp must not move. */
+    int fresh;       /**< REPLACE: 1 to start the next step without history: its predictor and the branch
+                          test's step ratio from the last ordinary step, not from this segment */
+    double dt;       /**< REPLACE: a correction of the new vertex's time (a clock correction: no other
+                          coordinate moves), 0 for none */
 } dth_reg_action;
 
 /** Layout version of dth_regularizer_type (model.h says how tables are versioned). */
@@ -94,8 +114,8 @@ typedef struct dth_regularizer_type {
     const dth_param_spec *params; /**< accepted parameters */
     size_t n_params;              /**< length of params */
     /** Build an instance (allocate its workspace here; workspace needed only by rare events may be
-     *  allocated once, at the first such event, with the allocator create was given, as `smooth`
-     *  does its dense changeover workspace); may be NULL if it needs no state. */
+     *  allocated once, at the first such event, with the allocator create was given, as `land`
+     *  does its crossing workspace); may be NULL if it needs no state. */
     int (*create)(const dth_reg_args *args, void **self);
     /** Release an instance (self may be NULL). */
     void (*destroy)(void *self, const dth_allocator *alloc);
@@ -124,6 +144,13 @@ typedef struct dth_regularizer_type {
      * constant is fixed). NULL: apply is called only at the events above.
      */
     int (*replaces_all)(const void *self);
+    /**
+     * Optional: called for every ordinary step the integrator takes (after admit), before it is
+     * committed; *dt (0 on entry) may correct the new vertex's time (a clock correction: q, p and wp
+     * stay the step's bits; the step's extended map is then neither symplectic nor reversible).
+     * Return 0 or a status (ends the step).
+     */
+    int (*observe)(void *self, const dth_reg_step *step, double *dt);
 } dth_regularizer_type;
 
 /** The first two members of every dth_regularizer_type: `{DTH_REG_TYPE_HEAD, .name = ...}`. */
@@ -156,8 +183,9 @@ DTH_API int dth_regularizer_apply(dth_regularizer *r, const dth_reg_event *ev, d
 DTH_API extern const dth_regularizer_type dth_reg_none;
 /** Every step a kicked segment with lambda = arc/|u(zbar)|^alpha: reversible, energy-exact (not symplectic). */
 DTH_API extern const dth_regularizer_type dth_reg_prescribed;
-/** Ordinary DTH where the step is healthy, a smooth changeover to a step law around psi = 0 (the default). */
-DTH_API extern const dth_regularizer_type dth_reg_smooth;
+/** Raw DTH wherever it runs; one replaced step per psi = 0 crossing that lands just past it and resets
+ *  its end vertex's offset onto the run's step invariant (the default). */
+DTH_API extern const dth_regularizer_type dth_reg_land;
 
 /* ---- building blocks for writing regularizers ---- */
 

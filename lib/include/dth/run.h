@@ -117,8 +117,19 @@ typedef enum dth_run_stop {
     DTH_RUN_END = 1,      /**< reached t_end or the step count */
     DTH_RUN_EVENT = 2,    /**< a terminal event */
     DTH_RUN_CALLBACK = 3, /**< a callback returned nonzero (dth_run returns its value) */
-    DTH_RUN_FAILED = 4    /**< a step failed (dth_run returns its status; the state is at the last vertex) */
+    DTH_RUN_FAILED = 4,   /**< a step failed (dth_run returns its status; the state is at the last vertex) */
+    DTH_RUN_SAMPLES = 5   /**< the output times asked for more than DTH_RUN_MAX_SAMPLES_PER_STEP samples
+                               within one step (dth_run returns DTH_EINVAL; the samples so far are valid and
+                               the state is at the vertex after that step) */
 } dth_run_stop;
+
+/**
+ * At most this many samples within one step. Output times far denser than the steps fill a disk
+ * without resolving the trajectory (the method's steps do): dth_run_check refuses a dt that asks for
+ * more from the step known before the run, and dth_run stops (DTH_RUN_SAMPLES) at a step that turns
+ * out to hold more (a vertex start's first step, a longer step later, a list of times).
+ */
+#define DTH_RUN_MAX_SAMPLES_PER_STEP 1000000
 
 /**
  * The loop's state: plain data, all of it, so a caller may store it (for example as a checkpoint
@@ -147,6 +158,12 @@ typedef struct dth_run_state {
     double q_max, p_max; /**< the largest |q|, |p| at the vertices so far (the stop rule's scale) */
     double lam_max;      /**< the largest |lambda| of the steps so far */
     double t_lam_max;    /**< the time of the vertex that step arrived at */
+    long nonreversible;  /**< steps with no reverse (flagged DTH_STEP_RESET or DTH_STEP_CLOCK): a round
+                              trip of the run does not come back to its start */
+    double e_err;        /**< a fixed-step baseline's energy error |H_phys(z_k) - H_phys(z_0)| at the current
+                              vertex (0 for the DTH step, whose midpoints keep the energy) */
+    double e_scale;      /**< the size of the energy's terms at the first vertex, |H_phys| + sum |y_j dH/dy_j|
+                              (the scale e_err is judged by) */
 } dth_run_state;
 
 /** Zero a state (a fresh run). */
@@ -154,6 +171,8 @@ DTH_API void dth_run_state_init(dth_run_state *st);
 
 /** What to do. Initialize with dth_run_config_default(). */
 typedef struct dth_run_config {
+    size_t size;            /**< sizeof(dth_run_config) where the caller was compiled (dth_run_config_default
+                                 sets it; dth_run refuses another: a caller built against an older layout) */
     int has_t_end;          /**< 1: run to t_end; 0: until the vertex index reaches `steps` */
     double t_end;           /**< end time (exactly: the END sample is the dense output there) */
     long steps;             /**< vertex index to stop at (counted from the run's start) */
@@ -188,7 +207,7 @@ typedef struct dth_run_config {
      *  orbit-sized error; a long run whose phase error grows at steps near h is left to run (its
      *  estimate says how far off it is). */
     double stop_error;
-    /** The multiple of the integrator's h beyond which steps count as run away (default 16). */
+    /** The multiple of the integrator's h beyond which steps count as run away (default 16; 0: never stop). */
     double step_ratio;
     /** 1: each step record gets the local error estimate lerr (dth_step_info); 3 flows per step. */
     int local_error;
@@ -208,14 +227,28 @@ struct dth_run_setup; /* scene.h */
 DTH_API void dth_run_config_from_setup(dth_run_config *cfg, const struct dth_run_setup *rs);
 
 /**
+ * Whether dth_run accepts `cfg` for the integrator `it` from the loop state `st`, with a one-line
+ * message naming the setting in err (may be NULL) when not: every < 1; midpoints for a method without
+ * them; output times with dt <= 0 or not finite, or a dt that asks for more than
+ * DTH_RUN_MAX_SAMPLES_PER_STEP rows per step of the integrator's current step; a list of times with a
+ * non-finite entry or one before its predecessor in the direction of travel (equal times are
+ * allowed); events without a function; t_end not finite, or behind the run's start (fresh state) or
+ * behind where the last call's samples ended (st->t_stop); steps < 0, or behind the state's vertex
+ * index. dth_run calls it first, on every call.
+ * @return DTH_OK, DTH_EINVAL.
+ */
+DTH_API int dth_run_check(const dth_integrator *it, const dth_run_config *cfg, const dth_run_state *st, char *err,
+                          size_t errlen);
+
+/**
  * Run the integrator `it` (started, or restored from a checkpoint; the DTH step or a baseline,
  * whose wp, absent from its state, is -H_phys at its start: its H(z) is the energy error) as `cfg` says, from the
  * loop state `st` (zeroed: a fresh run; else one saved by an earlier call, whose vertex the
  * integrator must be at). On return `st` says where and why it stopped.
  * @return DTH_OK (the end, or a terminal event); a failed step's status (positive: the trajectory
- *   cannot go on; the samples so far are valid); a callback's nonzero value; DTH_EINVAL (bad
- *   configuration: dt <= 0 without times, every < 1, t_end behind, midpoints with a baseline);
- *   DTH_ENOMEM.
+ *   cannot go on; the samples so far are valid); a callback's nonzero value; DTH_EINVAL (a
+ *   configuration dth_run_check refuses, nothing done; or, with st->stop = DTH_RUN_SAMPLES, a step
+ *   that held more than DTH_RUN_MAX_SAMPLES_PER_STEP output times); DTH_ENOMEM.
  */
 DTH_API int dth_run(dth_integrator *it, const dth_run_config *cfg, dth_run_state *st);
 
