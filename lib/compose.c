@@ -14,6 +14,7 @@
 #include <stdio.h>
 #include <string.h>
 #include "compose.h"
+#include "dth/regularize.h"
 #include "stepper.h"
 
 /* ---- the coefficient tables (palindromic; sources: Suzuki, Phys. Lett. A 146 (1990) 319; Yoshida,
@@ -132,7 +133,8 @@ static int create(const dth_model *model, const dth_options *opt, void **out)
     c->n = dth_model_dof(model);
     c->N = 2 * c->n + 2;
     c->auton = dth_model_get_info(model)->autonomous;
-    c->band_on = opt->regularizer != NULL;
+    /* land (the default) switches the band on, none off (dth_options_check refuses any other) */
+    c->band_on = opt->regularizer && strcmp(dth_regularizer_get_type(opt->regularizer)->name, "none") != 0;
     /* the core: the DTH step of order 2 without policy (the composition screens its substeps) */
     dth_options co = *opt;
     co.order = 2;
@@ -288,7 +290,7 @@ int dth__comp_composite(dth__comp *c, int sigma, double tau_pred, dth_step_info 
                    !(fabs(sol.lambda) <= 2 * fabs(lam0))) {
             /* the root on the other side, or far from the predictor: a fold or psi = 0 near */
             dth__comp_seterr(c, "substep %d of %d found lambda = %.6g where %.6g was predicted (a fold or psi = 0 "
-                                "near: a regularizer carries the run through)", i + 1, m, sol.lambda, lam0);
+                                "near: the regularizer land carries the run through)", i + 1, m, sol.lambda, lam0);
             rc = DTH_EFOLD;
         } else if ((rc = dth__commit(k, sol.lambda, 0)) != DTH_OK) {
             dth__comp_seterr(c, "substep %d of %d: %s", i + 1, m, k->errmsg);

@@ -7,6 +7,7 @@
 #include <math.h>
 #include <string.h>
 #include <stdio.h>
+#include "dth/regularize.h"
 #include "dth_internal.h"
 #include "compose.h"
 #include "stepper.h"
@@ -109,6 +110,20 @@ static int check_order(const dth__stepper_type *type, const dth_options *o, char
     return DTH_OK;
 }
 
+/* Order 4 and the regularizer: the composition carries psi = 0 crossings by its own band (compose_band.c),
+ * switched on by `land` (the default; its replaced step of order 2 is not called) and off by none; a
+ * regularizer that replaces steps in other ways (`prescribed`, a plugin) would never be called. */
+static int check_order_regularizer(const dth_options *o, char *err, size_t len)
+{
+    if (o->order != 4 || !o->regularizer) return DTH_OK;
+    const char *rn = dth_regularizer_get_type(o->regularizer)->name;
+    if (!strcmp(rn, "land") || !strcmp(rn, "none")) return DTH_OK;
+    dth__set_err(err, len, "order = 4 with regularizer '%s': not supported (order 4 carries psi = 0 crossings by its "
+                           "own band under 'land', the default, and stops at them with none; '%s' would never be "
+                           "called): order = 2 for '%s'", rn, rn, rn);
+    return DTH_EUNSUPPORTED;
+}
+
 int dth_options_check(const dth_model *model, dth_options *o, char *err, size_t len)
 {
     if (!model || !o) {
@@ -137,6 +152,7 @@ int dth_options_check(const dth_model *model, dth_options *o, char *err, size_t 
         dth__set_err(err, len, "a regularizer applies to method = dth only (this is method '%s')", type->name);
         return DTH_EUNSUPPORTED;
     }
+    if ((rc = check_order_regularizer(o, err, len)) != DTH_OK) return rc;
     if (type->check && (rc = type->check(model, o, err, len)) != DTH_OK) return rc;
     const char *mname = dth_model_get_type(model)->name;
     size_t n = dth_model_dof(model);

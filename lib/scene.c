@@ -999,6 +999,12 @@ static int setup_regularizer(const dth_scene *s, const dth_registry *reg, dth_ru
                 return bad(err, errlen, &s->e[i], "unknown key (regularizer 'none' takes no parameters)");
         return DTH_OK;
     }
+    if (rs->opt.order == 4 && !strcmp(t->name, "land")) /* the band carries order 4's crossings, not land's step */
+        for (size_t i = 0; i < s->n; i++)
+            if (!strcmp(s->e[i].section, "regularize") && strcmp(s->e[i].key, "method"))
+                return bad(err, errlen, &s->e[i], "the parameters of regularizer '%s' apply to order 2 (its "
+                           "replaced step at a crossing); order 4 carries psi = 0 crossings by its own band "
+                           "(integrator.band_time; docs/theory.md, \"Order 4\")", t->name);
     dth_kv *kv = dth_calloc(s->alloc, np + 1, sizeof *kv);
     const entry **ke = dth_calloc(s->alloc, np + 1, sizeof *ke);
     int rc = kv && ke ? DTH_OK : DTH_ENOMEM;

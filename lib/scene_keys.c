@@ -156,9 +156,10 @@ static const dth__scene_key keys[] = {
          "both `start` modes mean the vertex z_0 = (q, t, p), wp = -H_phys there (or the explicit `[initial] "
          "wp`), rows are vertices (`points = midpoints` is refused: the substeps' midpoints lie on their levels, "
          "not on the energy surface), the dense output is of order 4, the error estimate's shadow is of order 6, "
-         "and psi = 0 crossings are carried by the composition's own band (`band_time`) whenever a regularizer "
-         "is set (the default `land`; with `[regularize] method = none` the run ends at the first crossing). "
-         "`6` and `8` are refused: the construction measures order 4 with every 6th- and 8th-order "
+         "and psi = 0 crossings are carried by the composition's own band (`band_time`) under the default "
+         "regularizer `land` (land's replaced step and its parameters belong to order 2: giving them with order "
+         "4 is refused, as is `prescribed`; with `[regularize] method = none` the run ends at the first "
+         "crossing). `6` and `8` are refused: the construction measures order 4 with every 6th- and 8th-order "
          "table (docs/theory.md). Kepler e = 0.6 over 1000 orbits: order 4 takes 0.075 of the CPU of order 2 "
          "at equal error 1e-5 (`bench_order4 --full`, part 3). Baselines have their own order (leave it at 2)."),
      .to = RS(opt.order), .ilo = 2, .ihi = 8},
@@ -167,7 +168,7 @@ static const dth__scene_key keys[] = {
          "tables measure order 4 here, and their small coefficients lose the root of their substep at larger h."),
      .to = RS(opt.table), .choice = tables, .as_name = DTH__NAME_KNOWN},
     {KEY("integrator", "band_time", NUMBER, 0, "0",
-         "Order 4 with a regularizer: a psi = 0 crossing is carried by the band (prescribed-step "
+         "Order 4 with the default regularizer: a psi = 0 crossing is carried by the band (prescribed-step "
          "compositions) from where it is less than 4 composite steps ahead (`0`, the default rule) or, with "
          "`band_time` > 0, also less than `band_time` ahead in time: a band fixed in phase space, which keeps "
          "order 4 through crossings (about 4.0 on the rotating pendulum with 0.6, on Kepler e = 0.9 with 0.2; "

@@ -7,7 +7,8 @@
  * research r22), a forced oscillator; the structure: a symplectic composite tangent on every step, wp
  * bit for bit, Kepler's L over 1000 orbits, the vertex energy flat; checkpoints resume bit for bit;
  * reversal; every linear-solver path; psi = 0 crossings run to the end (rotating pendulum, Kepler e =
- * 0.9) and measure order 4 with a band fixed in phase space; the options' rules.
+ * 0.9) and measure order 4 with a band fixed in phase space, end at the first crossing without one; the
+ * options' rules (the regularizers order 4 takes).
  */
 #include <float.h>
 #include <math.h>
@@ -537,6 +538,28 @@ static void test_crossings(void)
     printf("  Kepler e = 0.6, h = 0.02, regularizer attached: %ld band steps of %ld\n", st.regularized, st.k);
     CU_ASSERT_EQUAL(st.regularized, 0);
     dth_regularizer_free(reg);
+    /* none (no regularizer, or an instance of 'none'): no band, the run ends at the first crossing */
+    CU_ASSERT_EQUAL_FATAL(dth_regularizer_new(&dth_reg_none, NULL, 0, pm, NULL, &reg, err, sizeof err), DTH_OK);
+    for (int with = 0; with < 2; with++) {
+        dth_options_default(&o);
+        o.order = 4;
+        o.h = 0.05;
+        o.regularizer = with ? reg : NULL;
+        dth_integrator *it = NULL;
+        CU_ASSERT_EQUAL_FATAL(dth_integrator_new(pm, &o, &it), DTH_OK);
+        CU_ASSERT_EQUAL_FATAL(dth_integrator_start(it, rq, rp, 0), DTH_OK);
+        int rc = DTH_OK;
+        dth_step_info in;
+        while (rc == DTH_OK && dth_integrator_vertex(it)[1] < 10) {
+            rc = dth_integrator_step(it, &in);
+            if (rc == DTH_OK) CU_ASSERT_EQUAL(in.flags & DTH_STEP_REGULARIZED, 0u);
+        }
+        printf("  rotating pendulum, order 4, %s: stops at t = %.3f (%s)\n", with ? "regularizer none" : "no regularizer",
+               dth_integrator_vertex(it)[1], dth_status_name(rc));
+        CU_ASSERT(rc != DTH_OK && dth_integrator_vertex(it)[1] < 1.5); /* at its first crossing (t = 1.03) */
+        dth_integrator_free(it);
+    }
+    dth_regularizer_free(reg);
     cross_case(pm, rq, rp, 0.0125, 0.6, 100, &a10, &a100, &nc);
     cross_case(pm, rq, rp, 0.00625, 0.6, 100, &b10, &b100, &nc);
     printf("  rotating pendulum, band_time 0.6: h = 0.0125 -> 0.00625: T = 10 %.2e -> %.2e (order %.2f), T = 100 "
@@ -582,6 +605,30 @@ static void test_options(void)
     o.method = "gauss4";
     o.order = 4;
     CU_ASSERT_EQUAL(dth_options_check(m, &o, err, sizeof err), DTH_EUNSUPPORTED);
+    /* the regularizer: land (the band) and none (no band) are order 4's; prescribed (or any other, which
+     * the composition would never call) is refused naming it, and stays order 2's */
+    const dth_regularizer_type *regs[] = {&dth_reg_land, &dth_reg_none, &dth_reg_prescribed};
+    for (size_t i = 0; i < 3; i++) {
+        dth_regularizer *reg = NULL;
+        CU_ASSERT_EQUAL_FATAL(dth_regularizer_new(regs[i], NULL, 0, m, NULL, &reg, err, sizeof err), DTH_OK);
+        dth_options_default(&o);
+        o.order = 4;
+        o.regularizer = reg;
+        int rc = dth_options_check(m, &o, err, sizeof err);
+        if (regs[i] == &dth_reg_prescribed) {
+            CU_ASSERT_EQUAL(rc, DTH_EUNSUPPORTED);
+            CU_ASSERT(strstr(err, "order = 4 with regularizer 'prescribed': not supported") != NULL);
+            CU_ASSERT(strstr(err, "order = 2 for 'prescribed'") != NULL);
+            dth_integrator *it = NULL;
+            CU_ASSERT_EQUAL(dth_integrator_new(m, &o, &it), DTH_EUNSUPPORTED);
+            CU_ASSERT_PTR_NULL(it);
+        } else {
+            CU_ASSERT_EQUAL(rc, DTH_OK);
+        }
+        o.order = 2;
+        CU_ASSERT_EQUAL(dth_options_check(m, &o, err, sizeof err), DTH_OK);
+        dth_regularizer_free(reg);
+    }
     /* order 4 has no midpoints: midpoint samples are refused, the accessor says NULL */
     dth_integrator *it = started(m, 0.01, (double[]){0.4, 0}, (double[]){0, 2}, NULL);
     CU_ASSERT_EQUAL(dth_integrator_order(it), 4);

@@ -49,6 +49,15 @@ class Order4(unittest.TestCase):
             dth.run(PENDULUM, set={"integrator.order": 6})
         self.assertIn("order 4", str(e.exception))
 
+    def test_regularizers(self):
+        # land (the default) carries the rotating pendulum's crossings by the band; prescribed is refused
+        rot = os.path.join(ROOT, "scenes", "pendulum-rotation.ini")
+        r = dth.run(rot, set={"integrator.order": 4})
+        self.assertEqual(r.stop, "end")
+        with self.assertRaises(Exception) as e:
+            dth.run(rot, set={"integrator.order": 4, "regularize.method": "prescribed"})
+        self.assertIn("order = 4 with regularizer 'prescribed': not supported", str(e.exception))
+
     @unittest.skipUnless(CLI, "DTH_CLI not set")
     def test_rows_as_cli(self):
         r = dth.run(PENDULUM, set={"integrator.order": 4, "integrator.t_end": 2.0})

@@ -2,7 +2,8 @@
 # SPDX-License-Identifier: MIT
 # The DTH method of order 4 from the CLI (issue 22): the scene keys integrator.order and table; the
 # crossing scenes (rotating pendulum, Kepler e = 0.9) run to their ends under the default regularizer;
-# order 6 and midpoint rows are refused naming the line; a checkpointed run resumed to a later t_end
+# order 6 and midpoint rows are refused naming the line; none ends the run at the first crossing,
+# prescribed and land's parameters are refused; a checkpointed run resumed to a later t_end
 # gives the rows of a run made at once (the cut segment rebuilt from the vertex before: order 4 has
 # no midpoint), times and events on the quintic dense output; dth sweep takes the order as a key.
 # usage: check_order4.sh PATH/TO/dth SOURCE_ROOT
@@ -37,6 +38,22 @@ grep -q "table applies to order = 4 only" "$T/e" || fail "table message: $(cat "
 "$DTH" run "$SC/pendulum.ini" -s integrator.order=4 -s integrator.table=nope >/dev/null 2>"$T/e" && fail "table nope accepted"
 grep -q "integrator.table: 'nope' is not one of suzuki4, yoshida4" "$T/e" || fail "table nope message: $(cat "$T/e")"
 ok "order 6, midpoints with order 4 and unknown tables are refused naming the key"
+
+# ---- the regularizer: land (the default) carries crossings by the band, none ends the run at the first
+# crossing, prescribed and land's own parameters are refused naming the line
+P="$SC/pendulum-rotation.ini"
+"$DTH" run "$P" -s integrator.order=4 -s output.diagnostics=no -o "$T/band.csv" 2>"$T/e" || fail "band run: $(cat "$T/e")"
+grep -q "psi = 0 crossings" "$T/e" || fail "band end line: $(cat "$T/e")"
+"$DTH" run "$P" -s integrator.order=4 -s regularize.method=none -o "$T/none.csv" 2>"$T/e"
+rc=$?
+[ $rc -eq 3 ] || fail "order 4 with regularize.method=none: exit $rc, not 3 ($(cat "$T/e"))"
+"$DTH" run "$P" -s integrator.order=4 -s regularize.method=prescribed >/dev/null 2>"$T/e" && fail "prescribed accepted"
+grep -q "regularize.method: order = 4 with regularizer 'prescribed': not supported" "$T/e" ||
+    fail "prescribed message: $(cat "$T/e")"
+"$DTH" run "$P" -s integrator.order=4 -s regularize.kappa=0.02 >/dev/null 2>"$T/e" && fail "land's kappa accepted"
+grep -q "regularize.kappa: the parameters of regularizer 'land' apply to order 2" "$T/e" ||
+    fail "kappa message: $(cat "$T/e")"
+ok "order 4 takes land (its band) and none; prescribed and land's parameters are refused naming the line"
 
 # ---- resume: rows of the cut segment (output times) from the vertex before, as a run made at once
 K="$SC/kepler-e06.ini"
