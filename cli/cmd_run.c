@@ -560,12 +560,21 @@ static void fast_rate(const run_job *j)
 
 /* A run that was mostly the regularizer's: more than half of at least 10 steps regularized by one
  * that only carries the crossings (land; not one that replaces every step by design, prescribed).
- * Those steps are not symplectic: a warning, with a smaller step. */
+ * Those steps are not symplectic: a warning, with a smaller step. Order 4: its band's steps (symplectic,
+ * prescribed), unless integrator.band_time asked for them. */
 static void regularized_share(const run_job *j)
 {
     const dth_run_state *S = &j->S;
     const dth_regularizer *reg = j->rs.regularizer;
     if (!reg || dth_regularizer_get_type(reg)->replaces_all || S->k < 10 || 2 * S->regularized <= S->k) return;
+    if (j->rs.opt.order == 4) { /* its band steps are symplectic, but prescribed: not on the levels */
+        if (j->rs.opt.band_time > 0) return; /* a band fixed in phase space: as many as integrator.band_time asks */
+        cli_error("warning: %.0f %% of the steps (%ld of %ld) were order 4's band steps around psi = 0 (prescribed-step "
+                  "compositions: not solved for, their energy held only to O(tau^4)); a smaller step keeps more of "
+                  "the run on composite steps, e.g. -s integrator.h=%.6g",
+                  100.0 * (double)S->regularized / (double)S->k, S->regularized, S->k, j->rs.opt.h / 4);
+        return;
+    }
     cli_error("warning: %.0f %% of the steps (%ld of %ld) were regularized steps of the regularizer '%s', which are not "
               "symplectic: the step is large for this trajectory; a smaller one keeps more of it on ordinary DTH steps, "
               "e.g. -s integrator.h=%.6g", 100.0 * (double)S->regularized / (double)S->k, S->regularized, S->k,
@@ -612,8 +621,13 @@ static int report(const run_job *j)
     char crossing[160] = "", est[200];
     if (S->crossings || S->regularized) {
         /* (the step ratio around a crossing exists only where there was one) */
-        int w = snprintf(crossing, sizeof crossing, "; %ld psi = 0 crossing%s, %ld regularized step%s", S->crossings,
-                         CLI_S(S->crossings), S->regularized, CLI_S(S->regularized));
+        /* order 4: the band's steps (symplectic) and its exits (a projection: not symplectic, not reversible) */
+        int w = j->rs.opt.order == 4
+                    ? snprintf(crossing, sizeof crossing, "; %ld psi = 0 crossing%s, %ld band step%s (%ld band exit%s)",
+                               S->crossings, CLI_S(S->crossings), S->regularized, CLI_S(S->regularized),
+                               S->nonreversible, CLI_S(S->nonreversible))
+                    : snprintf(crossing, sizeof crossing, "; %ld psi = 0 crossing%s, %ld regularized step%s",
+                               S->crossings, CLI_S(S->crossings), S->regularized, CLI_S(S->regularized));
         if (S->crossings && w > 0 && (size_t)w < sizeof crossing)
             snprintf(crossing + w, sizeof crossing - (size_t)w, ", largest step ratio at a crossing %.3g", S->max_ratio);
     }

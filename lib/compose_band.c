@@ -208,8 +208,8 @@ static int try_exit(dth__comp *c, double psi, double dpsi, dth_step_info *info)
         *info = in;
         return 0;
     }
-    c->st.fact_valid = 0; /* the projection has no tangent map */
-    info->flags |= DTH_STEP_REGULARIZED;
+    c->st.fact_valid = 0; /* the projection has no tangent map, and no reverse (run.h: nonreversible) */
+    info->flags |= DTH_STEP_REGULARIZED | DTH_STEP_RESET;
     return 1;
 }
 

@@ -500,6 +500,9 @@ static void cross_case(const dth_model *m, const double *q0, const double *p0, d
     dth_run_state st;
     CU_ASSERT_EQUAL(run_to(m, &o, q0, p0, T, z, &st), DTH_OK);
     CU_ASSERT(st.t >= T2);
+    /* every band exit (a projection: no tangent map, no reverse) is flagged DTH_STEP_RESET: at least one
+     * per band, and the band steps are counted as regularized (DTH_STEP_REGULARIZED) */
+    CU_ASSERT(st.nonreversible >= 1 && st.nonreversible < st.regularized);
     *crossings = st.crossings;
     reference(m, q0, p0, 10, y);
     *e10 = err_qp(dth_model_dof(m), z[0], y);
@@ -537,6 +540,7 @@ static void test_crossings(void)
     CU_ASSERT_EQUAL(run_to(km, &o, (double[]){0.4, 0}, (double[]){0, 2}, (double[]){10, 100}, z, &st), DTH_OK);
     printf("  Kepler e = 0.6, h = 0.02, regularizer attached: %ld band steps of %ld\n", st.regularized, st.k);
     CU_ASSERT_EQUAL(st.regularized, 0);
+    CU_ASSERT_EQUAL(st.nonreversible, 0);
     dth_regularizer_free(reg);
     /* none (no regularizer, or an instance of 'none'): no band, the run ends at the first crossing */
     CU_ASSERT_EQUAL_FATAL(dth_regularizer_new(&dth_reg_none, NULL, 0, pm, NULL, &reg, err, sizeof err), DTH_OK);

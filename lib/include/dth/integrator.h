@@ -171,9 +171,10 @@ typedef struct dth_step_info {
 
 /** dth_step_info.flags */
 enum {
-    DTH_STEP_REGULARIZED = 1u, /**< a regularizer changed the vertex or replaced the step */
+    DTH_STEP_REGULARIZED = 1u, /**< a regularizer changed the vertex or replaced the step (order 4: a band step) */
     DTH_STEP_CROSSING = 2u,    /**< psi changed sign across this step */
-    DTH_STEP_RESET = 4u,       /**< the regularizer moved the new vertex off its segment (an offset reset):
+    DTH_STEP_RESET = 4u,       /**< the regularizer moved the new vertex off its segment (an offset reset;
+                                    order 4: a band exit, whose projection moved the vertex it starts from):
                                     the step is neither symplectic nor reversible */
     DTH_STEP_CLOCK = 8u        /**< the regularizer corrected the new vertex's time (q, p, wp are the step's):
                                     the extended map is not symplectic in t, nor reversible */
