@@ -605,6 +605,15 @@ static void accuracy_msg(const run_job *j, char *buf, size_t len)
         return;
     }
     int p = S->err_p / S->p_max > S->err_q / S->q_max;
+    if (j->rs.opt.order == 4 && !(j->rs.warn_ratio > 0 && S->lam_max > j->rs.warn_ratio * fabs(j->rs.opt.h))) {
+        /* the rule armed by order 4's band (run.h, stop_error) */
+        snprintf(buf, len, "the estimated error |d%c| = %.3g is %.0f %% of the largest |%c| = %.3g (the run's bound "
+                 "integrator.stop_error = %.2g), and %ld of the %ld steps were order 4's band steps around psi = 0 "
+                 "(prescribed, not solved for), too large for this orbit: a smaller integrator.h",
+                 p ? 'p' : 'q', p ? S->err_p : S->err_q, 100 * (p ? S->err_p / S->p_max : S->err_q / S->q_max),
+                 p ? 'p' : 'q', p ? S->p_max : S->q_max, j->rs.stop_error, S->regularized, S->k);
+        return;
+    }
     snprintf(buf, len, "the estimated error |d%c| = %.3g is %.0f %% of the largest |%c| = %.3g (the run's bound "
              "integrator.stop_error = %.2g): the steps grew to lambda = %.3g = %.3g h (at t = %.6g, more than "
              "integrator.warn_ratio h), too large for this orbit: a smaller integrator.h (all steps shrink in "
@@ -632,7 +641,7 @@ static int report(const run_job *j)
             snprintf(crossing + w, sizeof crossing - (size_t)w, ", largest step ratio at a crossing %.3g", S->max_ratio);
     }
     estimate_note(j, est, sizeof est);
-    char amsg[400];
+    char amsg[512];
     const char *emsg = dth_integrator_errmsg(j->it);
     if (rc == DTH_EACCURACY) {
         accuracy_msg(j, amsg, sizeof amsg);

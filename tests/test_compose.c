@@ -8,7 +8,7 @@
  * bit for bit, Kepler's L over 1000 orbits, the vertex energy flat; checkpoints resume bit for bit;
  * reversal; every linear-solver path; psi = 0 crossings run to the end (rotating pendulum, Kepler e =
  * 0.9) and measure order 4 with a band fixed in phase space, end at the first crossing without one; the
- * options' rules (the regularizers order 4 takes).
+ * options' rules (the regularizers order 4 takes); the run's stop rule.
  */
 #include <float.h>
 #include <math.h>
@@ -733,6 +733,51 @@ static void test_estimate(void)
     dth_model_free(km);
 }
 
+/* dth_run's stop rule (stop_error, step_ratio) with order 4, the default regularizer (the band) and the
+ * estimate, on Kepler e = 0.9 from its pericentre to T = 10 orbits: at h = 0.003 the composite steps run
+ * away (576 h) and the run stops with DTH_EACCURACY; at h = 0.01 the band carries every step (near h: the
+ * band never exits) with an orbit-sized error, and the band's share arms the same stop; at h = 0.001 (steps
+ * up to 626 h, band steps 82 %) the error stays near 5 % of |p| and the run ends. */
+static void test_stop_rule(void)
+{
+    dth_model *km = model(&dth_model_kepler, NULL, 0, 0);
+    dth_regularizer *reg = NULL;
+    char err[256];
+    CU_ASSERT_EQUAL_FATAL(dth_regularizer_new(&dth_reg_land, NULL, 0, km, NULL, &reg, err, sizeof err), DTH_OK);
+    const double q0[2] = {0.1, 0}, p0[2] = {0, 4.358898943540674}, hs[3] = {0.003, 0.01, 0.001};
+    const int want[3] = {DTH_EACCURACY, DTH_EACCURACY, DTH_OK};
+    printf("\n");
+    for (int c = 0; c < 3; c++) {
+        dth_options o;
+        dth_options_default(&o);
+        o.order = 4;
+        o.h = hs[c];
+        o.estimate = 1;
+        o.regularizer = reg;
+        dth_integrator *it = NULL;
+        CU_ASSERT_EQUAL_FATAL(dth_integrator_new(km, &o, &it), DTH_OK);
+        CU_ASSERT_EQUAL_FATAL(dth_integrator_start(it, q0, p0, 0), DTH_OK);
+        dth_run_config cfg;
+        dth_run_config_default(&cfg);
+        cfg.has_t_end = 1;
+        cfg.t_end = 20 * PI;
+        cfg.t0 = 0;
+        dth_run_state st;
+        dth_run_state_init(&st);
+        int rc = dth_run(it, &cfg, &st);
+        printf("  Kepler e = 0.9 from pericentre, h = %g: %s at t = %.2f, largest step %.0f h, band steps %ld of %ld, "
+               "estimate |dp| %.2g of |p| %.3g\n", hs[c], dth_status_name(rc), st.t, st.lam_max / hs[c], st.regularized,
+               st.k, st.err_p, st.p_max);
+        CU_ASSERT_EQUAL(rc, want[c]);
+        if (rc == DTH_EACCURACY) CU_ASSERT(st.err_p > 0.25 * st.p_max || st.err_q > 0.25 * st.q_max);
+        if (c == 0) CU_ASSERT(st.lam_max > 16 * hs[c]);
+        if (c == 1) CU_ASSERT(st.lam_max <= 16 * hs[c] && 2 * st.regularized > st.k);
+        dth_integrator_free(it);
+    }
+    dth_regularizer_free(reg);
+    dth_model_free(km);
+}
+
 /* dth_model_check's verdict says what the optional hdiff and third would save (issue 22 item 5): the
  * Henon-Heiles user model has neither, Kepler both. */
 static void test_check_fallback(void)
@@ -765,6 +810,7 @@ static CU_TestInfo tests[] = {
     {"options: order 6/8 refused, tables, no midpoints", test_options},
     {"events on the quintic dense output", test_events},
     {"the error estimate of order 4", test_estimate},
+    {"the run's stop rule with order 4: run-away steps, a run carried by the band", test_stop_rule},
     {"dth_model_check says what hdiff and third would save", test_check_fallback},
     CU_TEST_INFO_NULL,
 };

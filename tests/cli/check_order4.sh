@@ -3,7 +3,8 @@
 # The DTH method of order 4 from the CLI (issue 22): the scene keys integrator.order and table; the
 # crossing scenes (rotating pendulum, Kepler e = 0.9) run to their ends under the default regularizer;
 # order 6 and midpoint rows are refused naming the line; none ends the run at the first crossing,
-# prescribed and land's parameters are refused; a checkpointed run resumed to a later t_end
+# prescribed and land's parameters are refused; a run carried by the band with an orbit-sized error
+# stops with exit 3; a checkpointed run resumed to a later t_end
 # gives the rows of a run made at once (the cut segment rebuilt from the vertex before: order 4 has
 # no midpoint), times and events on the quintic dense output; dth sweep takes the order as a key.
 # usage: check_order4.sh PATH/TO/dth SOURCE_ROOT
@@ -55,6 +56,16 @@ grep -q "regularize.method: order = 4 with regularizer 'prescribed': not support
 grep -q "regularize.kappa: the parameters of regularizer 'land' apply to order 2" "$T/e" ||
     fail "kappa message: $(cat "$T/e")"
 ok "order 4 takes land (its band) and none; prescribed and land's parameters are refused naming the line"
+
+# ---- the stop rule: Kepler e = 0.9 from its pericentre at h = 0.01 is carried by the band with steps near h
+# and an orbit-sized error: exit 3 naming the band (order 2 stops there too, on run-away steps)
+"$DTH" run "$SC/kepler-e09.ini" -s initial.q=0.1,0 -s initial.p=0,4.358898943540674 -s integrator.t_end=62.83 \
+    -s integrator.order=4 -s output.diagnostics=no -o "$T/peri.csv" 2>"$T/e"
+rc=$?
+[ $rc -eq 3 ] || fail "Kepler e = 0.9 from pericentre, order 4, h = 0.01: exit $rc, not 3 ($(cat "$T/e"))"
+grep -q "steps were order 4's band steps around psi = 0 (prescribed, not solved for)" "$T/e" ||
+    fail "band stop message: $(cat "$T/e")"
+ok "a run carried by the band with an orbit-sized error stops (exit 3)"
 
 # ---- resume: rows of the cut segment (output times) from the vertex before, as a run made at once
 K="$SC/kepler-e06.ini"

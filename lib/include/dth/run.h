@@ -205,7 +205,9 @@ typedef struct dth_run_config {
      *  are far too large for its orbit (a Kepler orbit of e = 0.9 started at its pericentre with
      *  h = 0.01: steps up to 96 h, the end a third of the orbit off) ends with a status instead of an
      *  orbit-sized error; a long run whose phase error grows at steps near h is left to run (its
-     *  estimate says how far off it is). */
+     *  estimate says how far off it is). The DTH method of order 4 also counts as run away where its
+     *  band steps (prescribed-step compositions around psi = 0, not solved for) were more than half
+     *  of at least 10 steps. */
     double stop_error;
     /** The multiple of the integrator's h beyond which steps count as run away (default 16; 0: never stop). */
     double step_ratio;
