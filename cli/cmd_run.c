@@ -605,7 +605,7 @@ static void accuracy_msg(const run_job *j, char *buf, size_t len)
         return;
     }
     int p = S->err_p / S->p_max > S->err_q / S->q_max;
-    if (j->rs.opt.order == 4 && !(j->rs.warn_ratio > 0 && S->lam_max > j->rs.warn_ratio * fabs(j->rs.opt.h))) {
+    if (j->rs.opt.order == 4 && !(S->lam_max > dth_run_step_limit(j->it, j->rs.warn_ratio))) {
         /* the rule armed by order 4's band (run.h, stop_error) */
         snprintf(buf, len, "the estimated error |d%c| = %.3g is %.0f %% of the largest |%c| = %.3g (the run's bound "
                  "integrator.stop_error = %.2g), and %ld of the %ld steps were order 4's band steps around psi = 0 "
@@ -616,7 +616,7 @@ static void accuracy_msg(const run_job *j, char *buf, size_t len)
     }
     snprintf(buf, len, "the estimated error |d%c| = %.3g is %.0f %% of the largest |%c| = %.3g (the run's bound "
              "integrator.stop_error = %.2g): the steps grew to lambda = %.3g = %.3g h (at t = %.6g, more than "
-             "integrator.warn_ratio h), too large for this orbit: a smaller integrator.h (all steps shrink in "
+             "integrator.warn_ratio allows), too large for this orbit: a smaller integrator.h (all steps shrink in "
              "proportion)", p ? 'p' : 'q', p ? S->err_p : S->err_q,
              100 * (p ? S->err_p / S->p_max : S->err_q / S->q_max), p ? 'p' : 'q', p ? S->p_max : S->q_max,
              j->rs.stop_error, S->lam_max, S->lam_max / fabs(j->rs.opt.h), S->t_lam_max);
@@ -647,12 +647,15 @@ static int report(const run_job *j)
         accuracy_msg(j, amsg, sizeof amsg);
         emsg = amsg;
     }
-    if (rc >= 0 && j->rs.warn_ratio > 0 && S->lam_max > j->rs.warn_ratio * fabs(j->rs.opt.h))
-        cli_error("warning: the largest step was lambda = %.3g = %.3g h (at t = %.6g, more than integrator.warn_ratio = "
-                  "%g h): DTH steps follow %s = const along the orbit, and h sets them only at the start "
-                  "(docs/theory.md); the estimated error says what they cost",
-                  S->lam_max, S->lam_max / fabs(j->rs.opt.h), S->t_lam_max, j->rs.warn_ratio,
-                  j->rs.opt.order == 4 ? "tau^2 psi" : "lambda^6 psi^2");
+    /* the library's bound (order 4: warn_ratio^(3/2) h, dth_run_step_limit) */
+    double lim = dth_run_step_limit(j->it, j->rs.warn_ratio);
+    if (rc >= 0 && S->lam_max > lim)
+        cli_error("warning: the largest step was lambda = %.3g = %.3g h (at t = %.6g, more than %s = %g h): DTH steps "
+                  "follow %s = const along the orbit, and h sets them only at the start (docs/theory.md); the "
+                  "estimated error says what they cost",
+                  S->lam_max, S->lam_max / fabs(j->rs.opt.h), S->t_lam_max,
+                  j->rs.opt.order == 4 ? "integrator.warn_ratio^(3/2) for order 4" : "integrator.warn_ratio",
+                  lim / fabs(j->rs.opt.h), j->rs.opt.order == 4 ? "tau^2 psi" : "lambda^6 psi^2");
     if (S->stop == DTH_RUN_SAMPLES) { /* the library's bound (run.h) */
         cli_error("stopped at k=%ld, t=%.17g: output.dt = %.3g asks for more than %d rows within one step (a larger "
                   "output.dt, or output.points = vertices; the rows so far are kept)", S->k, S->t, j->rs.dt,

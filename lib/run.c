@@ -410,6 +410,16 @@ static void account_vertex(drv *d, const dth_step_info *s)
     }
 }
 
+/* run.h; the one rule dth run's warning reads too */
+double dth_run_step_limit(const dth_integrator *it, double step_ratio)
+{
+    if (!it) return NAN;
+    if (!(step_ratio > 0)) return INFINITY;
+    const char *m = dth_integrator_method(it);
+    int order4 = m && !strcmp(m, "dth") && dth_integrator_order(it) == 4;
+    return (order4 ? pow(step_ratio, 1.5) : step_ratio) * fabs(dth__integrator_h(it));
+}
+
 /* The stop rule of the error estimate (dth_run_config.stop_error): the steps ran away from h and
  * the error is a sizeable part of the orbit; or a fixed-step baseline's energy error is (its own
  * estimate cannot see it: the shadow takes the same steps with a method of the same kind). Order 4's
@@ -419,11 +429,11 @@ static void account_vertex(drv *d, const dth_step_info *s)
 static int runaway(const drv *d)
 {
     const dth_run_state *st = d->st;
-    double f = d->cfg->stop_error, h = fabs(dth__integrator_h(d->it));
+    double f = d->cfg->stop_error;
     if (!(f > 0)) return 0;
     if (d->wp_fixed) return st->e_err > f * st->e_scale;
     int banded = d->order4 && st->k >= 10 && 2 * st->regularized > st->k;
-    return d->cfg->step_ratio > 0 && (st->lam_max > d->cfg->step_ratio * h || banded) &&
+    return d->cfg->step_ratio > 0 && (st->lam_max > dth_run_step_limit(d->it, d->cfg->step_ratio) || banded) &&
            (st->err_q > f * st->q_max || st->err_p > f * st->p_max);
 }
 

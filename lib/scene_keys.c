@@ -183,12 +183,15 @@ static const dth__scene_key keys[] = {
          "gradients per step."),
      .to = RS(opt.estimate), .choice = yes_no},
     {KEY("integrator", "stop_error", NUMBER, 0, "0.25",
-         "The run stops with status DTH_EACCURACY (exit 3) where a step exceeded `warn_ratio` h and the "
+         "The run stops with status DTH_EACCURACY (exit 3) where a step exceeded `warn_ratio` h (or order 4's "
+         "band carried most steps) and the "
          "estimated error in q or in p exceeds this fraction of the largest |q| or |p| so far."),
      .to = RS(stop_error), .bound = DTH__GE, .lo = 0, .note = "0: never stop"},
     {KEY("integrator", "warn_ratio", NUMBER, 0, "16",
          "A step larger than this multiple of |h| is reported on standard error (the step ran away from what h "
-         "asked for), and arms the stop of `stop_error`."),
+         "asked for), and arms the stop of `stop_error`. With `order = 4` the multiple is warn_ratio^(3/2) (64 "
+         "by default): its steps follow tau^2 psi = const, where the DTH step's follow lambda^6 psi^2 = const, so "
+         "the same change of psi moves its step by the 3/2 power of the ratio."),
      .to = RS(warn_ratio), .bound = DTH__GE, .lo = 0, .note = "0: never warn, never stop"},
     {KEY("integrator", "linsolve", CHOICE, 0, "auto",
          "The linear solver of the step's Newton system: all give the same steps to round-off and differ in cost "

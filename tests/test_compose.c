@@ -635,6 +635,19 @@ static void test_options(void)
     }
     /* order 4 has no midpoints: midpoint samples are refused, the accessor says NULL */
     dth_integrator *it = started(m, 0.01, (double[]){0.4, 0}, (double[]){0, 2}, NULL);
+    /* the stop rule's bound: step_ratio^(3/2) h for order 4, step_ratio h for order 2 and a baseline of order 4 */
+    CU_ASSERT_DOUBLE_EQUAL(dth_run_step_limit(it, 16), 0.64, 1e-15);
+    CU_ASSERT(isinf(dth_run_step_limit(it, 0)));
+    CU_ASSERT(isnan(dth_run_step_limit(NULL, 16)));
+    for (int b = 0; b < 2; b++) {
+        dth_options_default(&o);
+        o.h = 0.01;
+        o.method = b ? "gauss4" : "dth";
+        dth_integrator *i2 = NULL;
+        CU_ASSERT_EQUAL_FATAL(dth_integrator_new(m, &o, &i2), DTH_OK);
+        CU_ASSERT_DOUBLE_EQUAL(dth_run_step_limit(i2, 16), 0.16, 1e-15);
+        dth_integrator_free(i2);
+    }
     CU_ASSERT_EQUAL(dth_integrator_order(it), 4);
     CU_ASSERT_STRING_EQUAL(dth_integrator_method(it), "dth");
     CU_ASSERT_EQUAL(dth_integrator_step(it, NULL), DTH_OK);
@@ -735,7 +748,7 @@ static void test_estimate(void)
 
 /* dth_run's stop rule (stop_error, step_ratio) with order 4, the default regularizer (the band) and the
  * estimate, on Kepler e = 0.9 from its pericentre to T = 10 orbits: at h = 0.003 the composite steps run
- * away (576 h) and the run stops with DTH_EACCURACY; at h = 0.01 the band carries every step (near h: the
+ * away (576 h, beyond order 4's bound 16^(3/2) h = 64 h) and the run stops with DTH_EACCURACY; at h = 0.01 the band carries every step (near h: the
  * band never exits) with an orbit-sized error, and the band's share arms the same stop; at h = 0.001 (steps
  * up to 626 h, band steps 82 %) the error stays near 5 % of |p| and the run ends. */
 static void test_stop_rule(void)
@@ -769,9 +782,11 @@ static void test_stop_rule(void)
                "estimate |dp| %.2g of |p| %.3g\n", hs[c], dth_status_name(rc), st.t, st.lam_max / hs[c], st.regularized,
                st.k, st.err_p, st.p_max);
         CU_ASSERT_EQUAL(rc, want[c]);
+        /* order 4's bound is step_ratio^(3/2) h (its step law tau^2 psi = const) */
+        CU_ASSERT_DOUBLE_EQUAL(dth_run_step_limit(it, cfg.step_ratio), 64 * hs[c], 1e-12 * hs[c]);
         if (rc == DTH_EACCURACY) CU_ASSERT(st.err_p > 0.25 * st.p_max || st.err_q > 0.25 * st.q_max);
-        if (c == 0) CU_ASSERT(st.lam_max > 16 * hs[c]);
-        if (c == 1) CU_ASSERT(st.lam_max <= 16 * hs[c] && 2 * st.regularized > st.k);
+        if (c == 0) CU_ASSERT(st.lam_max > 64 * hs[c]);
+        if (c == 1) CU_ASSERT(st.lam_max <= 64 * hs[c] && 2 * st.regularized > st.k);
         dth_integrator_free(it);
     }
     dth_regularizer_free(reg);

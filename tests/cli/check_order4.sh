@@ -66,6 +66,15 @@ rc=$?
 grep -q "steps were order 4's band steps around psi = 0 (prescribed, not solved for)" "$T/e" ||
     fail "band stop message: $(cat "$T/e")"
 ok "a run carried by the band with an orbit-sized error stops (exit 3)"
+# Kepler e = 0.6 from its pericentre: steps up to 21.8 h at the apocentre, below order 4's bound 16^(3/2) h
+"$DTH" run "$SC/kepler-e06.ini" -s integrator.order=4 -o "$T/e06.csv" 2>"$T/e" || fail "Kepler e = 0.6 with order 4: $(cat "$T/e")"
+[ -s "$T/e" ] && fail "Kepler e = 0.6 with order 4 warns: $(cat "$T/e")"
+"$DTH" run "$SC/kepler-e09.ini" -s initial.q=0.1,0 -s initial.p=0,4.358898943540674 -s integrator.t_end=62.83 \
+    -s integrator.order=4 -s integrator.h=0.003 -s output.diagnostics=no -o "$T/peri.csv" 2>"$T/e"
+rc=$?
+[ $rc -eq 3 ] || fail "Kepler e = 0.9 from pericentre, order 4, h = 0.003: exit $rc, not 3 ($(cat "$T/e"))"
+grep -q "more than integrator.warn_ratio^(3/2) for order 4 = 64 h" "$T/e" || fail "order 4's warning: $(cat "$T/e")"
+ok "order 4's steps count as run away beyond warn_ratio^(3/2) h"
 
 # ---- resume: rows of the cut segment (output times) from the vertex before, as a run made at once
 K="$SC/kepler-e06.ini"
