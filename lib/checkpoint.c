@@ -269,12 +269,22 @@ static void load_field(const rd *r, size_t pos, const dth__field *f, void *base,
 /* ---- the state part: the method, the model, the options and the stepper's sections ---- */
 
 /* The options section and the state sections of `it` (sections[0] is the options), their count. */
+#define ESTIMATE_ENTRY(name, kind, check, doc) DTH__FIELD(dth__estimate, name, kind, check),
+static const dth__field estimate_fields[] = {DTH__ESTIMATE_FIELDS(ESTIMATE_ENTRY)};
+#undef ESTIMATE_ENTRY
+
+/* The options, the stepper's sections and, with an error estimate, its shadow (the estimate a
+ * resumed run prints and stops by must go on from where it was). */
 static size_t sections_of(const dth_integrator *it, dth__section *sec, void *scratch)
 {
     size_t k = 0;
     if (it->type->options_section) it->type->options_section(it->state, &sec[k++], scratch);
     else sec[k++] = (dth__section){"options", NULL, 0, scratch, 0};
-    return k + it->type->sections(it->state, sec + k);
+    k += it->type->sections(it->state, sec + k);
+    if (it->est.on)
+        sec[k++] = (dth__section){"estimate", estimate_fields, sizeof estimate_fields / sizeof estimate_fields[0],
+                                  (void *)&it->est, it->est.N};
+    return k;
 }
 
 static const char *reg_name(const dth_integrator *it)
@@ -290,7 +300,7 @@ static struct dth_regularizer *reg_of(const dth_integrator *it)
 
 static void put_state(wr *w, const dth_integrator *it)
 {
-    dth__section sec[DTH__MAX_SECTIONS + 1];
+    dth__section sec[DTH__MAX_SECTIONS + 2];
     double scratch[8];
     size_t ns = sections_of(it, sec, scratch);
     put_str(w, it->type->name);
@@ -424,7 +434,7 @@ static int read_state(rd *r, st *s, char *err, size_t errlen)
     s->n = get_u64(r);
     s->nsec = get_u32(r);
     s->pos_sec = r->pos;
-    if (r->bad || s->n == 0 || s->n > DTH__MAX_DOF || s->nsec > DTH__MAX_SECTIONS + 1) {
+    if (r->bad || s->n == 0 || s->n > DTH__MAX_DOF || s->nsec > DTH__MAX_SECTIONS + 2) {
         dth__set_err(err, errlen, "checkpoint state header is invalid");
         return DTH_EPARSE;
     }
@@ -556,14 +566,14 @@ int dth_checkpoint_restore(dth_integrator *it, const void *buf, size_t len, char
                 (int)s.name_len, s.name, (unsigned long long)s.n, mname, it->n);
         return DTH_EINVAL;
     }
-    dth__section sec[DTH__MAX_SECTIONS + 1];
+    dth__section sec[DTH__MAX_SECTIONS + 2];
     double scratch[8];
     size_t ns = sections_of(it, sec, scratch);
     if (s.nsec != ns) {
         dth__set_err(err, errlen, "checkpoint has %u state sections, this integrator %zu", (unsigned)s.nsec, ns);
         return DTH_EPARSE;
     }
-    size_t pos[DTH__MAX_SECTIONS + 1][MAX_FIELDS];
+    size_t pos[DTH__MAX_SECTIONS + 2][MAX_FIELDS];
     rd q = {r.p, r.len, s.pos_sec, 0};
     for (size_t i = 0; i < ns; i++) {
         if (sec[i].nfields > MAX_FIELDS) return DTH_EINVAL;

@@ -176,7 +176,8 @@ static const dth__scene_key keys[] = {
          "`every` > 1 or an explicit `points`."),
      .to = RS(dt), .bound = DTH__GE, .lo = 0, .note = "0: vertices or midpoints"},
     {KEY("output", "diagnostics", BOOL, 0, "no",
-         "Adds the model's invariants and `psi,dpsi,region,iters,branch` to the rows."),
+         "Adds the model's invariants and `psi,dpsi,region,iters,branch` to the rows, and `err_q,err_p` (the "
+         "estimated global error at the row) with an estimate."),
      .to = RS(diagnostics), .choice = yes_no},
 
     /* [events] */
