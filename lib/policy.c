@@ -356,7 +356,10 @@ int dth__policy_cross(dth__policy *p, const dth__view *v, int pre, dth__decision
             say(p, "no error");
         }
         dec->asked = 1;
-        return reg_finish(p, v, &act, rc, plain_ok, dec, psi_sign_new);
+        int r = reg_finish(p, v, &act, rc, plain_ok, dec, psi_sign_new);
+        /* the step back from its end is the hook's again, not this step's reverse */
+        if (!r) dec->flags |= DTH_STEP_ONEWAY;
+        return r;
     }
     if (plain_ok) {
         for (size_t j = 0; j < N; j++) p->cand[j] = v->z[j] + (2 * v->d[j] + v->zlo[j]);
@@ -380,7 +383,10 @@ int dth__policy_cross(dth__policy *p, const dth__view *v, int pre, dth__decision
     dec->asked = 1;
     int r = reg_apply(p, &ev, &act, dec);
     if (r) return r;
-    return reg_finish(p, v, &act, rc, plain_ok, dec, psi_sign_new);
+    r = reg_finish(p, v, &act, rc, plain_ok, dec, psi_sign_new);
+    /* kept by a hook that replaces every step from now on (prescribed, its arc just fixed): as above */
+    if (!r && act.what == DTH_REG_KEEP && dth__reg_replaces_all(p->reg)) dec->flags |= DTH_STEP_ONEWAY;
+    return r;
 }
 
 void dth__policy_took(dth__policy *p, double psi, long steps)

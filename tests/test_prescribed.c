@@ -412,7 +412,8 @@ static void test_segment_at_pericentre(void)
  * Where no kicked segment can exist: the 1-D harmonic oscillator reports its energy as a
  * (quadratic) invariant, so projecting it out leaves no kick. fallback=no refuses at the first
  * replaced step with the state untouched; fallback=yes keeps every ordinary DTH step (energy
- * exact, the run carries on). Under both finishes.
+ * exact, the run carries on), each flagged DTH_STEP_ONEWAY (not reversible: the step back asks the
+ * regularizer again, which takes its segment where one exists). Under both finishes.
  */
 static void test_fallback(void)
 {
@@ -436,13 +437,17 @@ static void test_fallback(void)
         CU_ASSERT_FATAL(dth_integrator_start(it, &q0, &p0, 0.0) == DTH_OK);
         CU_ASSERT_FATAL(dth_integrator_step(it, NULL) == DTH_OK); /* the exact first step */
         double z1[4], wp0 = dth_integrator_vertex(it)[3];
-        int rc = DTH_OK, kept = 0;
+        int rc = DTH_OK, kept = 0, oneway = 0;
         for (int k = 0; k < 100 && !rc; k++) {
             dth_step_info inf;
             memcpy(z1, dth_integrator_vertex(it), sizeof z1);
             rc = dth_integrator_step(it, &inf);
             if (!rc && !(inf.flags & DTH_STEP_REGULARIZED)) kept++;
+            /* a kept step is flagged: the step back from its end asks the regularizer again */
+            if (!rc && !(inf.flags & DTH_STEP_REGULARIZED) && (inf.flags & DTH_STEP_ONEWAY)) oneway++;
+            if (!rc && (inf.flags & DTH_STEP_REGULARIZED)) CU_ASSERT_EQUAL(inf.flags & DTH_STEP_NONREVERSIBLE, 0);
         }
+        CU_ASSERT_EQUAL(oneway, kept);
         /* the first of these steps may be a kicked segment with mu = 0: seeded with the ordinary
          * step (the arc is fixed there, so the law gives the ordinary step's lambda), it already
          * solves the equations; later seeds do not, and Newton's mu column is zero */

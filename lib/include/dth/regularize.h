@@ -149,7 +149,9 @@ typedef struct dth_regularizer_type {
      * Optional: nonzero if this instance replaces every step. The integrator then calls apply at
      * every step *before* computing the ordinary step (ev->plain_pending = 1), which saves that
      * step's cost; admit is not called. Asked at every step, so the answer may change (e.g. once a
-     * constant is fixed). NULL: apply is called only at the events above.
+     * constant is fixed). NULL: apply is called only at the events above. An ordinary step such an
+     * instance keeps (DTH_REG_KEEP) is flagged DTH_STEP_ONEWAY: the step back from its end is asked of
+     * the hook again, so it is not this step's reverse.
      */
     int (*replaces_all)(const void *self);
     /**
