@@ -581,8 +581,8 @@ reversible:
                        0.025, DTH_START_MIDPOINT, {{"alpha", "1"}}, 1, &dth_reg_prescribed, 1, 0};
         problem ch3 = {"chain 3 particles 2-D, alpha = 0", &dth_model_coupled, {{"preset", "chain"}, {"size", "3"}, {"dim", "2"}, {"L", "1"}}, 4, 6,
                        {0, 0, 0.5, 0, 1.0, 0}, {0, 1, 0, -2, 0, 1.5}, 0.02, DTH_START_MIDPOINT, {{"alpha", "0"}}, 1, &dth_reg_prescribed, 1, 0};
-        const problem *pr[] = {&p05, &p05, &k9, &k99, &ch3};
-        long S0[] = {4400, 20000, 23000, 20000, 2000};
+        const problem *pr[] = {&p05, &p05, &k9, &k99, &ch3, &ch3};
+        long S0[] = {4400, 20000, 23000, 20000, 5400, 20000};
         for (size_t i = 0; i < sizeof pr / sizeof pr[0]; i++) {
             long S = (long)((double)S0[i] * (scale < 1 ? scale : 1));
             if (S < 100) S = 100;
