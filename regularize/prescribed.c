@@ -8,8 +8,10 @@
  * The law depends on the midpoint only and each kicked segment is its own reverse, so the step
  * map is exactly time-reversible with no switching decision (with fallback=no: the default
  * fallback keeps the ordinary step where no kicked segment exists, a switch that the reverse run
- * need not repeat); the step varies smoothly through psi = 0 and the step never ends there
- * (dH/dmu = |n|^2/2 != 0 away from equilibria). Energy is
+ * need not repeat: flagged DTH_STEP_ONEWAY); under the integrator's reversible finish each segment
+ * is finished in double-double at coarsened model reads (lib/prescribed_rev.c), so that the segment
+ * back from its end finds the same midpoint to 2^-100; the step varies smoothly through psi = 0
+ * and the step never ends there (dH/dmu = |n|^2/2 != 0 away from equilibria). Energy is
  * exact (wp untouched, midpoints on H = 0), quadratic invariants are kept; the kick gives up
  * symplecticity at every step. (Its former hybrid `band`, ordinary steps away from psi = 0 behind
  * a hard switch, was not reversible; the default regularizer `land` replaces only the crossing step.)
@@ -327,7 +329,7 @@ static int load_state(void *self, const void *buf, size_t len)
 const dth_regularizer_type dth_reg_prescribed = {
 DTH_REG_TYPE_HEAD,
     .name = "prescribed",
-    .doc = "every step a kicked segment with lambda = arc/|u(zbar)|^alpha at its own midpoint: energy-exact, keeps quadratic invariants, exactly reversible (with fallback=no; fallback steps are not), smooth through psi = 0; not symplectic at any step",
+    .doc = "every step a kicked segment with lambda = arc/|u(zbar)|^alpha at its own midpoint: energy-exact, keeps quadratic invariants, reversible (to round-off; with integrator.reversible = yes each step and the one back from its end meet to 2^-100; fallback steps are not reversible and are counted), smooth through psi = 0; not symplectic at any step",
     .params = params,
     .n_params = sizeof params / sizeof params[0],
     .create = create,
