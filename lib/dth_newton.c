@@ -535,8 +535,9 @@ AI int newton_n(dth__dth *it, const size_t nc, const dth__newton_ops *ops, doubl
     /* the offset within 2^12 eps S of round-off (S ~ |wp| + |H_phys(z_k)|, a switch, not a bound):
      * the iterations solve the compensated constraint too (eval_n); above it, nothing changes */
     if (it->opt.finish == DTH_FINISH_COMPENSATED) {
-        double wp = it->st.z[N - 1], rho = it->st.rho;
-        it->tiny = fabs(rho) < 4096 * DBL_EPSILON * (fabs(wp) + fabs(rho - wp));
+        /* the offset the constraint reads: H(z_k) + s (a composition's substep: its level s) */
+        double wp = it->st.z[N - 1], rho = it->st.rho, off = it->level != 0 ? rho + it->level : rho;
+        it->tiny = fabs(off) < 4096 * DBL_EPSILON * (fabs(wp) + fabs(rho - wp));
     }
     sol->iters = 0;
     sol->residual = NAN;
@@ -641,6 +642,12 @@ AI int commit_n(dth__dth *it, const size_t nc, double lam, int replaced)
             dth__seterr(it, "model evaluation failed at the new vertex: %s", dth_strerror(rc));
             return rc;
         }
+    }
+    if (it->opt.finish && !replaced && it->level != 0) {
+        /* measured from the midpoint, rho is H(z_(k+1)) - H(zbar), and a level-shifted step's root has
+         * H(zbar) = -s (the DTH step's: 0): the carried offset H(z_(k+1)) is rho - s */
+        double e, r = two_sum(rho, -it->level, &e);
+        rho = two_sum(r, rholo + e, &rholo);
     }
     it->st.rho = rho;
     it->st.rholo = rholo;

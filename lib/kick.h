@@ -10,9 +10,9 @@
 size_t dth__model_ninv(const dth_model *model);
 /* The quadratic invariants' gradients at y, scaled by sc and orthonormalized into the rows of G; graw
  * (NULL: not wanted) the gradients themselves (all rows), kidx (NULL: not wanted) the invariant of each
- * kept row. ys and tmp are scratch. Returns the rows kept. */
-size_t dth__quad_invariant_basis(const dth_model *model, const double *y, const double *sc, double *G, double *ys,
-                                 double *tmp, double *graw, size_t *kidx);
+ * kept row. ys and tmp are scratch. Returns the rows kept (dth__quad_invariant_basis without graw, kidx). */
+size_t dth__quad_invariant_basis_ex(const dth_model *model, const double *y, const double *sc, double *G, double *ys,
+                                    double *tmp, double *graw, size_t *kidx);
 /* The squared Frobenius norms of the Hessian's q-q and p-p blocks. */
 void dth__kick_metric_blocks(size_t n, const double *hs, double *fq_out, double *fp_out);
 /* The metric's rho = (fp/fq)^(1/4), clamped; *smooth (may be NULL) = 1 where not clamped nor fallen back. */

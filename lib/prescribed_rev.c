@@ -276,7 +276,7 @@ static int kl_cell(kl_ctx *c)
             c->gsig[a] = (l[0] - l[1]) / (2 * h);
         }
         if (!smooth) memset(c->gsig, 0, q * sizeof *c->gsig);
-        c->kept = dth__quad_invariant_basis(c->model, c->yc, s, c->G, c->ys, c->tmp, c->graw, c->kidx);
+        c->kept = dth__quad_invariant_basis_ex(c->model, c->yc, s, c->G, c->ys, c->tmp, c->graw, c->kidx);
         if (c->kept) kl_inv_hessians(c, c->yc);
     }
     size_t k = c->kept;

@@ -228,8 +228,8 @@ size_t dth_kicked_segment_work_size(const dth_model *model)
  * the orthonormalization. Returns the number of rows kept; graw (NULL: not wanted) gets the gradients
  * grad I_j themselves (all ni rows), kidx (NULL: not wanted) the index j of each kept row.
  */
-size_t dth__quad_invariant_basis(const dth_model *model, const double *y, const double *sc, double *G,
-                                   double *ys, double *tmp, double *graw, size_t *kidx)
+size_t dth__quad_invariant_basis_ex(const dth_model *model, const double *y, const double *sc, double *G,
+                                    double *ys, double *tmp, double *graw, size_t *kidx)
 {
     const dth_model_type *t = dth_model_get_type(model);
     const void *self = dth__model_self(model);
@@ -371,7 +371,7 @@ size_t dth__kick_dir(const dth_model *model, size_t n, const double *y, const do
         nv[i] = sc[i] * g[i];
         nv[n + i] = sc[n + i] * g[n + 1 + i];
     }
-    size_t kept = dth__quad_invariant_basis(model, y, sc, G, ys, tmp, NULL, NULL);
+    size_t kept = dth__quad_invariant_basis_ex(model, y, sc, G, ys, tmp, NULL, NULL);
     for (size_t r = 0; r < kept; r++) {
         double dot = 0;
         for (size_t i = 0; i < q; i++) dot += nv[i] * G[r * q + i];
@@ -521,6 +521,12 @@ int dth_kicked_segment(const dth_model *model, const double *z, const double *zl
     *mu = x[q];
     if (residual) *residual = fabs(c.wp + c.H);
     return DTH_OK;
+}
+
+size_t dth__quad_invariant_basis(const dth_model *model, const double *y, const double *sc, double *G, double *ys,
+                                 double *tmp)
+{
+    return dth__quad_invariant_basis_ex(model, y, sc, G, ys, tmp, NULL, NULL);
 }
 
 /* ------------------------------------------------------------------ the kicked segment, lambda unknown */

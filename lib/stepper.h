@@ -61,6 +61,12 @@ typedef struct dth__stepper_type {
     struct dth_regularizer *(*regularizer)(const void *state);
     /** After a restore: the derived state (caches) made consistent; may be NULL. */
     void (*restored)(void *state);
+    /** The dense output between vertices is the quintic Hermite interpolant of order 4 (run.c: from
+     *  the flow f and f' = J H_zz f at both vertices); 0: the cubic/quartic of dth_dense_eval. */
+    int dense5;
+    /** The vertex before the current one (a resumed run's cut segment); NULL: none, or (NULL hook)
+     *  the driver rebuilds it from the midpoint. */
+    const double *(*prev_vertex)(const void *state);
 } dth__stepper_type;
 
 /** The handle. */
@@ -75,11 +81,15 @@ struct dth_integrator {
 };
 
 extern const dth__stepper_type dth__stepper_dth;
+/** The DTH method of order 4: a composition of level-shifted DTH steps (compose.c). */
+extern const dth__stepper_type dth__stepper_compose;
 /** The baselines (baselines.c): count and entry i. */
 size_t dth__baseline_count(void);
 const dth__stepper_type *dth__baseline_at(size_t i);
 
 /** The type called `name` (NULL: "dth"), NULL if none. */
 const dth__stepper_type *dth__stepper_find(const char *name);
+/** The type that steps method `name` at `order` (method "dth" of order 4: the composition). */
+const dth__stepper_type *dth__stepper_find_order(const char *name, int order);
 
 #endif

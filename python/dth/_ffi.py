@@ -144,6 +144,8 @@ typedef struct dth_options {
     dth_linsolve linsolve;
     dth_finish finish;
     int estimate;
+    const char *table;
+    double band_time;
 } dth_options;
 typedef enum dth_branch {
     DTH_BRANCH_NONE = 0, DTH_BRANCH_MINUS = 1, DTH_BRANCH_PLUS = 2, DTH_BRANCH_GHOST = 3,

@@ -55,6 +55,16 @@ done
 grep -q 'not reversible' "$T/l.err" && fail "land without --roundtrip: a warning: $(cat "$T/l.err")"
 grep -q '; [1-9][0-9]* non-reversible steps;' "$T/l.err" || fail "land end line: $(cat "$T/l.err")"
 
+# order 4: its band exits are counted, and the warning names them (prescribed is refused there)
+"$DTH" run "$SC/pendulum-rotation.ini" -s integrator.order=4 --roundtrip -o "$T/o.csv" 2>"$T/o.err" ||
+    fail "order 4: $(cat "$T/o.err")"
+grep -q "steps are not reversible (order 4's crossing band left there by a projection)" "$T/o.err" &&
+    grep -q '; [1-9][0-9]* non-reversible steps;' "$T/o.err" && ok "order 4: band exits counted and warned" ||
+    fail "order 4 warning: $(cat "$T/o.err")"
+"$DTH" run "$SC/pendulum.ini" -s integrator.order=4 -s integrator.reversible=yes -o "$T/o.csv" 2>"$T/o.err" ||
+    fail "order 4 reversible: $(cat "$T/o.err")"
+grep -q 'exactly reversible' "$T/o.err" && fail "order 4 claims exact reversibility: $(cat "$T/o.err")"
+
 # ---- the diagnostics column: 0 exactly on the counted steps (a row per vertex: the step that arrived)
 "$DTH" run "$SC/pendulum-rotation.ini" -s output.points=vertices -s output.diagnostics=yes -o "$T/d.csv" 2>"$T/d.err" ||
     fail "diagnostics run: $(cat "$T/d.err")"
