@@ -51,7 +51,7 @@ static size_t fields(cli_ckpt *c, fld *f)
     I("run.in.iters", M_INT, &S->in.iters, 0, INT_MAX);
     D("run.in.residual", &S->in.residual, C_FINITE_OR_NAN);
     I("run.in.branch", M_INT, &S->in.branch, DTH_BRANCH_NONE, DTH_BRANCH_REG);
-    I("run.in.flags", M_UINT, &S->in.flags, 0, DTH_STEP_REGULARIZED | DTH_STEP_CROSSING | DTH_STEP_RESET | DTH_STEP_CLOCK);
+    I("run.in.flags", M_UINT, &S->in.flags, 0, DTH_STEP_REGULARIZED | DTH_STEP_CROSSING | DTH_STEP_NONREVERSIBLE);
     I("run.in.proj_iters", M_INT, &S->in.proj_iters, 0, INT_MAX);
     D("run.in.lerr", &S->in.lerr, C_FINITE_OR_NAN);
     I("run.crossings", M_LONG, &S->crossings, 0, LONG_MAX);

@@ -622,12 +622,60 @@ static void accuracy_msg(const run_job *j, char *buf, size_t len)
              j->rs.stop_error, S->lam_max, S->lam_max / fabs(j->rs.opt.h), S->t_lam_max);
 }
 
+/* Whether the run retraces itself, for the end line: the steps that are not their own reverse
+ * (dth_run_state.nonreversible; those of both legs with --roundtrip), or that every step is (to about
+ * 2^-100 under the reversible finish, else to round-off). "" for a baseline. */
+static void reversible_note(const run_job *j, char *buf, size_t len)
+{
+    long nr = j->S.nonreversible;
+    int o4 = j->rs.opt.order == 4; /* its composition is reversible to round-off under either finish */
+    buf[0] = '\0';
+    if (!j->is_dth) return;
+    if (nr > 0)
+        snprintf(buf, len, "; %ld non-reversible step%s", nr, CLI_S(nr));
+    else if (j->rs.opt.finish == DTH_FINISH_REVERSIBLE && !o4)
+        snprintf(buf, len, "; 0 non-reversible steps: exactly reversible (each step its own reverse to 2^-100)");
+    else
+        snprintf(buf, len, "; 0 non-reversible steps: reversible to round-off%s",
+                 o4 ? "" : " (exactly with integrator.reversible = yes)");
+}
+
+/* --roundtrip or integrator.reversible = yes with steps that are not their own reverse: the run does
+ * not retrace itself (a regularizer's offset resets and clock corrections, order 4's band exits), or
+ * need not (ordinary steps kept by one that replaces every step: the way back takes its segment where
+ * one exists), and what does. */
+static void nonreversible_warning(const run_job *j)
+{
+    const dth_run_state *S = &j->S;
+    int rev = j->rs.opt.finish == DTH_FINISH_REVERSIBLE;
+    if (!j->is_dth || S->nonreversible <= 0 || !(j->o.roundtrip || rev)) return;
+    const dth_regularizer *reg = j->rs.regularizer;
+    const char *name = reg ? dth_regularizer_get_type(reg)->name : "?";
+    const char *what = j->o.roundtrip ? "the round trip" : "the run reversed";
+    char cause[120];
+    if (j->rs.opt.order == 4)
+        snprintf(cause, sizeof cause, "order 4's crossing band left there by a projection");
+    else
+        snprintf(cause, sizeof cause, "regularizer '%s' reset their end vertex or corrected their time", name);
+    if (reg && dth_regularizer_get_type(reg)->replaces_all)
+        cli_error("warning: %ld of the %ld steps are ordinary steps that regularizer '%s' kept where it found no segment "
+                  "of its own (fallback = yes): not reversible, since the way back takes its segment where one exists, "
+                  "so %s comes back only where the way back falls back too; fallback = no refuses there instead",
+                  S->nonreversible, S->k, name, what);
+    else
+        cli_error("warning: %ld of the %ld steps are not reversible (%s), so %s does not come back to its start%s; "
+                  "%s[regularize] method = prescribed with integrator.reversible = yes retraces a run through psi = 0",
+                  S->nonreversible, S->k, cause, what,
+                  rev ? " (integrator.reversible = yes makes only the other steps exact)" : "",
+                  j->rs.opt.order == 4 ? "integrator.order = 2 with " : "");
+}
+
 static int report(const run_job *j)
 {
     const run_out *r = &j->r;
     const dth_run_state *S = &j->S;
     int rc = j->rc, sig = r->sig && rc == DTH_ESTOPPED ? r->sig : 0;
-    char crossing[160] = "", est[200];
+    char crossing[160] = "", est[200], revn[100];
     if (S->crossings || S->regularized) {
         /* (the step ratio around a crossing exists only where there was one) */
         /* order 4: the band's steps (symplectic) and its exits (a projection: not symplectic, not reversible) */
@@ -641,6 +689,7 @@ static int report(const run_job *j)
             snprintf(crossing + w, sizeof crossing - (size_t)w, ", largest step ratio at a crossing %.3g", S->max_ratio);
     }
     estimate_note(j, est, sizeof est);
+    reversible_note(j, revn, sizeof revn);
     char amsg[512];
     const char *emsg = dth_integrator_errmsg(j->it);
     if (rc == DTH_EACCURACY) {
@@ -680,9 +729,11 @@ static int report(const run_job *j)
     }
     fast_rate(j);
     regularized_share(j);
-    if (r->progress == 1 || S->regularized)
-        fprintf(stderr, "dth: %ld step%s to t = %.17g, %ld row%s to %s%s%s\n", S->k, CLI_S(S->k), S->t_stop, S->samples,
-                CLI_S(S->samples), j->path ? j->path : "standard output", crossing, est);
+    nonreversible_warning(j);
+    if (r->progress == 1 || S->regularized || S->nonreversible || j->o.roundtrip ||
+        j->rs.opt.finish == DTH_FINISH_REVERSIBLE)
+        fprintf(stderr, "dth: %ld step%s to t = %.17g, %ld row%s to %s%s%s%s\n", S->k, CLI_S(S->k), S->t_stop,
+                S->samples, CLI_S(S->samples), j->path ? j->path : "standard output", crossing, revn, est);
     if (r->has_ev && (r->progress == 1 || S->stop == DTH_RUN_EVENT))
         fprintf(stderr, "dth: %ld event%s to %s%s\n", S->events, CLI_S(S->events), j->ev_path,
                 S->stop == DTH_RUN_EVENT ? " (the run ended at a terminal event)" : "");

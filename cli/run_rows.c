@@ -47,6 +47,9 @@ const char *run_columns(run_out *r, int ev)
     if (!ev && r->rs->diagnostics) {
         for (size_t i = 0; i < r->ninv; i++) put(r, ",%s", dth_model_invariant_name(r->model, i));
         put(r, ",psi,dpsi,region,iters,branch");
+        /* 1: the step that arrived is its own reverse, 0: not (DTH_STEP_NONREVERSIBLE: a regularizer's offset
+         * reset or clock correction, or an ordinary step kept by one that replaces every step) */
+        if (r->rs->regularizer) put(r, ",reversible");
         if (r->rs->opt.estimate) put(r, ",err_q,err_p"); /* the estimated global error at the row */
     }
     if (!ev && r->leg) put(r, ",leg");
@@ -81,6 +84,7 @@ static void column_kinds(run_out *r, int ev, unsigned char *kind, size_t *ncol)
     if (!ev && r->rs->diagnostics) {
         for (size_t i = 0; i < r->ninv + 2; i++) kind[c++] = COL_DBL;
         kind[c++] = COL_REGION, kind[c++] = COL_INT, kind[c++] = COL_BRANCH;
+        if (r->rs->regularizer) kind[c++] = COL_INT; /* reversible */
         if (r->rs->opt.estimate) kind[c++] = COL_DBL, kind[c++] = COL_DBL;
     }
     if (!ev && r->leg) kind[c++] = COL_INT;
@@ -130,6 +134,7 @@ static int row(run_out *r, long k, const double *z, const dth_step_info *in, dou
         v[c++] = (double)d.region;
         v[c++] = (double)in->iters;
         v[c++] = (double)in->branch;
+        if (r->rs->regularizer) v[c++] = (in->flags & DTH_STEP_NONREVERSIBLE) ? 0 : 1;
         if (r->rs->opt.estimate) v[c++] = err[0], v[c++] = err[1];
     }
     if (r->leg) v[c++] = r->leg;
@@ -202,7 +207,7 @@ int run_rows_init(run_out *r, const dth_run_setup *rs, int leg)
     r->N = 2 * rs->n + 2;
     r->leg = leg;
     r->ninv = dth_model_n_invariants(rs->model);
-    r->linecap = 32 * (r->N + r->ninv + 10) + 64; /* every column at most 25 characters, 2 n + ninv + 15 of them */
+    r->linecap = 32 * (r->N + r->ninv + 10) + 64; /* every column at most 25 characters, 2 n + ninv + 16 of them */
     for (size_t i = 0; i < r->ninv; i++) r->linecap += strlen(dth_model_invariant_name(rs->model, i)) + 1;
     r->line = malloc(r->linecap);
     r->inv = calloc(r->ninv + 1, sizeof *r->inv);

@@ -125,6 +125,22 @@ size_t dth__kicked_joint_work_size(const dth_model *model);
  */
 int dth__kicked_joint(const dth_model *model, const double *z, const double *zlo, const dth__kj_close *close, double *dz,
                       double *lambda, double *mu, double *residual, int *iters, double *work);
+/** Doubles of workspace dth__kicked_law_rev needs. */
+size_t dth__kicked_law_work_size(const dth_model *model);
+/**
+ * A kicked segment from the vertex z (+ zlo) whose step is the law lambda = dir arc / |u(zbar)|^alpha at
+ * its own midpoint (u: the (q, p) part of J grad H), with the DTH step's reversible finish (prescribed_rev.c):
+ * ONE Newton on (d, lambda, mu), then chord steps in double-double reading the model at the coarsened
+ * midpoint, so that the segment back from its end finds the same midpoint to about 2^-100. On entry dz
+ * (N), *lambda, *mu hold a seed; on success dz + dzlo (N each) the offset in double-double (t entry:
+ * lambda/2 and half lambda's low part), the step and the kick. Autonomous models only. work (zeroed before
+ * the first call, then kept for the same model) carries the quadratic invariants' Hessians from call to
+ * call (found once).
+ * @return DTH_OK, DTH_ENOCONV, DTH_ESINGULAR, DTH_EDOMAIN, DTH_EMODEL, DTH_EUNSUPPORTED.
+ */
+int dth__kicked_law_rev(const dth_model *model, const double *z, const double *zlo, double arc, double alpha,
+                        double dir, double *dz, double *dzlo, double *lambda, double *mu, double *residual, int *iters,
+                        double *work);
 /** Doubles of workspace dth__kick_at needs. */
 size_t dth__kick_work_size(const dth_model *model);
 /** The kick direction n over (q, p) (2n values) at y, as the kicked segments use it. */

@@ -371,7 +371,7 @@ static void account(dth_run_state *st, const dth_step_info *s)
     int cross = (s->flags & DTH_STEP_CROSSING) != 0;
     if (cross) st->crossings++;
     if (s->flags & DTH_STEP_REGULARIZED) st->regularized++;
-    if (s->flags & (DTH_STEP_RESET | DTH_STEP_CLOCK)) st->nonreversible++;
+    if (s->flags & DTH_STEP_NONREVERSIBLE) st->nonreversible++;
     if ((cross || st->prev_crossing) && st->in.lambda != 0 && s->lambda != 0) {
         double q = fabs(s->lambda / st->in.lambda);
         st->max_ratio = fmax(st->max_ratio, fmax(q, 1 / q));

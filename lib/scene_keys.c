@@ -144,7 +144,10 @@ static const dth__scene_key keys[] = {
          "reversed with `--roundtrip` comes back to its start (exactly: `bench_roundtrip`'s orbits at 10^4 and "
          "10^6 steps, and `--roundtrip` on the pendulum, Kepler and coupled scenes; a step whose root lies at the "
          "edge of the finish's coarse cells, about one per 10^6 steps, leaves a small error that grows with the "
-         "steps after it: docs/theory.md, \"A step that is its own reverse\"). It costs about 2.4 times the step "
+         "steps after it: docs/theory.md, \"A step that is its own reverse\"). `prescribed`'s segments are finished "
+         "the same way (docs/regularization.md); a step that is not its own reverse (`land`'s at a crossing and its "
+         "clock-corrected ones, `prescribed`'s fallback) is counted on the end line, and the run warns that it does "
+         "not retrace itself. It costs about 2.4 times the step "
          "on the smallest models (bench_floor, docs/performance.md) and needs a dense Hessian: with a banded "
          "solver the scene is refused (set `linsolve = dense`). `no`: the compensated constraint (the carried "
          "vertex offset), whose round trips are as good as the plain constraint's."),

@@ -112,7 +112,7 @@ static void test_damaged(void)
             if (cli_ckpt_decode(x, len, &d, err, sizeof err) == 0) {
                 accepted++; /* a value changed within its range: the library's checksum guards the bytes */
                 if (d.S.k < 0 || d.S.k0 > d.S.k || d.S.samples < 0 || !isfinite(d.S.t) || d.S.in.branch > DTH_BRANCH_REG ||
-                    d.S.in.flags > 15 || (d.out.path[0] && d.out.path[0] != '/') || strlen(d.out.path) > 4096)
+                    d.S.in.flags > 31 || (d.out.path[0] && d.out.path[0] != '/') || strlen(d.out.path) > 4096)
                     wrong++;
             } else if (!err[0]) {
                 wrong++;
@@ -146,7 +146,7 @@ static void test_crafted(void)
         {"run.k0", 5000, "exceeds"},
         {"run.samples", (uint64_t)-5, "'run.samples' is out of range"},
         {"run.in.branch", 9, "'run.in.branch' is out of range"},
-        {"run.in.flags", 16, "'run.in.flags'"},
+        {"run.in.flags", 32, "'run.in.flags'"},
         {"run.stop", 7, "'run.stop'"},
         {"run.started", 2, "'run.started'"},
         {"run.t", 0x7ff0000000000000ULL, "'run.t' holds an invalid value"},

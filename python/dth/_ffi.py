@@ -160,7 +160,8 @@ typedef struct dth_step_info {
     int proj_iters;
     double lerr;
 } dth_step_info;
-enum { DTH_STEP_REGULARIZED = 1, DTH_STEP_CROSSING = 2, DTH_STEP_RESET = 4, DTH_STEP_CLOCK = 8 };
+enum { DTH_STEP_REGULARIZED = 1, DTH_STEP_CROSSING = 2, DTH_STEP_RESET = 4, DTH_STEP_CLOCK = 8, DTH_STEP_ONEWAY = 16,
+       DTH_STEP_NONREVERSIBLE = 28 };
 typedef struct dth_integrator dth_integrator;
 int dth_options_check(const dth_model *model, dth_options *opt, char *err, size_t errlen);
 int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integrator **out);

@@ -176,8 +176,14 @@ enum {
     DTH_STEP_RESET = 4u,       /**< the regularizer moved the new vertex off its segment (an offset reset;
                                     order 4: a band exit, whose projection moved the vertex it starts from):
                                     the step is neither symplectic nor reversible */
-    DTH_STEP_CLOCK = 8u        /**< the regularizer corrected the new vertex's time (q, p, wp are the step's):
+    DTH_STEP_CLOCK = 8u,       /**< the regularizer corrected the new vertex's time (q, p, wp are the step's):
                                     the extended map is not symplectic in t, nor reversible */
+    DTH_STEP_ONEWAY = 16u,     /**< a regularizer that replaces every step kept the ordinary step here
+                                    (prescribed's fallback): the step back from its end is the regularizer's
+                                    segment again, not this step's reverse, so the step is not reversible */
+    /** Not a flag: the flags of a step that is not its own reverse (a round trip through it does not
+     *  come back; dth_run_state.nonreversible counts such steps) */
+    DTH_STEP_NONREVERSIBLE = DTH_STEP_RESET | DTH_STEP_CLOCK | DTH_STEP_ONEWAY
 };
 
 /** The integrator: a method (the DTH step or a fixed-step baseline, dth_options.method) with its

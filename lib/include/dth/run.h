@@ -158,8 +158,8 @@ typedef struct dth_run_state {
     double q_max, p_max; /**< the largest |q|, |p| at the vertices so far (the stop rule's scale) */
     double lam_max;      /**< the largest |lambda| of the steps so far */
     double t_lam_max;    /**< the time of the vertex that step arrived at */
-    long nonreversible;  /**< steps with no reverse (flagged DTH_STEP_RESET or DTH_STEP_CLOCK): a round
-                              trip of the run does not come back to its start */
+    long nonreversible;  /**< steps with no reverse (a flag of DTH_STEP_NONREVERSIBLE: RESET, CLOCK or
+                              ONEWAY): a round trip of the run does not come back to its start */
     double e_err;        /**< a fixed-step baseline's energy error |H_phys(z_k) - H_phys(z_0)| at the current
                               vertex (0 for the DTH step, whose midpoints keep the energy) */
     double e_scale;      /**< the size of the energy's terms at the first vertex, |H_phys| + sum |y_j dH/dy_j|
