@@ -4,8 +4,11 @@
  * lambda = arc/|u(zbar)|^alpha set at its own midpoint; paper, section 7) against the open targets of
  * docs/regularization.md: 10^4 pendulum revolutions and the phase order, 10^3 Kepler orbits at
  * e = 0.9 / 0.99 (energy, L, precession of omega), a 2-D chain through psi = 0, round trips through
- * >= 10 crossings, step ratio at crossings, tangent-map defect, kick size against h, cost per step.
- * Usage: bench_regul2 [scale]   (scale 1: the doc's figures, about a minute; 0.1: a quick look)
+ * >= 10 crossings, step ratio at crossings, tangent-map defect, kick size against h, cost per step;
+ * the reversible finish (integrator.reversible = yes): round trips and cost per step beside the
+ * compensated default.
+ * Usage: bench_regul2 [scale] [reversible]   (scale 1: the doc's figures, about a minute; 0.1: a quick
+ * look; a second argument "reversible": that section alone)
  */
 #include <float.h>
 #include <math.h>
@@ -37,6 +40,7 @@ typedef struct problem {
     size_t nrkv;
     const dth_regularizer_type *reg; /* NULL: raw DTH */
     int no_branch_check;             /* 1: dth_options.branch_check = 0 */
+    int reversible;                  /* 1: dth_options.finish = DTH_FINISH_REVERSIBLE */
 } problem;
 
 typedef struct run_out {
@@ -67,6 +71,7 @@ static ctx open_pb(const problem *pb)
     o.start = pb->start;
     o.regularizer = c.r;
     if (pb->no_branch_check) o.branch_check = 0;
+    if (pb->reversible) o.finish = DTH_FINISH_REVERSIBLE;
     if (dth_integrator_new(c.m, &o, &c.it) || dth_integrator_start(c.it, pb->q0, pb->p0, 0.0)) {
         fprintf(stderr, "%s: cannot start\n", pb->name);
         exit(1);
@@ -203,6 +208,44 @@ static double round_trip(const problem *pb, long steps, long *crossings, int *st
 }
 
 /*
+ * The reversible finish's round trip: after the first step, S steps forward (every vertex kept),
+ * reverse, S back; the relative distance to the start, the vertices on the way back that differ in any
+ * bit from the way out's, and the seconds of the 2 S steps.
+ */
+static double rev_trip(const problem *pb, long S, long *crossings, long *differ, double *secs, int *status)
+{
+    ctx c = open_pb(pb);
+    size_t N = c.N;
+    dth_step_info inf;
+    *status = dth_integrator_step(c.it, &inf);
+    double *out = malloc((size_t)(S + 1) * N * sizeof *out), nz = 0, err = 0;
+    if (!out) exit(1);
+    memcpy(out, dth_integrator_vertex(c.it), N * sizeof *out);
+    *crossings = *differ = 0;
+    double t0 = now();
+    long k;
+    for (k = 0; k < S && !*status; k++) {
+        *status = dth_integrator_step(c.it, &inf);
+        if (inf.flags & DTH_STEP_CROSSING) ++*crossings;
+        memcpy(out + (size_t)(k + 1) * N, dth_integrator_vertex(c.it), N * sizeof *out);
+    }
+    dth_integrator_reverse(c.it);
+    for (long j = 0; j < k && !*status; j++) {
+        *status = dth_integrator_step(c.it, &inf);
+        if (memcmp(out + (size_t)(k - 1 - j) * N, dth_integrator_vertex(c.it), N * sizeof *out)) ++*differ;
+    }
+    *secs = now() - t0;
+    const double *z = dth_integrator_vertex(c.it);
+    for (size_t j = 0; j < N; j++) {
+        nz = fmax(nz, fabs(out[j]));
+        err = fmax(err, fabs(z[j] - out[j]));
+    }
+    free(out);
+    close_pb(&c);
+    return err / nz;
+}
+
+/*
  * Tangent-map defect max|M^T J M - J| of nsteps whole steps by central differences (eps), from the
  * first crossing step (cross = 1) or the first step that does not cross (0) starting at or after the
  * fixed time t = 0.5 (a fixed step number would move toward t = 0 as h shrinks and probe a different
@@ -321,11 +364,13 @@ int main(int argc, char **argv)
     if (!(scale > 0)) scale = 1;
     /* rotating pendulum q0 = 0, p0 = 2.2 (midpoint start: the energy of (q0, p0) exactly) */
     problem pend = {"pendulum", &dth_model_pendulum, {{0}}, 0, 1, {0}, {2.2}, 0.05, DTH_START_MIDPOINT,
-                    {{"alpha", "0"}}, 1, &dth_reg_prescribed, 1};
+                    {{"alpha", "0"}}, 1, &dth_reg_prescribed, 1, 0};
     double E = 0.5 * 2.2 * 2.2 - 1, kk = sqrt(2 / (1 + E));
     double T = 2 * gsl_sf_ellint_Kcomp(kk, GSL_PREC_DOUBLE) * kk;
 
+    int only_rev = argc > 2 && !strcmp(argv[2], "reversible");
     printf("# bench_regul2 %g (prescribed regularizer)\n\n", scale);
+    if (only_rev) goto reversible;
     /* ---- long runs ---- */
     long R = (long)(10000 * scale);
     printf("## long runs\n\n| problem | alpha | h | steps | end | t reached | revolutions / orbits | crossings | max midpoint energy residual (rel.) | wp change | max rel. L error | precession per orbit | max step ratio (all / at crossings) | psi range (sampled) | ordinary steps kept | us per step |\n");
@@ -348,7 +393,7 @@ int main(int argc, char **argv)
     for (size_t i = 0; i < 4; i++) {
         snprintf(knames[i], sizeof knames[i], "kepler e=%g apocentre", kc[i].e);
         problem kp = {knames[i], &dth_model_kepler, {{0}}, 0, 2, {-(1 + kc[i].e), 0}, {0, -sqrt((1 - kc[i].e) / (1 + kc[i].e))},
-                      kc[i].h, DTH_START_MIDPOINT, {{"alpha", kc[i].alpha}, {"fallback", "no"}}, 2, &dth_reg_prescribed, 1};
+                      kc[i].h, DTH_START_MIDPOINT, {{"alpha", kc[i].alpha}, {"fallback", "no"}}, 2, &dth_reg_prescribed, 1, 0};
         kps[i] = kp;
         run_out o = run(&kp, 2 * PI * (double)(i < 2 ? orbits : orbits / 10 + 1), 1L << 40);
         double norb = o.t_end / (2 * PI);
@@ -360,11 +405,11 @@ int main(int argc, char **argv)
     /* 2-D chain of 3 particles (k = 1, L = 1) started compressed with transverse momenta: psi < 0 at
      * the start (transverse stiffness k (1 - L/r) < 0), > 0 once the springs stretch */
     problem chain = {"chain 3 particles 2-D", &dth_model_coupled, {{"preset", "chain"}, {"size", "3"}, {"dim", "2"}, {"L", "1"}}, 4, 6,
-                     {0, 0, 0.5, 0, 1.0, 0}, {0, 1, 0, -2, 0, 1.5}, 0.02, DTH_START_MIDPOINT, {{"alpha", "0"}}, 1, &dth_reg_prescribed, 1};
+                     {0, 0, 0.5, 0, 1.0, 0}, {0, 1, 0, -2, 0, 1.5}, 0.02, DTH_START_MIDPOINT, {{"alpha", "0"}}, 1, &dth_reg_prescribed, 1, 0};
     /* the same with 10 particles (spacing 0.5, transverse momenta of zero sum) */
     problem chain10 = {"chain 10 particles 2-D", &dth_model_coupled, {{"preset", "chain"}, {"size", "10"}, {"dim", "2"}, {"L", "1"}}, 4, 20,
                        {0}, {0, -1.2661, 0, 1.5869, 0, 1.2519, 0, -0.7831, 0, 0.1789, 0, -0.0051, 0, 0.8029, 0, 1.3519, 0, -1.4281, 0, -1.6901},
-                       0.02, DTH_START_MIDPOINT, {{"alpha", "0"}}, 1, &dth_reg_prescribed, 1};
+                       0.02, DTH_START_MIDPOINT, {{"alpha", "0"}}, 1, &dth_reg_prescribed, 1, 0};
     for (int i = 0; i < 10; i++) chain10.q0[2 * i] = 0.5 * i;
     const problem *chains[] = {&chain, &chain10};
     for (int c = 0; c < 2; c++) {
@@ -472,7 +517,7 @@ int main(int argc, char **argv)
                 for (size_t ih = 0; ih < 3; ih++) {
                     double e = es[ie];
                     problem kp = {"kepler", &dth_model_kepler, {{0}}, 0, 2, {-(1 + e), 0}, {0, -sqrt((1 - e) / (1 + e))}, hs[ih],
-                                  DTH_START_MIDPOINT, {{"alpha", as[ia]}, {"fallback", "no"}}, 2, &dth_reg_prescribed, 1};
+                                  DTH_START_MIDPOINT, {{"alpha", as[ia]}, {"fallback", "no"}}, 2, &dth_reg_prescribed, 1, 0};
                     run_out o = run(&kp, 2 * PI * (double)no, 1L << 40);
                     runs++;
                     if (!o.status) {
@@ -512,13 +557,50 @@ int main(int argc, char **argv)
         /* Kepler e = 0.6 has no psi = 0 crossing: raw DTH runs too (alpha = 0: the same step law) */
         double e = 0.6;
         problem k6 = {"kepler", &dth_model_kepler, {{0}}, 0, 2, {-(1 + e), 0}, {0, -sqrt((1 - e) / (1 + e))}, 0.05,
-                      DTH_START_MIDPOINT, {{"alpha", "0"}}, 1, &dth_reg_prescribed, 1};
+                      DTH_START_MIDPOINT, {{"alpha", "0"}}, 1, &dth_reg_prescribed, 1, 0};
         problem k6raw = k6;
         k6raw.reg = NULL;
         run_out o = run(&k6raw, INFINITY, ns);
         printf("| kepler e=0.6 h=0.05: raw DTH (%s) | %.2f |\n", st(o.status), 1e6 * o.secs / (double)o.steps);
         o = run(&k6, INFINITY, ns);
         printf("| kepler e=0.6 h=0.05: prescribed alpha=0 (%s) | %.2f |\n", st(o.status), 1e6 * o.secs / (double)o.steps);
+    }
+reversible:
+    /* ---- the reversible finish: round trips and cost per step, each configuration run 3 times
+     * alternating with the compensated default, the fastest run of each kept ---- */
+    printf("\n## the reversible finish (integrator.reversible = yes) against the compensated default: round trip after the first step "
+           "(S steps, reverse, S back), vertices on the way back that differ in any bit from the way out's, us per step (best of 3)\n\n");
+    printf("| problem | S | crossings | round trip compensated / reversible (rel.) | vertices differing (reversible) | us per step compensated / reversible | ratio |\n|---|---|---|---|---|---|---|\n");
+    {
+        double e9 = 0.9, e99 = 0.99;
+        problem p05 = {"pendulum rotation p0 = 2.2, alpha = 0", &dth_model_pendulum, {{0}}, 0, 1, {0}, {2.2}, 0.05, DTH_START_MIDPOINT,
+                       {{"alpha", "0"}}, 1, &dth_reg_prescribed, 1, 0};
+        problem k9 = {"kepler e=0.9 apocentre, alpha = 1", &dth_model_kepler, {{0}}, 0, 2, {-(1 + e9), 0}, {0, -sqrt((1 - e9) / (1 + e9))}, 0.05,
+                      DTH_START_MIDPOINT, {{"alpha", "1"}}, 1, &dth_reg_prescribed, 1, 0};
+        problem k99 = {"kepler e=0.99 apocentre, alpha = 1", &dth_model_kepler, {{0}}, 0, 2, {-(1 + e99), 0}, {0, -sqrt((1 - e99) / (1 + e99))},
+                       0.025, DTH_START_MIDPOINT, {{"alpha", "1"}}, 1, &dth_reg_prescribed, 1, 0};
+        problem ch3 = {"chain 3 particles 2-D, alpha = 0", &dth_model_coupled, {{"preset", "chain"}, {"size", "3"}, {"dim", "2"}, {"L", "1"}}, 4, 6,
+                       {0, 0, 0.5, 0, 1.0, 0}, {0, 1, 0, -2, 0, 1.5}, 0.02, DTH_START_MIDPOINT, {{"alpha", "0"}}, 1, &dth_reg_prescribed, 1, 0};
+        const problem *pr[] = {&p05, &p05, &k9, &k99, &ch3, &ch3};
+        long S0[] = {4400, 20000, 23000, 20000, 5400, 20000};
+        for (size_t i = 0; i < sizeof pr / sizeof pr[0]; i++) {
+            long S = (long)((double)S0[i] * (scale < 1 ? scale : 1));
+            if (S < 100) S = 100;
+            double rt[2] = {0, 0}, best[2] = {INFINITY, INFINITY};
+            long cr = 0, diff[2] = {0, 0};
+            int s2[2] = {0, 0};
+            for (int rep = 0; rep < 3; rep++)
+                for (int f = 0; f < 2; f++) {
+                    problem pb = *pr[i];
+                    pb.reversible = f;
+                    double secs;
+                    rt[f] = rev_trip(&pb, S, &cr, &diff[f], &secs, &s2[f]);
+                    best[f] = fmin(best[f], 1e6 * secs / (2.0 * (double)S));
+                }
+            printf("| %s, h=%g | %ld | %ld | %.1e / %.1e%s%s | %ld of %ld | %.2f / %.2f | %.2f |\n", pr[i]->name, pr[i]->h, S, cr, rt[0], rt[1],
+                   s2[0] ? " compensated: " : "", s2[0] ? st(s2[0]) : (s2[1] ? st(s2[1]) : ""), diff[1], S, best[0], best[1], best[1] / best[0]);
+            fflush(stdout);
+        }
     }
     return 0;
 }

@@ -395,7 +395,7 @@ static void check_start(run_job *j)
     /* the fastest rate at the start, for a warning when the run ends (fast_rate) */
     if (cli_fastest_rate(rs->model, zstart, &j->omega)) j->omega = 0;
     if (!j->is_dth) return;
-    if (rs->opt.start == DTH_START_VERTEX) {
+    if (rs->opt.start == DTH_START_VERTEX && rs->opt.order == 2) { /* order 4: the given state is the vertex */
         double H0, E = dth_integrator_energy(j->it);
         if (!dth_model_eval(rs->model, zstart, DTH_EVAL_H, &H0, NULL, NULL) && fabs(E - H0) > 0.01 * fabs(H0))
             cli_error("warning: a vertex start conserves the energy %.10g at every midpoint; the initial state has "
@@ -560,12 +560,21 @@ static void fast_rate(const run_job *j)
 
 /* A run that was mostly the regularizer's: more than half of at least 10 steps regularized by one
  * that only carries the crossings (land; not one that replaces every step by design, prescribed).
- * Those steps are not symplectic: a warning, with a smaller step. */
+ * Those steps are not symplectic: a warning, with a smaller step. Order 4: its band's steps (symplectic,
+ * prescribed), unless integrator.band_time asked for them. */
 static void regularized_share(const run_job *j)
 {
     const dth_run_state *S = &j->S;
     const dth_regularizer *reg = j->rs.regularizer;
     if (!reg || dth_regularizer_get_type(reg)->replaces_all || S->k < 10 || 2 * S->regularized <= S->k) return;
+    if (j->rs.opt.order == 4) { /* its band steps are symplectic, but prescribed: not on the levels */
+        if (j->rs.opt.band_time > 0) return; /* a band fixed in phase space: as many as integrator.band_time asks */
+        cli_error("warning: %.0f %% of the steps (%ld of %ld) were order 4's band steps around psi = 0 (prescribed-step "
+                  "compositions: not solved for, their energy held only to O(tau^4)); a smaller step keeps more of "
+                  "the run on composite steps, e.g. -s integrator.h=%.6g",
+                  100.0 * (double)S->regularized / (double)S->k, S->regularized, S->k, j->rs.opt.h / 4);
+        return;
+    }
     cli_error("warning: %.0f %% of the steps (%ld of %ld) were regularized steps of the regularizer '%s', which are not "
               "symplectic: the step is large for this trajectory; a smaller one keeps more of it on ordinary DTH steps, "
               "e.g. -s integrator.h=%.6g", 100.0 * (double)S->regularized / (double)S->k, S->regularized, S->k,
@@ -596,12 +605,69 @@ static void accuracy_msg(const run_job *j, char *buf, size_t len)
         return;
     }
     int p = S->err_p / S->p_max > S->err_q / S->q_max;
+    if (j->rs.opt.order == 4 && !(S->lam_max > dth_run_step_limit(j->it, j->rs.warn_ratio))) {
+        /* the rule armed by order 4's band (run.h, stop_error) */
+        snprintf(buf, len, "the estimated error |d%c| = %.3g is %.0f %% of the largest |%c| = %.3g (the run's bound "
+                 "integrator.stop_error = %.2g), and %ld of the %ld steps were order 4's band steps around psi = 0 "
+                 "(prescribed, not solved for), too large for this orbit: a smaller integrator.h",
+                 p ? 'p' : 'q', p ? S->err_p : S->err_q, 100 * (p ? S->err_p / S->p_max : S->err_q / S->q_max),
+                 p ? 'p' : 'q', p ? S->p_max : S->q_max, j->rs.stop_error, S->regularized, S->k);
+        return;
+    }
     snprintf(buf, len, "the estimated error |d%c| = %.3g is %.0f %% of the largest |%c| = %.3g (the run's bound "
              "integrator.stop_error = %.2g): the steps grew to lambda = %.3g = %.3g h (at t = %.6g, more than "
-             "integrator.warn_ratio h), too large for this orbit: a smaller integrator.h (all steps shrink in "
+             "integrator.warn_ratio allows), too large for this orbit: a smaller integrator.h (all steps shrink in "
              "proportion)", p ? 'p' : 'q', p ? S->err_p : S->err_q,
              100 * (p ? S->err_p / S->p_max : S->err_q / S->q_max), p ? 'p' : 'q', p ? S->p_max : S->q_max,
              j->rs.stop_error, S->lam_max, S->lam_max / fabs(j->rs.opt.h), S->t_lam_max);
+}
+
+/* Whether the run retraces itself, for the end line: the steps that are not their own reverse
+ * (dth_run_state.nonreversible; those of both legs with --roundtrip), or that every step is (to about
+ * 2^-100 under the reversible finish, else to round-off). "" for a baseline. */
+static void reversible_note(const run_job *j, char *buf, size_t len)
+{
+    long nr = j->S.nonreversible;
+    int o4 = j->rs.opt.order == 4; /* its composition is reversible to round-off under either finish */
+    buf[0] = '\0';
+    if (!j->is_dth) return;
+    if (nr > 0)
+        snprintf(buf, len, "; %ld non-reversible step%s", nr, CLI_S(nr));
+    else if (j->rs.opt.finish == DTH_FINISH_REVERSIBLE && !o4)
+        snprintf(buf, len, "; 0 non-reversible steps: exactly reversible (each step its own reverse to 2^-100)");
+    else
+        snprintf(buf, len, "; 0 non-reversible steps: reversible to round-off%s",
+                 o4 ? "" : " (exactly with integrator.reversible = yes)");
+}
+
+/* --roundtrip or integrator.reversible = yes with steps that are not their own reverse: the run does
+ * not retrace itself (a regularizer's offset resets and clock corrections, order 4's band exits), or
+ * need not (ordinary steps kept by one that replaces every step: the way back takes its segment where
+ * one exists), and what does. */
+static void nonreversible_warning(const run_job *j)
+{
+    const dth_run_state *S = &j->S;
+    int rev = j->rs.opt.finish == DTH_FINISH_REVERSIBLE;
+    if (!j->is_dth || S->nonreversible <= 0 || !(j->o.roundtrip || rev)) return;
+    const dth_regularizer *reg = j->rs.regularizer;
+    const char *name = reg ? dth_regularizer_get_type(reg)->name : "?";
+    const char *what = j->o.roundtrip ? "the round trip" : "the run reversed";
+    char cause[120];
+    if (j->rs.opt.order == 4)
+        snprintf(cause, sizeof cause, "order 4's crossing band left there by a projection");
+    else
+        snprintf(cause, sizeof cause, "regularizer '%s' reset their end vertex or corrected their time", name);
+    if (reg && dth_regularizer_get_type(reg)->replaces_all)
+        cli_error("warning: %ld of the %ld steps are ordinary steps that regularizer '%s' kept where it found no segment "
+                  "of its own (fallback = yes): not reversible, since the way back takes its segment where one exists, "
+                  "so %s comes back only where the way back falls back too; fallback = no refuses there instead",
+                  S->nonreversible, S->k, name, what);
+    else
+        cli_error("warning: %ld of the %ld steps are not reversible (%s), so %s does not come back to its start%s; "
+                  "%s[regularize] method = prescribed with integrator.reversible = yes retraces a run through psi = 0",
+                  S->nonreversible, S->k, cause, what,
+                  rev ? " (integrator.reversible = yes makes only the other steps exact)" : "",
+                  j->rs.opt.order == 4 ? "integrator.order = 2 with " : "");
 }
 
 static int report(const run_job *j)
@@ -609,26 +675,36 @@ static int report(const run_job *j)
     const run_out *r = &j->r;
     const dth_run_state *S = &j->S;
     int rc = j->rc, sig = r->sig && rc == DTH_ESTOPPED ? r->sig : 0;
-    char crossing[160] = "", est[200];
+    char crossing[160] = "", est[200], revn[100];
     if (S->crossings || S->regularized) {
         /* (the step ratio around a crossing exists only where there was one) */
-        int w = snprintf(crossing, sizeof crossing, "; %ld psi = 0 crossing%s, %ld regularized step%s", S->crossings,
-                         CLI_S(S->crossings), S->regularized, CLI_S(S->regularized));
+        /* order 4: the band's steps (symplectic) and its exits (a projection: not symplectic, not reversible) */
+        int w = j->rs.opt.order == 4
+                    ? snprintf(crossing, sizeof crossing, "; %ld psi = 0 crossing%s, %ld band step%s (%ld band exit%s)",
+                               S->crossings, CLI_S(S->crossings), S->regularized, CLI_S(S->regularized),
+                               S->nonreversible, CLI_S(S->nonreversible))
+                    : snprintf(crossing, sizeof crossing, "; %ld psi = 0 crossing%s, %ld regularized step%s",
+                               S->crossings, CLI_S(S->crossings), S->regularized, CLI_S(S->regularized));
         if (S->crossings && w > 0 && (size_t)w < sizeof crossing)
             snprintf(crossing + w, sizeof crossing - (size_t)w, ", largest step ratio at a crossing %.3g", S->max_ratio);
     }
     estimate_note(j, est, sizeof est);
-    char amsg[400];
+    reversible_note(j, revn, sizeof revn);
+    char amsg[512];
     const char *emsg = dth_integrator_errmsg(j->it);
     if (rc == DTH_EACCURACY) {
         accuracy_msg(j, amsg, sizeof amsg);
         emsg = amsg;
     }
-    if (rc >= 0 && j->rs.warn_ratio > 0 && S->lam_max > j->rs.warn_ratio * fabs(j->rs.opt.h))
-        cli_error("warning: the largest step was lambda = %.3g = %.3g h (at t = %.6g, more than integrator.warn_ratio = "
-                  "%g h): DTH steps follow lambda^6 psi^2 = const along the orbit, and h sets them only at the start "
-                  "(docs/theory.md); the estimated error says what they cost",
-                  S->lam_max, S->lam_max / fabs(j->rs.opt.h), S->t_lam_max, j->rs.warn_ratio);
+    /* the library's bound (order 4: warn_ratio^(3/2) h, dth_run_step_limit) */
+    double lim = dth_run_step_limit(j->it, j->rs.warn_ratio);
+    if (rc >= 0 && S->lam_max > lim)
+        cli_error("warning: the largest step was lambda = %.3g = %.3g h (at t = %.6g, more than %s = %g h): DTH steps "
+                  "follow %s = const along the orbit, and h sets them only at the start (docs/theory.md); the "
+                  "estimated error says what they cost",
+                  S->lam_max, S->lam_max / fabs(j->rs.opt.h), S->t_lam_max,
+                  j->rs.opt.order == 4 ? "integrator.warn_ratio^(3/2) for order 4" : "integrator.warn_ratio",
+                  lim / fabs(j->rs.opt.h), j->rs.opt.order == 4 ? "tau^2 psi" : "lambda^6 psi^2");
     if (S->stop == DTH_RUN_SAMPLES) { /* the library's bound (run.h) */
         cli_error("stopped at k=%ld, t=%.17g: output.dt = %.3g asks for more than %d rows within one step (a larger "
                   "output.dt, or output.points = vertices; the rows so far are kept)", S->k, S->t, j->rs.dt,
@@ -653,9 +729,11 @@ static int report(const run_job *j)
     }
     fast_rate(j);
     regularized_share(j);
-    if (r->progress == 1 || S->regularized)
-        fprintf(stderr, "dth: %ld step%s to t = %.17g, %ld row%s to %s%s%s\n", S->k, CLI_S(S->k), S->t_stop, S->samples,
-                CLI_S(S->samples), j->path ? j->path : "standard output", crossing, est);
+    nonreversible_warning(j);
+    if (r->progress == 1 || S->regularized || S->nonreversible || j->o.roundtrip ||
+        j->rs.opt.finish == DTH_FINISH_REVERSIBLE)
+        fprintf(stderr, "dth: %ld step%s to t = %.17g, %ld row%s to %s%s%s%s\n", S->k, CLI_S(S->k), S->t_stop,
+                S->samples, CLI_S(S->samples), j->path ? j->path : "standard output", crossing, revn, est);
     if (r->has_ev && (r->progress == 1 || S->stop == DTH_RUN_EVENT))
         fprintf(stderr, "dth: %ld event%s to %s%s\n", S->events, CLI_S(S->events), j->ev_path,
                 S->stop == DTH_RUN_EVENT ? " (the run ended at a terminal event)" : "");

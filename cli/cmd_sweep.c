@@ -39,7 +39,8 @@ typedef struct vkey {
 
 /* The numbers of one summary row (doubles, so that MPI moves them as one array). */
 enum {
-    R_STATUS, R_SETUP, R_STEPS, R_T, R_EERR, R_CROSS, R_REG, R_EVENTS, R_MEGNO, R_LYAP, R_MEGT, R_MEM, R_NINV, R_INV,
+    R_STATUS, R_SETUP, R_STEPS, R_T, R_EERR, R_CROSS, R_REG, R_EVENTS, R_MEGNO, R_LYAP, R_MEGT, R_ERRQ, R_ERRP, R_MEM,
+    R_NINV, R_INV,
     R_LEN = R_INV + SWEEP_MAX_INV
 };
 
@@ -123,7 +124,8 @@ static void usage_sweep(FILE *f)
             "  psi_crossings, regularized_share,\n"
             "  events, megno, lyapunov, megno_t (the time MEGNO followed: the indicators end at the first\n"
             "  regularized step, which has no tangent map; see lib/include/dth/chaos.h; megno and lyapunov are\n"
-            "  empty when megno_t is under half of the run). Empty: not available.\n"
+            "  empty when megno_t is under half of the run), err_q, err_p (the estimated global error |dq|, |dp|\n"
+            "  where the run ended). Empty: not available.\n"
             "threads: OMP_NUM_THREADS; ranks: mpirun -n N dth sweep ... (meson feature mpi). The output is the same\n"
             "bytes for any number of threads and ranks. Exit 0 when every run could be set up (a trajectory that\n"
             "stops early is a status in its row), 2 for bad input, 1 for a hard error, 128 + signal when\n"
@@ -587,6 +589,8 @@ static void record(runctx *c, int rc, const dth_run_state *S, double *rec)
     rec[R_CROSS] = (double)S->crossings;
     rec[R_REG] = S->k > 0 ? (double)S->regularized / (double)S->k : 0;
     rec[R_EVENTS] = (double)S->events;
+    rec[R_ERRQ] = S->err_q; /* the estimated global error where the run ended (NaN without one) */
+    rec[R_ERRP] = S->err_p;
     rec[R_NINV] = c->inv_ok ? (double)c->ninv : 0;
     /* relative to the largest |I| along the run: an invariant whose first value is near 0 (a Runge-Lenz
      * component at an apside) is not divided by that 0 */
@@ -683,7 +687,7 @@ static int write_summary(const sweep *sw, cli_out *o)
     }
     len += (size_t)snprintf(line + len, cap - len, ",status,steps,t,energy_error");
     for (int j = 0; j < sw->ninv; j++) len += (size_t)snprintf(line + len, cap - len, ",%s_drift", sw->inv_names[j]);
-    len += (size_t)snprintf(line + len, cap - len, ",psi_crossings,regularized_share,events,megno,lyapunov,megno_t");
+    len += (size_t)snprintf(line + len, cap - len, ",psi_crossings,regularized_share,events,megno,lyapunov,megno_t,err_q,err_p");
     int rc = cli_out_line(o, line, len);
     for (long i = 0; !rc && i < sw->nruns; i++) {
         const double *r = sw->rec + i * R_LEN;
@@ -706,7 +710,7 @@ static int write_summary(const sweep *sw, cli_out *o)
         int st = (int)r[R_STATUS];
         p += sprintf(p, ",%s", st == DTH_OK ? "ok" : dth_status_name(st));
         if (r[R_SETUP] != 0) { /* never ran: the numbers are empty */
-            for (int j = 0; j < 9 + sw->ninv; j++) *p++ = ',';
+            for (int j = 0; j < 11 + sw->ninv; j++) *p++ = ',';
         } else {
             /* one number: empty if not available (NaN) */
 #define PUT(x) (*p++ = ',', p += isnan(x) ? 0 : dth_fmt_g17((x), p))
@@ -723,6 +727,8 @@ static int write_summary(const sweep *sw, cli_out *o)
             PUT(r[R_MEGNO]);
             PUT(r[R_LYAP]);
             PUT(r[R_MEGT]);
+            PUT(r[R_ERRQ]);
+            PUT(r[R_ERRP]);
 #undef PUT
         }
         rc = cli_out_line(o, line, (size_t)(p - line));

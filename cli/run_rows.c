@@ -47,6 +47,10 @@ const char *run_columns(run_out *r, int ev)
     if (!ev && r->rs->diagnostics) {
         for (size_t i = 0; i < r->ninv; i++) put(r, ",%s", dth_model_invariant_name(r->model, i));
         put(r, ",psi,dpsi,region,iters,branch");
+        /* 1: the step that arrived is its own reverse, 0: not (DTH_STEP_NONREVERSIBLE: a regularizer's offset
+         * reset or clock correction, or an ordinary step kept by one that replaces every step) */
+        if (r->rs->regularizer) put(r, ",reversible");
+        if (r->rs->opt.estimate) put(r, ",err_q,err_p"); /* the estimated global error at the row */
     }
     if (!ev && r->leg) put(r, ",leg");
     return r->line;
@@ -80,6 +84,8 @@ static void column_kinds(run_out *r, int ev, unsigned char *kind, size_t *ncol)
     if (!ev && r->rs->diagnostics) {
         for (size_t i = 0; i < r->ninv + 2; i++) kind[c++] = COL_DBL;
         kind[c++] = COL_REGION, kind[c++] = COL_INT, kind[c++] = COL_BRANCH;
+        if (r->rs->regularizer) kind[c++] = COL_INT; /* reversible */
+        if (r->rs->opt.estimate) kind[c++] = COL_DBL, kind[c++] = COL_DBL;
     }
     if (!ev && r->leg) kind[c++] = COL_INT;
     *ncol = c;
@@ -102,9 +108,10 @@ static size_t state_columns(const run_out *r, const double *z, double *v)
 /*
  * One row at the point z. `in` is the step that arrived there (or the step whose segment holds
  * it); lambda_root a known root of the step constraint at z (for the local K estimate) and K a
- * fixed K (> 0) or 0.
+ * fixed K (> 0) or 0; err the estimated global error |dq|, |dp| there (NaN without an estimate).
  */
-static int row(run_out *r, long k, const double *z, const dth_step_info *in, double lambda_root, double K)
+static int row(run_out *r, long k, const double *z, const dth_step_info *in, double lambda_root, double K,
+               const double err[2])
 {
     size_t c = 0;
     double *v = r->vals;
@@ -127,6 +134,8 @@ static int row(run_out *r, long k, const double *z, const dth_step_info *in, dou
         v[c++] = (double)d.region;
         v[c++] = (double)in->iters;
         v[c++] = (double)in->branch;
+        if (r->rs->regularizer) v[c++] = (in->flags & DTH_STEP_NONREVERSIBLE) ? 0 : 1;
+        if (r->rs->opt.estimate) v[c++] = err[0], v[c++] = err[1];
     }
     if (r->leg) v[c++] = r->leg;
     return r->fmt->row(r, 0, v);
@@ -167,7 +176,8 @@ int run_on_sample(void *user, const dth_sample *s)
     else if (!s->za) lambda_root = -s->step->lambda; /* the end is the last vertex itself */
     else if (s->kind != DTH_SAMPLE_MIDPOINT && r->rs->diagnostics) K = vertex_K(r, s->k, s->za, s->step->lambda);
     else if (s->kind == DTH_SAMPLE_MIDPOINT) lambda_root = 0;
-    return row(r, k, s->z, s->step, lambda_root, K) ? DTH_EIO : 0;
+    const double err[2] = {s->err_q, s->err_p};
+    return row(r, k, s->z, s->step, lambda_root, K, err) ? DTH_EIO : 0;
 }
 
 /* The driver's event callback: one row per located event in the events table. */
@@ -203,7 +213,7 @@ int run_rows_init(run_out *r, const dth_run_setup *rs, int leg)
     r->N = 2 * rs->n + 2;
     r->leg = leg;
     r->ninv = dth_model_n_invariants(rs->model);
-    r->linecap = 32 * (r->N + r->ninv + 8) + 64;
+    r->linecap = 32 * (r->N + r->ninv + 10) + 64; /* every column at most 25 characters, 2 n + ninv + 16 of them */
     for (size_t i = 0; i < r->ninv; i++) r->linecap += strlen(dth_model_invariant_name(rs->model, i)) + 1;
     r->line = malloc(r->linecap);
     r->inv = calloc(r->ninv + 1, sizeof *r->inv);

@@ -426,3 +426,34 @@ int dth__band_tangent(dth__band *b, const dth_model *m, const double *zbar, doub
     }
     return DTH_OK;
 }
+
+/*
+ * The step matrix's first block alone, B = I - (lambda/2) J H_xx at zb, factored (the Schur
+ * complement where it applies, else banded LU): the prescribed-step midpoint solve of the order-4
+ * composition's band and start (compose_mid.c), whose lambda is given. Overwrites the factors.
+ */
+int dth__band_factor_block(dth__band *b, const dth_model *m, const double *zb, double lam)
+{
+    int rc = dth__model_hess_band_raw(m, zb, b->hb);
+    if (rc) return rc;
+    b->lam = lam;
+    return schur_applies(b) ? schur_factor(b, lam) : general_factor(b, lam);
+}
+
+/* x = B^-1 x with those factors; x over (q block, p block), 2n values. */
+int dth__band_solve_block(dth__band *b, double *x)
+{
+    size_t n = b->n;
+    double *r = b->r;
+    for (size_t i = 0; i < n; i++) {
+        r[2 * i] = x[i];
+        r[2 * i + 1] = x[n + i];
+    }
+    int rc = b_solve(b, r);
+    if (rc) return rc;
+    for (size_t i = 0; i < n; i++) {
+        x[i] = r[2 * i];
+        x[n + i] = r[2 * i + 1];
+    }
+    return DTH_OK;
+}

@@ -20,12 +20,67 @@ static inline double two_sum(double a, double b, double *e)
     return s;
 }
 
+/* (a + alo) + (b + blo) as hi + *lo (to O(eps^2) of the sum; alo, blo below the ulps of a, b). */
+static inline double dd_add(double a, double alo, double b, double blo, double *lo)
+{
+    double e, s = two_sum(a, b, &e);
+    return two_sum(s, (alo + blo) + e, lo);
+}
+
 /* The rounding error of the product p = a b, exactly (Dekker: no fma call; |a|, |b| < 2^995). */
 static inline double prod_err(double a, double b, double p)
 {
     double ca = 134217729.0 * a, ah = ca - (ca - a), al = a - ah;
     double cb = 134217729.0 * b, bh = cb - (cb - b), bl = b - bh;
     return ((ah * bh - p) + ah * bl + al * bh) + al * bl;
+}
+
+/*
+ * (x + xlo) - (hl + hlo) (u + ulh + ull) with one rounding at the end: the products hl u and hl ulh
+ * exactly (prod_err gives their errors), where ulh + ull = (J H''(y) (zbar - y))_j, up to 2^-27 |u|.
+ * A row d - (lambda/2) u(zbar) of the reversible finish (dth_newton.c).
+ */
+static inline double exact_row(double x, double xlo, double hl, double hlo, double u, double ulh, double ull)
+{
+    double ph = hl * u, pl = prod_err(hl, u, ph), qh = hl * ulh, ql = prod_err(hl, ulh, qh), e1, e2;
+    double s1 = two_sum(x, -ph, &e1), s2 = two_sum(s1, -qh, &e2);
+    return s2 + (((((xlo - pl) - ql) - hlo * u) - (hl * ull + hlo * ulh)) + (e1 + e2));
+}
+
+/*
+ * exact_row minus a kick (hm + hmlo) (n0 + n1), again with one rounding at the end: the products
+ * hm n0 and hm n1 exactly (n1, the kick direction's change from y to the midpoint, is up to 2^-27
+ * |n0|). A row d - (lambda/2) u(zbar) - (mu/2) n(zbar) of a kicked segment's reversible finish
+ * (prescribed_rev.c).
+ */
+static inline double exact_row_kick(double x, double xlo, double hl, double hlo, double u, double ulh, double ull,
+                                    double hm, double hmlo, double n0, double n1)
+{
+    double ph = hl * u, pl = prod_err(hl, u, ph), qh = hl * ulh, ql = prod_err(hl, ulh, qh);
+    double kh = hm * n0, kl = prod_err(hm, n0, kh), mh = hm * n1, ml = prod_err(hm, n1, mh), e1, e2, e3, e4;
+    double s1 = two_sum(x, -ph, &e1), s2 = two_sum(s1, -qh, &e2), s3 = two_sum(s2, -kh, &e3), s4 = two_sum(s3, -mh, &e4);
+    double lo = ((((xlo - pl) - ql) - (kl + ml)) - (hlo * u + hmlo * (n0 + n1))) - (hl * ull + hlo * ulh);
+    return s4 + (lo + ((e1 + e2) + (e3 + e4)));
+}
+
+/*
+ * gl + gll = hess (dy + zblo) in double-double (hess d x d row-major, at a coarse point y; dy = zbar -
+ * y, up to 2^-27 of the scale, zblo the midpoint's low part): the products with dy exactly (their
+ * rounding would be noise in the equations of the reversible finish), zblo's rounded (they are small).
+ * The Taylor term of the gradient from y to the midpoint (dth_kernels.h: taylor_grad; prescribed_rev.c).
+ */
+static inline void taylor_grad_h(const double *hess, size_t d, const double *dy, const double *zblo, double *gl,
+                                 double *gll)
+{
+    for (size_t j = 0; j < d; j++) {
+        double a = 0, al = 0, t;
+        for (size_t k = 0; k < d; k++) {
+            double h = hess[j * d + k], p = h * dy[k];
+            a = two_sum(a, p, &t);
+            al += (t + prod_err(h, dy[k], p)) + h * zblo[k];
+        }
+        gl[j] = two_sum(a, al, &gll[j]);
+    }
 }
 
 /*

@@ -152,6 +152,9 @@ static inline int dth__commit(dth__dth *it, double lam, int replaced) { return i
 /** Put the step with offset d (zbar - z_k, length N; autonomous: its t and wp entries are not read)
  *  and lambda in it->x, its midpoint in it->zb, for dth__commit. */
 void dth__set_solution(dth__dth *it, const double *d, double lam);
+/** After dth__set_solution, under the reversible finish: the offset's low part dlo (N; autonomous: its
+ *  t entry is half lambda's low part) into it->xlo, so that dth__commit makes z + 2 (d + dlo). */
+void dth__set_solution_lo(dth__dth *it, const double *dlo);
 /** The root of the cubic model of the constraint near `target` (Lemma g_taylor), else target. */
 double dth__cubic_predict(double Hk, double psi, double dpsi, double target);
 /** The last step's tangent map by its path's solver (the dense one: dth__dense_tangent). */

@@ -95,6 +95,18 @@ int dth__integrator_wp_fixed(const dth_integrator *it);
 double dth__integrator_h(const dth_integrator *it);
 /** The integrator's method has midpoints (DTH). */
 int dth__integrator_has_midpoints(const dth_integrator *it);
+/** The integrator's dense output is the quintic Hermite interpolant (order 4: stepper.h). */
+int dth__integrator_dense5(const dth_integrator *it);
+/** The vertex before the current one if the method keeps it (order 4), else NULL. */
+const double *dth__integrator_prev_vertex(const dth_integrator *it);
+/** The quintic Hermite interpolant on za -> zb at time t: flows ua, ub and their time derivatives
+ *  aa, ab = J H_zz u (run.c's dense output for order 4). */
+void dth__dense_eval5(size_t n, const double *za, const double *zb, const double *ua, const double *ub,
+                      const double *aa, const double *ab, double t, double *z);
+/** u = J grad H and a = J H_zz u at z (2n + 2 each; work: dth__flow2_work_size doubles; banded models
+ *  through their banded Hessian). */
+int dth__flow2(const dth_model *model, const double *z, double *u, double *a, double *work);
+size_t dth__flow2_work_size(const dth_model *model);
 /** Solve the DTH step from the core's current vertex seeded with (lam, d0): 1 if it converged,
  *  with lambda, the residual and the midpoint out (policy.h's dth__polish_fn). */
 int dth__dth_polish(void *core, double lam, const double *d0, double *lam_out, double *res, double *zbar);
@@ -122,6 +134,22 @@ size_t dth__kicked_joint_work_size(const dth_model *model);
  */
 int dth__kicked_joint(const dth_model *model, const double *z, const double *zlo, const dth__kj_close *close, double *dz,
                       double *lambda, double *mu, double *residual, int *iters, double *work);
+/** Doubles of workspace dth__kicked_law_rev needs. */
+size_t dth__kicked_law_work_size(const dth_model *model);
+/**
+ * A kicked segment from the vertex z (+ zlo) whose step is the law lambda = dir arc / |u(zbar)|^alpha at
+ * its own midpoint (u: the (q, p) part of J grad H), with the DTH step's reversible finish (prescribed_rev.c):
+ * ONE Newton on (d, lambda, mu), then chord steps in double-double reading the model at the coarsened
+ * midpoint, so that the segment back from its end finds the same midpoint to about 2^-100. On entry dz
+ * (N), *lambda, *mu hold a seed; on success dz + dzlo (N each) the offset in double-double (t entry:
+ * lambda/2 and half lambda's low part), the step and the kick. Autonomous models only. work (zeroed before
+ * the first call, then kept for the same model) carries the quadratic invariants' Hessians from call to
+ * call (found once).
+ * @return DTH_OK, DTH_ENOCONV, DTH_ESINGULAR, DTH_EDOMAIN, DTH_EMODEL, DTH_EUNSUPPORTED.
+ */
+int dth__kicked_law_rev(const dth_model *model, const double *z, const double *zlo, double arc, double alpha,
+                        double dir, double *dz, double *dzlo, double *lambda, double *mu, double *residual, int *iters,
+                        double *work);
 /** Doubles of workspace dth__kick_at needs. */
 size_t dth__kick_work_size(const dth_model *model);
 /** The kick direction n over (q, p) (2n values) at y, as the kicked segments use it. */
@@ -251,5 +279,14 @@ int dth__band_solve(dth__band *b, double *x);
 /** Tangent map of the step with midpoint zbar and step lam ((2n+2)^2 row-major, as
  *  dth_integrator_tangent). Overwrites the factors. */
 int dth__band_tangent(dth__band *b, const dth_model *m, const double *zbar, double lam, double *M);
+/** The first block B = I - (lambda/2) J H_xx alone at zb, factored (a prescribed lambda: the order-4
+ *  composition's midpoint substeps, compose_mid.c). Overwrites the factors. */
+int dth__band_factor_block(dth__band *b, const dth_model *m, const double *zb, double lam);
+/** x = B^-1 x with those factors, x over (q block, p block) (2n values). @return DTH_OK, DTH_ELAPACK. */
+int dth__band_solve_block(dth__band *b, double *x);
+/** Orthonormal rows G (ninv x 2n) spanning sc * grad I over (q, p) of the model's quadratic invariants at
+ *  y (regularize.c; sc: 2n metric scales); ys: 2n + 1, tmp: 2 ninv doubles. Returns the rows kept. */
+size_t dth__quad_invariant_basis(const dth_model *model, const double *y, const double *sc, double *G, double *ys,
+                                 double *tmp);
 
 #endif

@@ -98,15 +98,7 @@ static inline int rho_from_mid(dth__dth *it, const double *zb, const double *zbl
 static inline void taylor_grad(const dth__dth *it, size_t d, const double *dy, const double *zblo, double *gl,
                         double *gll)
 {
-    for (size_t j = 0; j < d; j++) {
-        double a = 0, al = 0, t;
-        for (size_t k = 0; k < d; k++) {
-            double h = it->hess[j * d + k], p = h * dy[k];
-            a = two_sum(a, p, &t);
-            al += (t + prod_err(h, dy[k], p)) + h * zblo[k];
-        }
-        gl[j] = two_sum(a, al, &gll[j]);
-    }
+    taylor_grad_h(it->hess, d, dy, zblo, gl, gll);
 }
 
 /* (J v)_j over z = (q, t, p, wp) for v over y = (q, t, p) (n degrees of freedom, d = 2n + 1). */
@@ -158,8 +150,7 @@ AI double mid_dd(int rev, double z, double zlo, double x, double xlo, double *lo
 {
     if (!lo) return z + (zlo + x);
     if (!rev) return two_sum(z, zlo + x, lo); /* to the rounding of zlo + x, far below eps |zbar| */
-    double e, s = two_sum(z, x, &e);
-    return two_sum(s, (zlo + xlo) + e, lo);
+    return dd_add(z, zlo, x, xlo, lo);
 }
 
 AI void midpoint_n(const dth__dth *it, const size_t nc, const double *x, double *zb, double *zblo)

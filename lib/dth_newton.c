@@ -177,17 +177,6 @@ const struct dth__linsolver dth__band_ls = {0, band_factor, band_solve, band_tan
 
 
 /*
- * (x + xlo) - (hl + hlo) (u + ulh + ull) with one rounding at the end: the products hl u and hl ulh
- * exactly (prod_err gives their errors), where ulh + ull = (J H''(y) (zbar - y))_j, up to 2^-27 |u|.
- */
-AI double exact_row(double x, double xlo, double hl, double hlo, double u, double ulh, double ull)
-{
-    double ph = hl * u, pl = prod_err(hl, u, ph), qh = hl * ulh, ql = prod_err(hl, ulh, qh), e1, e2;
-    double s1 = two_sum(x, -ph, &e1), s2 = two_sum(s1, -qh, &e2);
-    return s2 + (((((xlo - pl) - ql) - hlo * u) - (hl * ull + hlo * ulh)) + (e1 + e2));
-}
-
-/*
  * The compensated finish of a step, as the residual of its chord steps (newton.h): the constraint
  * row from the carried vertex offset, E = rho_k + (H(zbar) - H(z_k)), the difference from the
  * model's hdiff: its error scales with the step instead of with the energy's size. The direct value
@@ -546,8 +535,9 @@ AI int newton_n(dth__dth *it, const size_t nc, const dth__newton_ops *ops, doubl
     /* the offset within 2^12 eps S of round-off (S ~ |wp| + |H_phys(z_k)|, a switch, not a bound):
      * the iterations solve the compensated constraint too (eval_n); above it, nothing changes */
     if (it->opt.finish == DTH_FINISH_COMPENSATED) {
-        double wp = it->st.z[N - 1], rho = it->st.rho;
-        it->tiny = fabs(rho) < 4096 * DBL_EPSILON * (fabs(wp) + fabs(rho - wp));
+        /* the offset the constraint reads: H(z_k) + s (a composition's substep: its level s) */
+        double wp = it->st.z[N - 1], rho = it->st.rho, off = it->level != 0 ? rho + it->level : rho;
+        it->tiny = fabs(off) < 4096 * DBL_EPSILON * (fabs(wp) + fabs(rho - wp));
     }
     sol->iters = 0;
     sol->residual = NAN;
@@ -653,6 +643,12 @@ AI int commit_n(dth__dth *it, const size_t nc, double lam, int replaced)
             return rc;
         }
     }
+    if (it->opt.finish && !replaced && it->level != 0) {
+        /* measured from the midpoint, rho is H(z_(k+1)) - H(zbar), and a level-shifted step's root has
+         * H(zbar) = -s (the DTH step's: 0): the carried offset H(z_(k+1)) is rho - s */
+        double e, r = two_sum(rho, -it->level, &e);
+        rho = two_sum(r, rholo + e, &rholo);
+    }
     it->st.rho = rho;
     it->st.rholo = rholo;
     for (size_t j = 0; j < N; j++) {
@@ -702,6 +698,13 @@ void dth__set_solution(dth__dth *it, const double *d, double lam)
 {
     unknowns_n(it, 0, d, lam);
     midpoint_n(it, 0, it->x, it->zb, NULL);
+}
+
+void dth__set_solution_lo(dth__dth *it, const double *dlo)
+{
+    int m = it->m;
+    for (int a = 0; a < m - 1; a++) it->xlo[a] = dlo[it->act[a]];
+    it->xlo[m - 1] = it->auton ? 2 * dlo[it->n] : 0;
 }
 
 /* The dense paths' tangent map: the bordered Jacobian at the converged midpoint, refactored. */

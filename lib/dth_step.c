@@ -217,6 +217,7 @@ static int commit_decision(dth__dth *it, const dth__decision *dec, const dth__so
     int replace = dec->verdict == DTH__REPLACE;
     double lam_last = it->st.have_prev ? it->st.lam : it->st.lam_hint; /* the last step a fresh start aims at */
     if (replace) dth__set_solution(it, dec->d, dec->lambda);
+    if (replace && it->rev && dec->dlo) dth__set_solution_lo(it, dec->dlo);
     it->jump = replace ? dec->jump : NULL;
     int rc = dth__commit(it, dec->lambda, replace);
     it->jump = NULL;

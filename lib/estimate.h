@@ -17,6 +17,7 @@ typedef struct dth__estimate {
     double E0;        /* H_phys at the initial state */
     int valid;        /* 0 once the shadow left the model's domain (no estimate from then on) */
     int on, project;  /* estimating; projecting onto E0 (autonomous models) */
+    int rk6;          /* the shadow is Butcher's method of order 6 (an integrator of order 4), else RK4 */
     size_t n, d, N;
     const dth_model *model;
     const dth_allocator *alloc;

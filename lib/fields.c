@@ -77,7 +77,7 @@ static int check_i64(const dth_field *f, int64_t x)
     case DTH__C_NHIST: return x >= 0 && x <= 3;
     case DTH__C_PSISTEP: return x >= -2 && x <= DTH__MAX_COUNT;
     case DTH__C_BRANCH: return x >= DTH_BRANCH_NONE && x <= DTH_BRANCH_REG;
-    case DTH__C_FLAGS: return x >= 0 && x <= (DTH_STEP_REGULARIZED | DTH_STEP_CROSSING | DTH_STEP_RESET | DTH_STEP_CLOCK);
+    case DTH__C_FLAGS: return x >= 0 && x <= (DTH_STEP_REGULARIZED | DTH_STEP_CROSSING | DTH_STEP_NONREVERSIBLE);
     case DTH__C_STOP: return x >= DTH_RUN_RUNNING && x <= DTH_RUN_SAMPLES;
     default: return 1;
     }
@@ -105,7 +105,7 @@ static const char *check_doc(int check)
     case DTH__C_ERR: return "a size >= 0 (or NaN)";
     case DTH__C_RESID: return "a residual >= 0 (or NaN)";
     case DTH__C_BRANCH: return "a dth_branch (0 to 5)";
-    case DTH__C_FLAGS: return "DTH_STEP_* flags (0 to 15)";
+    case DTH__C_FLAGS: return "DTH_STEP_* flags (0 to 31)";
     case DTH__C_STOP: return "a dth_run_stop (0 to 5)";
     default: return "a value in the range of its type";
     }

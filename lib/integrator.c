@@ -18,6 +18,12 @@ const dth__stepper_type *dth__stepper_find(const char *name)
     return NULL;
 }
 
+const dth__stepper_type *dth__stepper_find_order(const char *name, int order)
+{
+    const dth__stepper_type *t = dth__stepper_find(name);
+    return t == &dth__stepper_dth && order == 4 ? &dth__stepper_compose : t;
+}
+
 size_t dth_method_count(void) { return 1 + dth__baseline_count(); }
 const char *dth_method_name(size_t i)
 {
@@ -39,7 +45,7 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt_in, dth_in
     if (rc) return rc;
     dth_integrator *it = dth_calloc(o.alloc, 1, sizeof *it);
     if (!it) return DTH_ENOMEM;
-    it->type = dth__stepper_find(o.method);
+    it->type = dth__stepper_find_order(o.method, o.order);
     it->model = model;
     it->alloc = o.alloc;
     it->n = dth_model_dof(model);
@@ -47,6 +53,7 @@ int dth_integrator_new(const dth_model *model, const dth_options *opt_in, dth_in
     it->h = o.h;
     rc = it->type->create(model, &o, &it->state);
     if (!rc && o.estimate) rc = dth__estimate_init(&it->est, model, o.alloc);
+    if (!rc && o.estimate) it->est.rk6 = o.order >= 4; /* a shadow of higher order than the method */
     if (rc) {
         dth_integrator_free(it);
         return rc;
@@ -151,3 +158,8 @@ struct dth__dth *dth__integrator_core(dth_integrator *it)
 int dth__integrator_wp_fixed(const dth_integrator *it) { return it->type->wp_fixed; }
 double dth__integrator_h(const dth_integrator *it) { return it->h; }
 int dth__integrator_has_midpoints(const dth_integrator *it) { return it->type->midpoints; }
+int dth__integrator_dense5(const dth_integrator *it) { return it->type->dense5; }
+const double *dth__integrator_prev_vertex(const dth_integrator *it)
+{
+    return it->type->prev_vertex ? it->type->prev_vertex(it->state) : NULL;
+}

@@ -7,7 +7,9 @@
 #include <math.h>
 #include <string.h>
 #include <stdio.h>
+#include "dth/regularize.h"
 #include "dth_internal.h"
+#include "compose.h"
 #include "stepper.h"
 
 void dth_options_default(dth_options *o)
@@ -68,6 +70,60 @@ static int check_values(const dth_options *o, char *err, size_t len)
     return DTH_OK;
 }
 
+/* The order, and the composition's table and band of order 4 (compose.c). */
+static int check_order(const dth__stepper_type *type, const dth_options *o, char *err, size_t len)
+{
+    if (type != &dth__stepper_dth) {
+        if (o->order == 2 && !o->table) return DTH_OK;
+        dth__set_err(err, len, "order = %d%s: method '%s' has an order of its own (leave order at 2, table unset)",
+                     o->order, o->table ? " with a table" : "", type->name);
+        return DTH_EUNSUPPORTED;
+    }
+    if (o->order == 6 || o->order == 8) {
+        dth__set_err(err, len, "order = %d: not offered. Compositions of level-shifted DTH steps measure order 4 with "
+                               "every 6th- and 8th-order table (yoshida6a, kahanli6, kahanli8: with constant levels "
+                               "sum lambda_i^3 = O(h^2), the order-3 condition; docs/theory.md): order = 4",
+                     o->order);
+        return DTH_EUNSUPPORTED;
+    }
+    if (o->order != 2 && o->order != 4) {
+        dth__set_err(err, len, "order = %d: method 'dth' has order 2 or 4", o->order);
+        return DTH_EINVAL;
+    }
+    if (o->order == 2 && (o->table || o->band_time != 0)) {
+        dth__set_err(err, len, "%s applies to order = 4 only", o->table ? "table" : "band_time");
+        return DTH_EINVAL;
+    }
+    if (o->order == 4 && !dth__table_find(o->table)) {
+        char names[160] = "";
+        for (size_t i = 0; dth__table_at(i); i++) {
+            size_t l = strlen(names);
+            snprintf(names + l, sizeof names - l, "%s%s", i ? ", " : "", dth__table_at(i)->name);
+        }
+        dth__set_err(err, len, "table = '%s': unknown (order 4 has %s)", o->table, names);
+        return DTH_ENOTFOUND;
+    }
+    if (!isfinite(o->band_time) || o->band_time < 0) {
+        dth__set_err(err, len, "band_time = %g: a time >= 0 (0: the default crossing rule)", o->band_time);
+        return DTH_EINVAL;
+    }
+    return DTH_OK;
+}
+
+/* Order 4 and the regularizer: the composition carries psi = 0 crossings by its own band (compose_band.c),
+ * switched on by `land` (the default; its replaced step of order 2 is not called) and off by none; a
+ * regularizer that replaces steps in other ways (`prescribed`, a plugin) would never be called. */
+static int check_order_regularizer(const dth_options *o, char *err, size_t len)
+{
+    if (o->order != 4 || !o->regularizer) return DTH_OK;
+    const char *rn = dth_regularizer_get_type(o->regularizer)->name;
+    if (!strcmp(rn, "land") || !strcmp(rn, "none")) return DTH_OK;
+    dth__set_err(err, len, "order = 4 with regularizer '%s': not supported (order 4 carries psi = 0 crossings by its "
+                           "own band under 'land', the default, and stops at them with none; '%s' would never be "
+                           "called): order = 2 for '%s'", rn, rn, rn);
+    return DTH_EUNSUPPORTED;
+}
+
 int dth_options_check(const dth_model *model, dth_options *o, char *err, size_t len)
 {
     if (!model || !o) {
@@ -91,15 +147,12 @@ int dth_options_check(const dth_model *model, dth_options *o, char *err, size_t 
         dth__set_err(err, len, "unknown method '%s' (available: %s)", o->method, names);
         return DTH_ENOTFOUND;
     }
-    if (o->order != 2) {
-        dth__set_err(err, len, "order = %d: method '%s' has order %s", o->order, type->name,
-                     type == &dth__stepper_dth ? "2" : "of its own (leave order at 2)");
-        return DTH_EUNSUPPORTED;
-    }
+    if ((rc = check_order(type, o, err, len)) != DTH_OK) return rc;
     if (type != &dth__stepper_dth && o->regularizer) {
         dth__set_err(err, len, "a regularizer applies to method = dth only (this is method '%s')", type->name);
         return DTH_EUNSUPPORTED;
     }
+    if ((rc = check_order_regularizer(o, err, len)) != DTH_OK) return rc;
     if (type->check && (rc = type->check(model, o, err, len)) != DTH_OK) return rc;
     const char *mname = dth_model_get_type(model)->name;
     size_t n = dth_model_dof(model);

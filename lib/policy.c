@@ -45,11 +45,12 @@ int dth__policy_init(dth__policy *p, const dth_model *model, const dth_options *
     p->reg = o->regularizer;
     dth__policy_reset(p);
     size_t N = p->N;
-    p->work = dth_calloc(p->alloc, dth_model_work_size(model) + 4 * N, sizeof(double));
+    p->finish = (int)o->finish;
+    p->work = dth_calloc(p->alloc, dth_model_work_size(model) + 5 * N, sizeof(double));
     if (!p->work) return DTH_ENOMEM;
     p->cand = p->work + dth_model_work_size(model);
     p->dd = p->cand + N;
-    p->ad = p->dd + N; /* and the jump after it */
+    p->ad = p->dd + N; /* and the jump and the offset's low part after it */
     p->regsnap_len = dth__reg_state_size(p->reg);
     if (p->regsnap_len && !(p->regsnap = dth_calloc(p->alloc, p->regsnap_len, 1))) return DTH_ENOMEM;
     if (!o->branch_check || dth__model_banded(model)) return DTH_OK;
@@ -219,14 +220,14 @@ static int known_psi_sign(dth__policy *p, const dth__view *v)
 static dth_reg_event reg_event(const dth__policy *p, const dth__view *v, int rc, int plain_ok, int sb)
 {
     dth_reg_event ev = {v->model, v->N, v->z, v->zlo, v->lam, v->dir, p->st.psi_sign, rc, plain_ok ? v->d : NULL,
-                        plain_ok ? v->lambda : 0.0, plain_ok ? sb : 0, v->have_prev ? v->dprev : NULL, 0};
+                        plain_ok ? v->lambda : 0.0, plain_ok ? sb : 0, v->have_prev ? v->dprev : NULL, 0, p->finish};
     return ev;
 }
 
 static int reg_apply(dth__policy *p, const dth_reg_event *ev, dth_reg_action *act, dth__decision *dec)
 {
-    memset(p->ad, 0, 2 * p->N * sizeof *p->ad); /* the offset and the jump */
-    *act = (dth_reg_action){DTH_REG_KEEP, 0.0, p->ad, 0.0, 0, NULL, p->ad + p->N, 0, 0.0};
+    memset(p->ad, 0, 3 * p->N * sizeof *p->ad); /* the offset, the jump, the offset's low part */
+    *act = (dth_reg_action){DTH_REG_KEEP, 0.0, p->ad, 0.0, 0, NULL, p->ad + p->N, 0, 0.0, p->ad + 2 * p->N};
     int r = dth_regularizer_apply(p->reg, ev, act);
     dec->iters += act->iters;
     if (!r && act->what != DTH_REG_KEEP && act->what != DTH_REG_REPLACE) {
@@ -255,15 +256,18 @@ static int reg_finish(dth__policy *p, const dth__view *v, const dth_reg_action *
         return DTH_EREFUSED;
     }
     const double *jp = replace ? act->jump : NULL;
-    int jumped = 0;
+    /* the offset's low part: read only under the reversible finish (regularize.h) */
+    const double *lp = replace && p->finish == DTH_FINISH_REVERSIBLE ? act->dlo : NULL;
+    int jumped = 0, low = 0;
     for (size_t j = 0; j < N; j++) {
-        double jj = jp ? jp[j] : 0;
-        if (replace && (!isfinite(dk[j]) || !isfinite(jj) || (v->auton && j == N - 1 && dk[j] != 0) ||
-                        (j == N - 1 && jj != 0))) {
-            say(p, "regularizer '%s' answered a non-finite offset or one that changes wp", name);
+        double jj = jp ? jp[j] : 0, lj = lp ? lp[j] : 0;
+        if (replace && (!isfinite(dk[j]) || !isfinite(jj) || (v->auton && j == N - 1 && (dk[j] != 0 || lj != 0)) ||
+                        (j == N - 1 && jj != 0) || !(fabs(lj) <= fabs(dk[j])))) {
+            say(p, "regularizer '%s' answered a non-finite offset, one that changes wp, or a low part above it", name);
             return DTH_EREFUSED;
         }
         jumped |= jj != 0;
+        low |= lj != 0;
         p->cand[j] = v->z[j] + (v->zlo[j] + (2 * dk[j] + jj));
     }
     int sb, r = psi_sign_at(p, v->model, p->cand, &sb);
@@ -276,6 +280,7 @@ static int reg_finish(dth__policy *p, const dth__view *v, const dth_reg_action *
         dec->branch = DTH_BRANCH_REG;
         dec->flags |= DTH_STEP_REGULARIZED | (jumped ? DTH_STEP_RESET : 0u);
         dec->jump = jumped ? jp : NULL;
+        dec->dlo = low ? lp : NULL;
         dec->fresh = act->fresh != 0;
         dec->dt = isfinite(act->dt) ? act->dt : 0;
     }
@@ -340,7 +345,7 @@ int dth__policy_cross(dth__policy *p, const dth__view *v, int pre, dth__decision
     dth_reg_action act;
     if (pre) {
         /* the hook was asked before the ordinary step (dth__policy_pre) and kept it */
-        act = (dth_reg_action){DTH_REG_KEEP, 0.0, p->ad, 0.0, 0, NULL, p->ad + p->N, 0, 0.0};
+        act = (dth_reg_action){DTH_REG_KEEP, 0.0, p->ad, 0.0, 0, NULL, p->ad + p->N, 0, 0.0, p->ad + 2 * p->N};
         if (!plain_ok) {
             /* say that the hook had no step of its own here */
             const char *name = dth_regularizer_get_type(p->reg)->name;
@@ -351,7 +356,10 @@ int dth__policy_cross(dth__policy *p, const dth__view *v, int pre, dth__decision
             say(p, "no error");
         }
         dec->asked = 1;
-        return reg_finish(p, v, &act, rc, plain_ok, dec, psi_sign_new);
+        int r = reg_finish(p, v, &act, rc, plain_ok, dec, psi_sign_new);
+        /* the step back from its end is the hook's again, not this step's reverse */
+        if (!r) dec->flags |= DTH_STEP_ONEWAY;
+        return r;
     }
     if (plain_ok) {
         for (size_t j = 0; j < N; j++) p->cand[j] = v->z[j] + (2 * v->d[j] + v->zlo[j]);
@@ -375,7 +383,10 @@ int dth__policy_cross(dth__policy *p, const dth__view *v, int pre, dth__decision
     dec->asked = 1;
     int r = reg_apply(p, &ev, &act, dec);
     if (r) return r;
-    return reg_finish(p, v, &act, rc, plain_ok, dec, psi_sign_new);
+    r = reg_finish(p, v, &act, rc, plain_ok, dec, psi_sign_new);
+    /* kept by a hook that replaces every step from now on (prescribed, its arc just fixed): as above */
+    if (!r && act.what == DTH_REG_KEEP && dth__reg_replaces_all(p->reg)) dec->flags |= DTH_STEP_ONEWAY;
+    return r;
 }
 
 void dth__policy_took(dth__policy *p, double psi, long steps)

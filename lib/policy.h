@@ -60,6 +60,7 @@ typedef struct dth__decision {
     int verdict;
     double lambda;    /* RESEED, REPLACE: the step */
     const double *d;  /* RESEED, REPLACE: its offset zbar - z_k (N; the policy's buffer) */
+    const double *dlo; /* REPLACE under the reversible finish: the offset's low part (N), NULL: none */
     const double *jump; /* REPLACE: the end vertex's displacement (N), NULL: none */
     int fresh;        /* REPLACE: the next step starts without history */
     double dt;        /* TAKE, REPLACE: the regularizer's correction of the new vertex's time */
@@ -81,7 +82,9 @@ typedef struct dth__policy {
     dth_regularizer *reg;      /* the regularizer (borrowed), NULL: raw DTH */
     size_t N;
     double *work;              /* dth_model_psi's workspace */
-    double *cand, *dd, *ad;    /* a vertex, an offset, the regularizer's answer (N each) */
+    double *cand, *dd, *ad;    /* a vertex, an offset, the regularizer's answer (its offset, jump and
+                                  the offset's low part: 3N) */
+    int finish;                /* the integrator's dth_finish (the hook's event says it) */
     unsigned char *regsnap;    /* the regularizer's own state at the start of the step */
     size_t regsnap_len;
     const dth_allocator *alloc;

@@ -11,6 +11,7 @@
 #include "dth/regularize.h"
 #include "dth_internal.h"
 #include "fields.h"
+#include "kick.h"
 
 struct dth_regularizer {
     const dth_regularizer_type *type; /* &t */
@@ -265,7 +266,7 @@ static size_t ks_layout(size_t n, size_t ninv, size_t *off)
     return tot;
 }
 
-static size_t model_ninv(const dth_model *model)
+size_t dth__model_ninv(const dth_model *model)
 {
     const dth_model_type *t = dth_model_get_type(model);
     return (t->n_invariants && t->invariants) ? t->n_invariants(dth__model_self(model)) : 0;
@@ -274,7 +275,7 @@ static size_t model_ninv(const dth_model *model)
 size_t dth_kicked_segment_work_size(const dth_model *model)
 {
     size_t off[13];
-    return ks_layout(dth_model_dof(model), model_ninv(model), off);
+    return ks_layout(dth_model_dof(model), dth__model_ninv(model), off);
 }
 
 /*
@@ -284,14 +285,15 @@ size_t dth_kicked_segment_work_size(const dth_model *model)
  * keeps those, projecting out e.g. the Runge-Lenz vector would remove the whole kick, and a test
  * at the current point could switch the projection between two Newton iterations (a third
  * difference along one direction vanishes on a hypersurface). Row j holds S grad I_j (S = diag(sc), the kick's metric) before
- * the orthonormalization. Returns the number of rows kept.
+ * the orthonormalization. Returns the number of rows kept; graw (NULL: not wanted) gets the gradients
+ * grad I_j themselves (all ni rows), kidx (NULL: not wanted) the index j of each kept row.
  */
-static size_t quad_invariant_basis(const dth_model *model, const double *y, const double *sc, double *G,
-                                   double *ys, double *tmp)
+size_t dth__quad_invariant_basis_ex(const dth_model *model, const double *y, const double *sc, double *G,
+                                    double *ys, double *tmp, double *graw, size_t *kidx)
 {
     const dth_model_type *t = dth_model_get_type(model);
     const void *self = dth__model_self(model);
-    size_t n = dth_model_dof(model), q = 2 * n, ni = model_ninv(model), kept = 0;
+    size_t n = dth_model_dof(model), q = 2 * n, ni = dth__model_ninv(model), kept = 0;
     if (!ni) return 0;
     double *Ip = tmp, *Im = tmp + ni;
     if (ni > 64) return 0;
@@ -306,6 +308,8 @@ static size_t quad_invariant_basis(const dth_model *model, const double *y, cons
         ys[yi] = y[yi] - h;
         if (t->invariants(self, ys, Im) != 0) return 0;
         for (size_t j = 0; j < ni; j++) G[j * q + i] = sc[i] * (Ip[j] - Im[j]) / (2 * h);
+        if (graw) /* the gradients themselves (the reversible finish's projector, kl_cell) */
+            for (size_t j = 0; j < ni; j++) graw[j * q + i] = (Ip[j] - Im[j]) / (2 * h);
     }
     /* modified Gram-Schmidt over the kept rows, dropping dependent ones */
     for (size_t j = 0; j < ni; j++) {
@@ -323,9 +327,39 @@ static size_t quad_invariant_basis(const dth_model *model, const double *y, cons
         if (!(nn > 1e-8 * g0) || g0 == 0) continue;
         double *dst = G + kept * q;
         for (size_t i = 0; i < q; i++) dst[i] = g[i] / nn;
+        if (kidx) kidx[kept] = j;
         kept++;
     }
     return kept;
+}
+
+/* The squared Frobenius norms of the Hessian's q-q and p-p blocks (the kick's metric). */
+void dth__kick_metric_blocks(size_t n, const double *hs, double *fq_out, double *fp_out)
+{
+    size_t d = 2 * n + 1;
+    double fq = 0, fp = 0;
+    for (size_t i = 0; i < n; i++)
+        for (size_t j = 0; j < n; j++) {
+            fq += hs[i * d + j] * hs[i * d + j];
+            fp += hs[(n + 1 + i) * d + (n + 1 + j)] * hs[(n + 1 + i) * d + (n + 1 + j)];
+        }
+    *fq_out = fq;
+    *fp_out = fp;
+}
+
+/* rho of the kick's metric from the blocks' norms; *smooth (may be NULL) = 1 where rho is the smooth
+ * (fp/fq)^(1/4), 0 where it is clamped or falls back to 1 */
+double dth__kick_metric_rho(double fq, double fp, int *smooth)
+{
+    double rho = 1;
+    int f = 0;
+    if (fq > 0 && fp > 0 && isfinite(fq) && isfinite(fp)) {
+        double r = sqrt(sqrt(fp / fq));
+        rho = fmin(1e6, fmax(1e-6, r));
+        f = rho == r;
+    }
+    if (smooth) *smooth = f;
+    return rho;
 }
 
 /*
@@ -343,23 +377,16 @@ static size_t quad_invariant_basis(const dth_model *model, const double *y, cons
  * period-error constant at the same order). A function of the midpoint only, so the segment stays
  * its own reverse.
  */
-static void kick_metric(const dth_model *model, size_t n, const double *hs, double *sc)
+void dth__kick_metric(const dth_model *model, size_t n, const double *hs, double *sc)
 {
-    size_t d = 2 * n + 1;
-    double fq = 0, fp = 0;
+    double fq, fp;
     if (!dth__model_quad_mask(model)) {
         /* nothing to project: n = grad H, dH/dmu = |grad H|^2/2 + O(lambda) */
         for (size_t i = 0; i < 2 * n; i++) sc[i] = 1;
         return;
     }
-    for (size_t i = 0; i < n; i++)
-        for (size_t j = 0; j < n; j++) {
-            fq += hs[i * d + j] * hs[i * d + j];
-            fp += hs[(n + 1 + i) * d + (n + 1 + j)] * hs[(n + 1 + i) * d + (n + 1 + j)];
-        }
-    double rho = 1;
-    if (fq > 0 && fp > 0 && isfinite(fq) && isfinite(fp))
-        rho = fmin(1e6, fmax(1e-6, sqrt(sqrt(fp / fq))));
+    dth__kick_metric_blocks(n, hs, &fq, &fp);
+    double rho = dth__kick_metric_rho(fq, fp, NULL);
     double s_q = sqrt(rho), s_p = 1 / s_q;
     for (size_t i = 0; i < n; i++) {
         sc[i] = s_q;
@@ -395,16 +422,16 @@ static void ks_midpoint(const ks_ctx *c, const double *x, double *y)
  * (G: their orthonormal rows, `kept` of them): grad I . n = 0 (the midpoint identity keeps I) and
  * grad H . n = |P S grad H|^2 > 0.
  */
-static size_t kick_dir(const dth_model *model, size_t n, const double *y, const double *g, const double *hs, double *sc,
+size_t dth__kick_dir(const dth_model *model, size_t n, const double *y, const double *g, const double *hs, double *sc,
                        double *G, double *ys, double *tmp, double *nv)
 {
     size_t q = 2 * n;
-    kick_metric(model, n, hs, sc);
+    dth__kick_metric(model, n, hs, sc);
     for (size_t i = 0; i < n; i++) {
         nv[i] = sc[i] * g[i];
         nv[n + i] = sc[n + i] * g[n + 1 + i];
     }
-    size_t kept = quad_invariant_basis(model, y, sc, G, ys, tmp);
+    size_t kept = dth__quad_invariant_basis_ex(model, y, sc, G, ys, tmp, NULL, NULL);
     for (size_t r = 0; r < kept; r++) {
         double dot = 0;
         for (size_t i = 0; i < q; i++) dot += nv[i] * G[r * q + i];
@@ -420,7 +447,7 @@ static size_t kick_dir(const dth_model *model, size_t n, const double *y, const 
  * multiplied by mu, which is tiny; the projected Hessian term is needed: without it Newton converges only
  * linearly where grad H is far from n, e.g. at Kepler pericentres).
  */
-static void kick_block(size_t n, size_t m, const double *hs, const double *sc, const double *G, size_t kept, double lam,
+void dth__kick_block(size_t n, size_t m, const double *hs, const double *sc, const double *G, size_t kept, double lam,
                        double kmu, double *A)
 {
     size_t d = 2 * n + 1, q = 2 * n;
@@ -449,7 +476,7 @@ static int ks_eval(void *ctx, const double *x, double *F, int jac)
     ks_midpoint(c, x, y);
     int rc = dth__model_eval_raw(model, y, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &c->H, g, hs);
     if (rc) return rc;
-    size_t kept = kick_dir(model, n, y, g, hs, c->sc, c->G, c->ys, c->tmp, nv);
+    size_t kept = dth__kick_dir(model, n, y, g, hs, c->sc, c->G, c->ys, c->tmp, nv);
     /* F = d - (lambda/2) u - (mu/2) n, u = (dH/dp, -dH/dq); F_last = wp + H */
     double lam = c->lambda, kmu = x[q];
     for (size_t i = 0; i < n; i++) {
@@ -459,7 +486,7 @@ static int ks_eval(void *ctx, const double *x, double *F, int jac)
     F[q] = c->wp + c->H;
     if (!jac) return DTH_OK;
     /* Jacobian over (d_q, d_p, mu) */
-    kick_block(n, m, hs, c->sc, c->G, kept, lam, kmu, A);
+    dth__kick_block(n, m, hs, c->sc, c->G, kept, lam, kmu, A);
     for (size_t a = 0; a < q; a++) {
         A[a + q * m] = -0.5 * nv[a];
         A[q + a * m] = g[a < n ? a : a + 1];
@@ -526,7 +553,7 @@ int dth_kicked_segment(const dth_model *model, const double *z, const double *zl
 {
     if (!model || !z || !dz || !mu || !work || !isfinite(lambda)) return DTH_EINVAL;
     if (!dth_model_get_info(model)->autonomous) return DTH_EUNSUPPORTED;
-    size_t n = dth_model_dof(model), N = 2 * n + 2, q = 2 * n, ni = model_ninv(model);
+    size_t n = dth_model_dof(model), N = 2 * n + 2, q = 2 * n, ni = dth__model_ninv(model);
     size_t off[13];
     ks_layout(n, ni, off);
     ks_ctx c = {model, z, zlo, lambda, z[N - 1] + (zlo ? zlo[N - 1] : 0), 0, n, (int)(2 * n + 1),
@@ -556,6 +583,12 @@ int dth_kicked_segment(const dth_model *model, const double *z, const double *zl
     return DTH_OK;
 }
 
+size_t dth__quad_invariant_basis(const dth_model *model, const double *y, const double *sc, double *G, double *ys,
+                                 double *tmp)
+{
+    return dth__quad_invariant_basis_ex(model, y, sc, G, ys, tmp, NULL, NULL);
+}
+
 /* ------------------------------------------------------------------ the kicked segment, lambda unknown */
 
 /*
@@ -578,7 +611,7 @@ typedef struct kj_ctx {
 
 size_t dth__kicked_joint_work_size(const dth_model *model)
 {
-    size_t n = dth_model_dof(model), d = 2 * n + 1, m = 2 * n + 2, ni = model_ninv(model);
+    size_t n = dth_model_dof(model), d = 2 * n + 1, m = 2 * n + 2, ni = dth__model_ninv(model);
     return 3 * d + d * d + m * m + 4 * m + 2 * n + ni * 2 * n + 2 * ni + 8 + d + 2 * n + d + (m + 1) / 2 + 1;
 }
 
@@ -601,14 +634,14 @@ static int kj_eval(kj_ctx *c, const double *x)
     kj_points(c, x);
     int rc = dth__model_eval_raw(c->model, c->y, DTH_EVAL_H | DTH_EVAL_GRAD | DTH_EVAL_HESS, &c->H, g, c->hs);
     if (rc) return rc;
-    size_t kept = kick_dir(c->model, n, c->y, g, c->hs, c->sc, c->G, c->ys, c->tmp, nv);
+    size_t kept = dth__kick_dir(c->model, n, c->y, g, c->hs, c->sc, c->G, c->ys, c->tmp, nv);
     for (size_t i = 0; i < n; i++) {
         F[i] = x[i] - 0.5 * lam * g[n + 1 + i] - 0.5 * kmu * nv[i];
         F[n + i] = x[n + i] + 0.5 * lam * g[i] - 0.5 * kmu * nv[n + i];
     }
     F[q] = c->wp + c->H;
     memset(A, 0, m * m * sizeof *A);
-    kick_block(n, m, c->hs, c->sc, c->G, kept, lam, kmu, A);
+    dth__kick_block(n, m, c->hs, c->sc, c->G, kept, lam, kmu, A);
     for (size_t a = 0; a < q; a++) {
         size_t ya = a < n ? a : a + 1;
         A[a + q * m] = -0.5 * (a < n ? g[n + 1 + a] : -g[a - n]); /* d F / d lambda = -u/2 */
@@ -631,7 +664,7 @@ int dth__kicked_joint(const dth_model *model, const double *z, const double *zlo
                       double *lambda, double *mu, double *residual, int *iters, double *work)
 {
     if (!dth_model_get_info(model)->autonomous) return DTH_EUNSUPPORTED;
-    size_t n = dth_model_dof(model), N = 2 * n + 2, d = 2 * n + 1, m = 2 * n + 2, q = 2 * n, ni = model_ninv(model);
+    size_t n = dth_model_dof(model), N = 2 * n + 2, d = 2 * n + 1, m = 2 * n + 2, q = 2 * n, ni = dth__model_ninv(model);
     kj_ctx c = {.model = model, .z = z, .zlo = zlo, .close = close, .wp = z[N - 1] + (zlo ? zlo[N - 1] : 0), .n = n,
                 .d = d, .m = m};
     double *p = work, *xv;
@@ -705,16 +738,16 @@ int dth__kicked_joint(const dth_model *model, const double *z, const double *zlo
 
 size_t dth__kick_work_size(const dth_model *model)
 {
-    size_t n = dth_model_dof(model), ni = model_ninv(model);
+    size_t n = dth_model_dof(model), ni = dth__model_ninv(model);
     return 2 * n + ni * 2 * n + 2 * ni + 8 + (2 * n + 1) + 2 * n + 3 * (2 * n + 1) + (2 * n + 1) * (2 * n + 1);
 }
 
 int dth__kick_at(const dth_model *model, const double *y, double *nv, double *work)
 {
-    size_t n = dth_model_dof(model), d = 2 * n + 1, q = 2 * n, ni = model_ninv(model);
+    size_t n = dth_model_dof(model), d = 2 * n + 1, q = 2 * n, ni = dth__model_ninv(model);
     double *G = work, *tmp = G + ni * q, *ys = tmp + 2 * ni + 8, *sc = ys + d, *g = sc + q, *hs = g + 3 * d;
     int rc = dth__model_eval_raw(model, y, DTH_EVAL_GRAD | DTH_EVAL_HESS, NULL, g, hs);
     if (rc) return rc;
-    kick_dir(model, n, y, g, hs, sc, G, ys, tmp, nv);
+    dth__kick_dir(model, n, y, g, hs, sc, G, ys, tmp, nv);
     return DTH_OK;
 }

@@ -127,6 +127,9 @@ typedef struct drv {
     int wp_fixed;         /* the method carries wp unchanged (a baseline): its flow is 0 */
     double *za, *zb, *zm; /* the last step's vertices and midpoint */
     double *ua, *ub;      /* flows at za, zb */
+    int dense5;           /* order 4: the quintic Hermite, with aa, ab = J H_zz u at za, zb (dense.c) */
+    int order4;           /* order 4: its band steps arm the stop rule (runaway) */
+    double *aa, *ab, *work5;
     double *zi, *zr;      /* scratch points */
     double *work;         /* 2n+1 */
     double *ga, *gb;      /* event functions at za, zb */
@@ -157,6 +160,11 @@ static int flow(drv *d, const double *z, double *u)
 static int seg_flows(drv *d)
 {
     int rc = DTH_OK;
+    if (d->dense5) {
+        if (!d->ua_ok && (rc = dth__flow2(d->model, d->za, d->ua, d->aa, d->work5)) == DTH_OK) d->ua_ok = 1;
+        if (!rc && !d->ub_ok && (rc = dth__flow2(d->model, d->zb, d->ub, d->ab, d->work5)) == DTH_OK) d->ub_ok = 1;
+        return rc;
+    }
     if (!d->ua_ok && (rc = flow(d, d->za, d->ua)) == DTH_OK) d->ua_ok = 1;
     if (!rc && !d->ub_ok && (rc = flow(d, d->zb, d->ub)) == DTH_OK) d->ub_ok = 1;
     return rc;
@@ -164,7 +172,8 @@ static int seg_flows(drv *d)
 
 static void dense(drv *d, double t, double *z)
 {
-    dth_dense_eval(d->n, d->za, d->zb, d->use_mid ? d->zm : NULL, d->ua, d->ub, t, z);
+    if (d->dense5) dth__dense_eval5(d->n, d->za, d->zb, d->ua, d->ub, d->aa, d->ab, t, z);
+    else dth_dense_eval(d->n, d->za, d->zb, d->use_mid ? d->zm : NULL, d->ua, d->ub, t, z);
 }
 
 /* The estimated error at the sample's point (NaN without an estimate). */
@@ -362,7 +371,7 @@ static void account(dth_run_state *st, const dth_step_info *s)
     int cross = (s->flags & DTH_STEP_CROSSING) != 0;
     if (cross) st->crossings++;
     if (s->flags & DTH_STEP_REGULARIZED) st->regularized++;
-    if (s->flags & (DTH_STEP_RESET | DTH_STEP_CLOCK)) st->nonreversible++;
+    if (s->flags & DTH_STEP_NONREVERSIBLE) st->nonreversible++;
     if ((cross || st->prev_crossing) && st->in.lambda != 0 && s->lambda != 0) {
         double q = fabs(s->lambda / st->in.lambda);
         st->max_ratio = fmax(st->max_ratio, fmax(q, 1 / q));
@@ -401,16 +410,30 @@ static void account_vertex(drv *d, const dth_step_info *s)
     }
 }
 
+/* run.h; the one rule dth run's warning reads too */
+double dth_run_step_limit(const dth_integrator *it, double step_ratio)
+{
+    if (!it) return NAN;
+    if (!(step_ratio > 0)) return INFINITY;
+    const char *m = dth_integrator_method(it);
+    int order4 = m && !strcmp(m, "dth") && dth_integrator_order(it) == 4;
+    return (order4 ? pow(step_ratio, 1.5) : step_ratio) * fabs(dth__integrator_h(it));
+}
+
 /* The stop rule of the error estimate (dth_run_config.stop_error): the steps ran away from h and
  * the error is a sizeable part of the orbit; or a fixed-step baseline's energy error is (its own
- * estimate cannot see it: the shadow takes the same steps with a method of the same kind). */
+ * estimate cannot see it: the shadow takes the same steps with a method of the same kind). Order 4's
+ * band steps (prescribed-step compositions around psi = 0) are not solved for either: a run they
+ * carried (more than half of at least 10 steps) arms the rule as run-away steps do (Kepler e = 0.9
+ * from its pericentre at h = 0.01: the band never exits, steps near h, the error orbit-sized). */
 static int runaway(const drv *d)
 {
     const dth_run_state *st = d->st;
-    double f = d->cfg->stop_error, h = fabs(dth__integrator_h(d->it));
+    double f = d->cfg->stop_error;
     if (!(f > 0)) return 0;
     if (d->wp_fixed) return st->e_err > f * st->e_scale;
-    return d->cfg->step_ratio > 0 && st->lam_max > d->cfg->step_ratio * h &&
+    int banded = d->order4 && st->k >= 10 && 2 * st->regularized > st->k;
+    return d->cfg->step_ratio > 0 && (st->lam_max > dth_run_step_limit(d->it, d->cfg->step_ratio) || banded) &&
            (st->err_q > f * st->q_max || st->err_p > f * st->p_max);
 }
 
@@ -479,9 +502,12 @@ static int drive_begin(drv *d)
     d->cb = 1;
     for (size_t e = 0; e < cfg->nevents; e++)
         if ((rc = ev_eval(d, e, d->zb, &d->gb[e])) != 0) return rc;
-    const double *mid = dth_integrator_midpoint(d->it);
-    if (mid && st->k > 0 && before(d, st->t_stop, st->t)) {
-        for (size_t j = 0; j < N; j++) d->za[j] = 2 * mid[j] - d->zb[j];
+    /* a resumed run whose last segment was cut (by t_end or a terminal event): the rest of it, on the
+     * segment rebuilt from the midpoint (round-off of z_(k-1) = 2 zbar - z_k), or from the vertex
+     * before (order 4 keeps it) */
+    const double *mid = dth_integrator_midpoint(d->it), *prev = dth__integrator_prev_vertex(d->it);
+    if ((mid || prev) && st->k > 0 && before(d, st->t_stop, st->t)) {
+        for (size_t j = 0; j < N; j++) d->za[j] = prev ? prev[j] : 2 * mid[j] - d->zb[j];
         d->ua_ok = d->ub_ok = 0;
         double hi = open_segment(d, &st->in, st->k - 1, mid), stop_t;
         for (size_t e = 0; e < cfg->nevents; e++)
@@ -512,6 +538,7 @@ static int drive_step(drv *d)
     /* the new segment: za <- zb, zb <- the new vertex */
     swap(&d->za, &d->zb);
     swap(&d->ua, &d->ub);
+    swap(&d->aa, &d->ab);
     swap(&d->ga, &d->gb);
     d->ua_ok = d->ub_ok;
     d->ub_ok = 0;
@@ -656,7 +683,10 @@ int dth_run(dth_integrator *it, const dth_run_config *cfg, dth_run_state *st)
     d.N = 2 * d.n + 2;
     size_t N = d.N, ne = cfg->nevents;
     d.dir = dth_integrator_direction(it);
-    size_t nd = 7 * N + (2 * d.n + 1) + 5 * ne + 1;
+    d.dense5 = dth__integrator_dense5(it);
+    d.order4 = dth_integrator_order(it) == 4 && !d.wp_fixed;
+    size_t n5 = d.dense5 ? 2 * N + dth__flow2_work_size(d.model) : 0;
+    size_t nd = 7 * N + (2 * d.n + 1) + 5 * ne + 1 + n5;
     double *blk = dth_calloc(cfg->alloc, nd, sizeof *blk);
     int *dev = dth_calloc(cfg->alloc, ne + 1, sizeof *dev);
     if (!blk || !dev) {
@@ -677,7 +707,12 @@ int dth_run(dth_integrator *it, const dth_run_config *cfg, dth_run_state *st)
     d.gb = p, p += ne;
     d.glo = p, p += ne;
     d.ghi = p, p += ne;
-    d.tev = p;
+    d.tev = p, p += ne + 1;
+    if (d.dense5) {
+        d.aa = p, p += N;
+        d.ab = p, p += N;
+        d.work5 = p;
+    }
     d.dev = dev;
     rc = drive(&d);
     dth_free(cfg->alloc, blk);

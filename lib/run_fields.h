@@ -37,7 +37,7 @@
     X(p_max, F64, MAG, "the largest |p| at the vertices so far")                                    \
     X(lam_max, F64, NONNEG, "the largest |lambda| of the steps so far")                             \
     X(t_lam_max, F64, TIME, "the time of the vertex that step arrived at")                          \
-    X(nonreversible, LONG, COUNT, "steps flagged DTH_STEP_RESET or DTH_STEP_CLOCK (<= k)")          \
+    X(nonreversible, LONG, COUNT, "steps with a flag of DTH_STEP_NONREVERSIBLE (<= k)")             \
     X(e_err, F64, MAG, "a baseline's energy error at the current vertex (0 for DTH)")               \
     X(e_scale, F64, MAG, "the size of the energy's terms at the first vertex")
 

@@ -785,9 +785,15 @@ static int check_rows(setup_ctx *c, dth_run_setup *rs)
         if (kind == DTH_POINTS_MIDPOINTS && !is_dth)
             return bad(c->err, c->errlen, points, "midpoints exist for method = dth only (%s)",
                        method ? method->origin : "method");
+        if (kind == DTH_POINTS_MIDPOINTS && rs->opt.order != 2) {
+            const entry *order = given(c, "integrator", "order");
+            return bad(c->err, c->errlen, points, "midpoints exist for order 2 only: order %d's substep midpoints lie on "
+                       "their levels, not on the energy surface (%s)", rs->opt.order, order ? order->origin : "order");
+        }
         rs->points = (dth_points)kind;
     } else {
-        rs->points = is_dth && rs->opt.start == DTH_START_MIDPOINT ? DTH_POINTS_MIDPOINTS : DTH_POINTS_VERTICES;
+        rs->points = is_dth && rs->opt.order == 2 && rs->opt.start == DTH_START_MIDPOINT ? DTH_POINTS_MIDPOINTS
+                                                                                        : DTH_POINTS_VERTICES;
     }
     return DTH_OK;
 }
@@ -993,6 +999,12 @@ static int setup_regularizer(const dth_scene *s, const dth_registry *reg, dth_ru
                 return bad(err, errlen, &s->e[i], "unknown key (regularizer 'none' takes no parameters)");
         return DTH_OK;
     }
+    if (rs->opt.order == 4 && !strcmp(t->name, "land")) /* the band carries order 4's crossings, not land's step */
+        for (size_t i = 0; i < s->n; i++)
+            if (!strcmp(s->e[i].section, "regularize") && strcmp(s->e[i].key, "method"))
+                return bad(err, errlen, &s->e[i], "the parameters of regularizer '%s' apply to order 2 (its "
+                           "replaced step at a crossing); order 4 carries psi = 0 crossings by its own band "
+                           "(integrator.band_time; docs/theory.md, \"Order 4\")", t->name);
     dth_kv *kv = dth_calloc(s->alloc, np + 1, sizeof *kv);
     const entry **ke = dth_calloc(s->alloc, np + 1, sizeof *ke);
     int rc = kv && ke ? DTH_OK : DTH_ENOMEM;

@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "dth/methods.h"
+#include "compose.h"
 #include "dth_internal.h"
 #include "scene_keys.h"
 
@@ -47,10 +48,11 @@ CHOICES(starts,
          "(q, t, p) is the vertex z_0, and wp is solved for so that the first step is exactly h (the run is "
          "refused, naming h, where no wp gives that step), or taken from `[initial] wp`"})
 CHOICES(points,
-        {"auto", -1, 0, "midpoints for `method = dth` with `start = midpoint`, else vertices"},
+        {"auto", -1, 0, "midpoints for `method = dth` of order 2 with `start = midpoint`, else vertices"},
         {"vertices", DTH_POINTS_VERTICES, 0, "the vertices z_k"},
         {"midpoints", DTH_POINTS_MIDPOINTS, 0,
-         "every step's midpoint zbar, where H(zbar) = 0: the energy is exact on every row (`method = dth` only)"})
+         "every step's midpoint zbar, where H(zbar) = 0: the energy is exact on every row (`method = dth` of "
+         "order 2 only)"})
 CHOICES(directions, {"up", 1, 0, "the function increases through zero"},
         {"down", -1, 0, "it decreases through zero"}, {"both", 0, 0, "either"})
 
@@ -69,6 +71,15 @@ static int linsolves(size_t j, dth__choice *c)
     const dth__linsolve_info *ls = dth__linsolve_at(j);
     if (!ls) return 0;
     *c = (dth__choice){ls->name, (int)ls->kind, 0, ls->doc};
+    return 1;
+}
+
+/* integrator.table: order 4's coefficient tables (compose.c) */
+static int tables(size_t j, dth__choice *c)
+{
+    const dth__table *t = dth__table_at(j);
+    if (!t) return 0;
+    *c = (dth__choice){t->name, (int)j, 0, t->doc};
     return 1;
 }
 
@@ -98,7 +109,7 @@ static const dth__scene_key keys[] = {
          "How to step: the DTH step, or a fixed-step baseline for comparison. For a baseline, `h` is the fixed "
          "step, the CSV's `wp` column holds -H_phys at the start (so `H` shows the energy error), and "
          "`[regularize]` must stay `none`; `verlet` needs a separable model, `midpoint-proj` an autonomous one."),
-     .to = RS(opt.method), .choice = methods, .as_name = 1},
+     .to = RS(opt.method), .choice = methods, .as_name = DTH__NAME_GIVEN},
     {KEY("integrator", "start", CHOICE, 0, "midpoint",
          "Where the initial state lies. The energy a vertex start conserves (every midpoint's, -wp) differs from "
          "H_phys(z_0) by about psi h^2/8; `dth run` warns when they differ by more than 1 %, and when an explicit "
@@ -133,25 +144,57 @@ static const dth__scene_key keys[] = {
          "reversed with `--roundtrip` comes back to its start (exactly: `bench_roundtrip`'s orbits at 10^4 and "
          "10^6 steps, and `--roundtrip` on the pendulum, Kepler and coupled scenes; a step whose root lies at the "
          "edge of the finish's coarse cells, about one per 10^6 steps, leaves a small error that grows with the "
-         "steps after it: docs/theory.md, \"A step that is its own reverse\"). It costs about 2.4 times the step "
+         "steps after it: docs/theory.md, \"A step that is its own reverse\"). `prescribed`'s segments are finished "
+         "the same way (docs/regularization.md); a step that is not its own reverse (`land`'s at a crossing and its "
+         "clock-corrected ones, `prescribed`'s fallback) is counted on the end line, and the run warns that it does "
+         "not retrace itself. It costs about 2.4 times the step "
          "on the smallest models (bench_floor, docs/performance.md) and needs a dense Hessian: with a banded "
          "solver the scene is refused (set `linsolve = dense`). `no`: the compensated constraint (the carried "
          "vertex offset), whose round trips are as good as the plain constraint's."),
      .to = RS(opt.finish), .choice = finish_yes_no},
+    {KEY("integrator", "order", INTEGER, 0, "2",
+         "The order of `method = dth`: `2`, the DTH step, or `4`, a composition of level-shifted DTH steps "
+         "(docs/theory.md, \"Order 4\"): symplectic, wp kept bit for bit, quadratic momenta exact at vertices, "
+         "its vertex energy O(h^4) and flat, its steps solved for like DTH's (tau ~ psi^(-1/2)). With order 4 "
+         "both `start` modes mean the vertex z_0 = (q, t, p), wp = -H_phys there (or the explicit `[initial] "
+         "wp`), rows are vertices (`points = midpoints` is refused: the substeps' midpoints lie on their levels, "
+         "not on the energy surface), the dense output is of order 4, the error estimate's shadow is of order 6, "
+         "and psi = 0 crossings are carried by the composition's own band (`band_time`) under the default "
+         "regularizer `land` (land's replaced step and its parameters belong to order 2: giving them with order "
+         "4 is refused, as is `prescribed`; with `[regularize] method = none` the run ends at the first "
+         "crossing). `6` and `8` are refused: the construction measures order 4 with every 6th- and 8th-order "
+         "table (docs/theory.md). Kepler e = 0.6 over 1000 orbits: order 4 takes 0.075 of the CPU of order 2 "
+         "at equal error 1e-5 (`bench_order4 --full`, part 3). Baselines have their own order (leave it at 2)."),
+     .to = RS(opt.order), .ilo = 2, .ihi = 8},
+    {KEY("integrator", "table", CHOICE, 0, "",
+         "Order 4's coefficient table (unset: `suzuki4`); order 2 refuses the key. The 6th- and 8th-order "
+         "tables measure order 4 here, and their small coefficients lose the root of their substep at larger h."),
+     .to = RS(opt.table), .choice = tables, .as_name = DTH__NAME_KNOWN},
+    {KEY("integrator", "band_time", NUMBER, 0, "0",
+         "Order 4 with the default regularizer: a psi = 0 crossing is carried by the band (prescribed-step "
+         "compositions) from where it is less than 4 composite steps ahead (`0`, the default rule) or, with "
+         "`band_time` > 0, also less than `band_time` ahead in time: a band fixed in phase space, which keeps "
+         "order 4 through crossings (about 4.0 on the rotating pendulum with 0.6, on Kepler e = 0.9 with 0.2; "
+         "the default rule gives about 2) at more band steps. Order 2 refuses a value other than 0."),
+     .to = RS(opt.band_time), .bound = DTH__GE, .lo = 0, .note = "0: the default crossing rule"},
     {KEY("integrator", "estimate", BOOL, 0, "yes",
-         "`yes`: the run carries an error estimate (a shadow trajectory of the classical Runge-Kutta method "
-         "with the run's own steps, projected onto the initial energy): the end line prints it, the rows' "
+         "`yes`: the run carries an error estimate (a shadow trajectory of the classical Runge-Kutta method, "
+         "Butcher's of order 6 for `order = 4`, with the run's own steps, projected onto the initial energy): "
+         "the end line prints it, the rows' "
          "`err_q`, `err_p` columns hold it, and the run stops (exit 3) where the steps ran away from h and the "
          "estimate passed `stop_error` (docs/theory.md, \"The error estimate\"). It costs about four model "
          "gradients per step."),
      .to = RS(opt.estimate), .choice = yes_no},
     {KEY("integrator", "stop_error", NUMBER, 0, "0.25",
-         "The run stops with status DTH_EACCURACY (exit 3) where a step exceeded `warn_ratio` h and the "
+         "The run stops with status DTH_EACCURACY (exit 3) where a step exceeded `warn_ratio` h (or order 4's "
+         "band carried most steps) and the "
          "estimated error in q or in p exceeds this fraction of the largest |q| or |p| so far."),
      .to = RS(stop_error), .bound = DTH__GE, .lo = 0, .note = "0: never stop"},
     {KEY("integrator", "warn_ratio", NUMBER, 0, "16",
          "A step larger than this multiple of |h| is reported on standard error (the step ran away from what h "
-         "asked for), and arms the stop of `stop_error`."),
+         "asked for), and arms the stop of `stop_error`. With `order = 4` the multiple is warn_ratio^(3/2) (64 "
+         "by default): its steps follow tau^2 psi = const, where the DTH step's follow lambda^6 psi^2 = const, so "
+         "the same change of psi moves its step by the 3/2 power of the ratio."),
      .to = RS(warn_ratio), .bound = DTH__GE, .lo = 0, .note = "0: never warn, never stop"},
     {KEY("integrator", "linsolve", CHOICE, 0, "auto",
          "The linear solver of the step's Newton system: all give the same steps to round-off and differ in cost "
@@ -176,7 +219,8 @@ static const dth__scene_key keys[] = {
          "`every` > 1 or an explicit `points`."),
      .to = RS(dt), .bound = DTH__GE, .lo = 0, .note = "0: vertices or midpoints"},
     {KEY("output", "diagnostics", BOOL, 0, "no",
-         "Adds the model's invariants and `psi,dpsi,region,iters,branch` to the rows."),
+         "Adds the model's invariants and `psi,dpsi,region,iters,branch` to the rows, and `err_q,err_p` (the "
+         "estimated global error at the row) with an estimate."),
      .to = RS(diagnostics), .choice = yes_no},
 
     /* [events] */
@@ -439,7 +483,7 @@ static int parse_choice(const dth__scene_key *k, const char *v, const dth__scene
     const char *name = NULL;
     for (size_t j = 0; !name && k->choice(j, &c); j++)
         if (!strcmp(c.name, v)) name = c.name;
-    if (!name && !k->as_name) return refuse(k, v, msg, len);
+    if (!name && k->as_name != DTH__NAME_GIVEN) return refuse(k, v, msg, len);
     if (k->as_name) {
         /* the static name; an unknown one as given, for dth_options_check to refuse with its message */
         const char *p = name ? name : v;

@@ -61,9 +61,14 @@ typedef struct dth__scene_key {
     const char *note;         /* appended to the description: "(0: estimate K locally)" */
     const char *refuse;       /* the message for a number of the right form out of bounds (default: "'v' is not ...") */
     dth__choice_fn choice;    /* BOOL, CHOICE */
-    int as_name;              /* CHOICE: stores the choice's name (static); a name not in the list is stored as
-                                 given and left to dth_options_check to word (integrator.method) */
+    int as_name;              /* CHOICE: 0 stores the choice's value; DTH__NAME_GIVEN its name (static), a name
+                                 not in the list as given, left to dth_options_check to word (integrator.method);
+                                 DTH__NAME_KNOWN its name (static), a name not in the list refused here
+                                 (integrator.table) */
 } dth__scene_key;
+
+/* dth__scene_key.as_name */
+enum { DTH__NAME_GIVEN = 1, DTH__NAME_KNOWN = 2 };
 
 /* Where a parsed value goes. */
 typedef struct dth__scene_target {

@@ -64,6 +64,12 @@ typedef struct dth__stepper_type {
     /** A restored state's rules between fields (a field's own range is its check): DTH_OK, or
      *  DTH_EPARSE with a message naming the fields (the restore is then undone). NULL: none. */
     int (*consistent)(const void *state, char *err, size_t errlen);
+    /** The dense output between vertices is the quintic Hermite interpolant of order 4 (run.c: from
+     *  the flow f and f' = J H_zz f at both vertices); 0: the cubic/quartic of dth_dense_eval. */
+    int dense5;
+    /** The vertex before the current one (a resumed run's cut segment); NULL: none, or (NULL hook)
+     *  the driver rebuilds it from the midpoint. */
+    const double *(*prev_vertex)(const void *state);
 } dth__stepper_type;
 
 /** The handle. */
@@ -80,11 +86,15 @@ struct dth_integrator {
 extern const dth__stepper_type dth__stepper_dth;
 /** The DTH stepper's `consistent` (restore_rules.c). */
 int dth__dth_consistent(const void *state, char *err, size_t errlen);
+/** The DTH method of order 4: a composition of level-shifted DTH steps (compose.c). */
+extern const dth__stepper_type dth__stepper_compose;
 /** The baselines (baselines.c): count and entry i. */
 size_t dth__baseline_count(void);
 const dth__stepper_type *dth__baseline_at(size_t i);
 
 /** The type called `name` (NULL: "dth"), NULL if none. */
 const dth__stepper_type *dth__stepper_find(const char *name);
+/** The type that steps method `name` at `order` (method "dth" of order 4: the composition). */
+const dth__stepper_type *dth__stepper_find_order(const char *name, int order);
 
 #endif

@@ -8,8 +8,10 @@
  * The law depends on the midpoint only and each kicked segment is its own reverse, so the step
  * map is exactly time-reversible with no switching decision (with fallback=no: the default
  * fallback keeps the ordinary step where no kicked segment exists, a switch that the reverse run
- * need not repeat); the step varies smoothly through psi = 0 and the step never ends there
- * (dH/dmu = |n|^2/2 != 0 away from equilibria). Energy is
+ * need not repeat: flagged DTH_STEP_ONEWAY); under the integrator's reversible finish each segment
+ * is finished in double-double at coarsened model reads (lib/prescribed_rev.c), so that the segment
+ * back from its end finds the same midpoint to 2^-100; the step varies smoothly through psi = 0
+ * and the step never ends there (dH/dmu = |n|^2/2 != 0 away from equilibria). Energy is
  * exact (wp untouched, midpoints on H = 0), quadratic invariants are kept; the kick gives up
  * symplecticity at every step. (Its former hybrid `band`, ordinary steps away from psi = 0 behind
  * a hard switch, was not reversible; the default regularizer `land` replaces only the crossing step.)
@@ -18,7 +20,9 @@
 #include <stddef.h>
 #include <math.h>
 #include <string.h>
+#include "dth/integrator.h"
 #include "dth/regularize.h"
+#include "dth_internal.h"
 #include "reg_common.h"
 
 typedef struct prescribed {
@@ -28,7 +32,9 @@ typedef struct prescribed {
     int arc_fixed;             /* arc set (parameter, or at the first step): a constant after that */
     int fallback;              /* keep the ordinary step where no kicked segment is found */
     double lam_last, mu_last;  /* the last segment's step and kick (0: none yet); a seed only */
-    double *ks, *work, *d, *y, *g, *dlast;
+    double *ks, *work, *d, *y, *g, *dlast, *dlo;
+    const dth_allocator *alloc;
+    double *kl;                /* dth__kicked_law_rev's workspace, allocated at the first reversible step */
 } prescribed;
 
 static const dth_param_spec params[] = {
@@ -60,8 +66,9 @@ static int create(const dth_reg_args *a, void **self)
             else return dth__reg_param_err(a, k, "yes or no");
         }
     }
-    r->ks = dth_calloc(a->alloc, nks + nw + 4 * N, sizeof(double));
+    r->ks = dth_calloc(a->alloc, nks + nw + 5 * N, sizeof(double));
     if (!r->ks) return DTH_ENOMEM;
+    r->alloc = a->alloc;
     r->model = a->model;
     r->n = n;
     r->work = r->ks + nks;
@@ -69,6 +76,7 @@ static int create(const dth_reg_args *a, void **self)
     r->y = r->d + N;
     r->g = r->y + N;
     r->dlast = r->g + N;
+    r->dlo = r->dlast + N;
     return DTH_OK;
 }
 
@@ -76,6 +84,7 @@ static void destroy(void *self, const dth_allocator *alloc)
 {
     prescribed *r = self;
     if (!r) return;
+    dth_free(alloc, r->kl);
     dth_free(alloc, r->ks);
     dth_free(alloc, r);
 }
@@ -174,6 +183,56 @@ static int solve(prescribed *r, const dth_reg_event *ev, double *lam_out, double
     return DTH_OK;
 }
 
+/*
+ * The same segment under the integrator's reversible finish (ev->finish == DTH_FINISH_REVERSIBLE): one
+ * Newton on (d, lambda, mu) with the law as its last row, finished by chord steps in double-double that
+ * read the model, the kick direction and the law at the coarsened midpoint (dth__kicked_law_rev,
+ * lib/prescribed_rev.c): the segment back from its end finds the same midpoint to about 2^-100, and the offset's
+ * low part (r->dlo) goes to the integrator, which makes the end vertex z + 2 (d + dlo) in double-double.
+ * The seeds are solve()'s.
+ */
+static int solve_rev(prescribed *r, const dth_reg_event *ev, double *lam_out, double *mu, double *res, int *iters)
+{
+    size_t N = ev->N;
+    if (!r->kl && !(r->kl = dth_calloc(r->alloc, dth__kicked_law_work_size(r->model), sizeof(double))))
+        return DTH_ENOMEM;
+    double speed;
+    int rc = speed_at(r, ev->z, ev->zlo, NULL, &speed);
+    if (rc) return rc;
+    double lam0 = law(r, speed, ev->dir), lam = lam0;
+    int total = 0;
+    for (int attempt = 0;; attempt++) {
+        memset(r->d, 0, N * sizeof *r->d);
+        *mu = 0;
+        if (attempt == 0 && r->lam_last != 0) {
+            double s = lam0 / r->lam_last;
+            for (size_t j = 0; j < N; j++) r->d[j] = s * r->dlast[j];
+            *mu = s * r->mu_last;
+        } else if (attempt <= 1 && ev->plain_d && ev->plain_lambda != 0) {
+            double s = lam0 / ev->plain_lambda;
+            for (size_t j = 0; j < N; j++) r->d[j] = s * ev->plain_d[j];
+            attempt = 1;
+        } else {
+            rc = dth__reg_euler_seed(r->model, r->n, ev->z, ev->zlo, lam0, r->d, r->y, r->g);
+            if (rc) return rc;
+            attempt = 2;
+        }
+        int ki = 0;
+        lam = lam0;
+        rc = dth__kicked_law_rev(r->model, ev->z, ev->zlo, r->arc, r->alpha, ev->dir, r->d, r->dlo, &lam, mu, res, &ki,
+                                 r->kl);
+        total += ki;
+        if (rc < 0 || rc == DTH_OK || attempt == 2) break;
+    }
+    *iters = total;
+    if (rc) return rc;
+    memcpy(r->dlast, r->d, N * sizeof *r->d);
+    r->lam_last = lam;
+    r->mu_last = *mu;
+    *lam_out = lam;
+    return DTH_OK;
+}
+
 static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
 {
     prescribed *r = self;
@@ -198,8 +257,8 @@ static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
         r->arc_fixed = 1;
     }
     double lam = 0, mu = 0, res = 0;
-    int iters = 0;
-    int rc = solve(r, ev, &lam, &mu, &res, &iters);
+    int iters = 0, rev = ev->finish == DTH_FINISH_REVERSIBLE;
+    int rc = rev ? solve_rev(r, ev, &lam, &mu, &res, &iters) : solve(r, ev, &lam, &mu, &res, &iters);
     act->iters = iters;
     if (rc > 0 && (ev->plain_status == DTH_OK || ev->plain_pending) && r->fallback) {
         /* no kicked segment (its Newton fails where dH(zbar)/dmu passes 0): keep the ordinary
@@ -214,6 +273,7 @@ static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
                        : "no kicked segment of the step law's length here (a smaller arc, or a larger alpha, may pass)";
     if (rc) return rc < 0 ? rc : DTH_EREFUSED;
     memcpy(act->d, r->d, ev->N * sizeof *act->d);
+    if (rev && act->dlo) memcpy(act->dlo, r->dlo, ev->N * sizeof *act->dlo);
     act->lambda = lam;
     act->what = DTH_REG_REPLACE;
     act->residual = res;
@@ -254,7 +314,7 @@ static int state_loaded(void *self)
 const dth_regularizer_type dth_reg_prescribed = {
 DTH_REG_TYPE_HEAD,
     .name = "prescribed",
-    .doc = "every step a kicked segment with lambda = arc/|u(zbar)|^alpha at its own midpoint: energy-exact, keeps quadratic invariants, exactly reversible (with fallback=no; fallback steps are not), smooth through psi = 0; not symplectic at any step",
+    .doc = "every step a kicked segment with lambda = arc/|u(zbar)|^alpha at its own midpoint: energy-exact, keeps quadratic invariants, reversible (to round-off; with integrator.reversible = yes each step and the one back from its end meet to 2^-100; fallback steps are not reversible and are counted), smooth through psi = 0; not symplectic at any step",
     .params = params,
     .n_params = sizeof params / sizeof params[0],
     .create = create,

@@ -10,7 +10,8 @@ builddir=${1:-build}
 # python3-mesonpy, python3-venv, python3-pip: `pip install --no-build-isolation .` of the Python
 # package (pyproject.toml, docs/python.md); python3-sympy: dth.Model.from_hamiltonian; python3-pandas:
 # Result.to_pandas
-packages=(gcc pkg-config meson ninja-build liblapacke-dev libopenblas-dev libcunit1-dev
+# g++, libboost-dev: bench/bench_peers.cpp (Boost.Odeint, header-only; the C++ compiler for the bench only)
+packages=(gcc g++ libboost-dev pkg-config meson ninja-build liblapacke-dev libopenblas-dev libcunit1-dev
           libinih-dev libgsl-dev gnuplot-nox libhdf5-dev
           python3-cffi python3-numpy python3-pytest python3-matplotlib python3-sympy python3-pandas
           python3-mesonpy python3-venv python3-pip libopenmpi-dev openmpi-bin python3-h5py)

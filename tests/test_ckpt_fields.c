@@ -164,7 +164,7 @@ static const craft kept[] = {
 static const craft added[] = {
     {NULL, NULL, "run", "max_ratio", 0, SET_F, 0, NAN, NULL, "'max_ratio'"},
     {NULL, NULL, "run", "nonreversible", 0, ADD_I, 1000, 0, NULL, "'nonreversible'"},
-    {NULL, NULL, "run", "in.flags", 0, SET_I, 16, 0, NULL, "'in.flags'"},
+    {NULL, NULL, "run", "in.flags", 0, SET_I, 32, 0, NULL, "'in.flags'"},
     {NULL, NULL, "run", "stop", 0, SET_I, 6, 0, NULL, "'stop'"},
     {NULL, NULL, "run", "in.lerr", 0, SET_F, 0, -1.0, NULL, "'in.lerr'"},
     {NULL, NULL, "run", "err_q", 0, SET_F, 0, -1.0, NULL, "'err_q'"},

@@ -96,13 +96,21 @@ static void test_rows_reach_format(void)
     /* a vertex sample and an event: z = (q, t, p, wp) */
     double z[4] = {0.5, 1.25, -0.75, 0.125};
     dth_step_info in = {.lambda = 0.05, .iters = 3, .branch = DTH_BRANCH_PLUS, .lerr = NAN};
-    dth_sample sm = {.kind = DTH_SAMPLE_VERTEX, .index = 7, .k = 7, .z = z, .step = &in, .lambda_out = 0.05, .event = -1};
+    dth_sample sm = {.kind = DTH_SAMPLE_VERTEX, .index = 7, .k = 7, .z = z, .step = &in, .lambda_out = 0.05, .event = -1,
+                     .err_q = 0.25, .err_p = 0.5};
     CU_ASSERT(run_on_sample(&r, &sm) == 0);
     CU_ASSERT(x.rows[0] == 1 && x.ncol[0] == r.ncol);
-    /* k, t, lambda, q1, p1, wp, H, E, (ordinary: the default regularizer), psi, dpsi, region, iters, branch */
+    /* k, t, lambda, q1, p1, wp, H, E, (ordinary: the default regularizer), psi, dpsi, region, iters, branch,
+     * reversible (with a regularizer), err_q, err_p (the scene's estimate is on) */
     CU_ASSERT(x.last[0][0] == 7 && x.last[0][1] == 1.25 && x.last[0][2] == 0.05 && x.last[0][3] == 0.5 &&
               x.last[0][4] == -0.75 && x.last[0][5] == 0.125);
-    CU_ASSERT(x.last[0][r.ncol - 1] == DTH_BRANCH_PLUS && x.last[0][r.ncol - 2] == 3);
+    CU_ASSERT(x.last[0][r.ncol - 4] == DTH_BRANCH_PLUS && x.last[0][r.ncol - 5] == 3 && x.last[0][r.ncol - 3] == 1);
+    CU_ASSERT(x.last[0][r.ncol - 2] == 0.25 && x.last[0][r.ncol - 1] == 0.5);
+    /* a step that is not its own reverse (an offset reset): reversible 0 */
+    in.flags = DTH_STEP_REGULARIZED | DTH_STEP_RESET;
+    CU_ASSERT(run_on_sample(&r, &sm) == 0);
+    CU_ASSERT(x.rows[0] == 2 && x.last[0][r.ncol - 3] == 0 && x.last[0][8] == 0);
+    in.flags = 0;
     dth_sample ev = {.kind = DTH_SAMPLE_EVENT, .index = 2, .k = 6, .z = z, .step = &in, .event = 0, .direction = -1};
     CU_ASSERT(run_on_event(&r, &ev) == 0);
     /* i, event, direction, k, t, q1, p1, wp, H, E */

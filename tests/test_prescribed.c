@@ -10,6 +10,7 @@
 #include <float.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include "cu_main.h"
 #include "dth/dth.h"
@@ -24,8 +25,9 @@ typedef struct setup {
     size_t N;
 } setup;
 
-static setup open_run_start(const dth_model_type *t, const dth_kv *mkv, size_t nmkv, size_t n, const char *alpha,
-                            const double *q0, const double *p0, double h, dth_start start)
+/* wp: the start's wp (a vertex start that does not solve for it), NAN: none */
+static setup open_run_fin(const dth_model_type *t, const dth_kv *mkv, size_t nmkv, size_t n, const char *alpha,
+                          const double *q0, const double *p0, double h, dth_start start, dth_finish finish, double wp)
 {
     setup s = {0};
     char err[256];
@@ -36,12 +38,21 @@ static setup open_run_start(const dth_model_type *t, const dth_kv *mkv, size_t n
     dth_options_default(&o);
     o.h = h;
     o.start = start;
+    o.finish = finish;
+    o.has_wp = !isnan(wp);
+    o.wp = o.has_wp ? wp : 0;
     o.regularizer = s.r;
     o.branch_check = 0; /* the ordinary step is only looked at, never kept */
     CU_ASSERT_FATAL(dth_integrator_new(s.m, &o, &s.it) == DTH_OK);
     CU_ASSERT_FATAL(dth_integrator_start(s.it, q0, p0, 0.0) == DTH_OK);
     s.N = dth_integrator_dim(s.it);
     return s;
+}
+
+static setup open_run_start(const dth_model_type *t, const dth_kv *mkv, size_t nmkv, size_t n, const char *alpha,
+                            const double *q0, const double *p0, double h, dth_start start)
+{
+    return open_run_fin(t, mkv, nmkv, n, alpha, q0, p0, h, start, DTH_FINISH_COMPENSATED, NAN);
 }
 
 static setup open_run(const dth_model_type *t, const dth_kv *mkv, size_t nmkv, size_t n, const char *alpha,
@@ -70,14 +81,20 @@ static double speed(const dth_model *m, const double *y)
 /*
  * Forward S steps after the first, reverse, S back: relative distance to the start; counts the
  * crossings; checks every step on the way: wp bit-identical, midpoint on H = 0, the step law.
+ * mismatched (NULL: not counted): the number of vertices on the way back that differ in any bit from
+ * the vertex of the same index on the way out.
  */
-static double round_trip(setup *s, long S, double alpha, long *crossings)
+static double round_trip_v(setup *s, long S, double alpha, long *crossings, long *mismatched)
 {
     size_t N = s->N;
     dth_step_info inf;
     CU_ASSERT_FATAL(dth_integrator_step(s->it, &inf) == DTH_OK);
     double z0[32], wp0 = dth_integrator_vertex(s->it)[N - 1], arc = NAN, err = 0, nz = 0, law = 0, eu = 0;
     memcpy(z0, dth_integrator_vertex(s->it), N * sizeof *z0);
+    double *out = mismatched ? malloc((size_t)(S + 1) * N * sizeof *out) : NULL;
+    CU_ASSERT_FATAL(!mismatched || out);
+    if (out) memcpy(out, z0, N * sizeof *out);
+    if (mismatched) *mismatched = 0;
     *crossings = 0;
     int wp_ok = 1;
     for (int leg = 0; leg < 2; leg++) {
@@ -86,6 +103,9 @@ static double round_trip(setup *s, long S, double alpha, long *crossings)
             CU_ASSERT_EQUAL_FATAL(rc, DTH_OK);
             CU_ASSERT(inf.flags & DTH_STEP_REGULARIZED);
             if (!leg && (inf.flags & DTH_STEP_CROSSING)) ++*crossings;
+            if (out && !leg) memcpy(out + (size_t)(k + 1) * N, dth_integrator_vertex(s->it), N * sizeof *out);
+            if (out && leg && memcmp(out + (size_t)(S - 1 - k) * N, dth_integrator_vertex(s->it), N * sizeof *out))
+                ++*mismatched;
             const double *zb = dth_integrator_midpoint(s->it);
             eu = fmax(eu, energy_ulps(s->m, zb));
             if (dth_integrator_vertex(s->it)[N - 1] != wp0) wp_ok = 0;
@@ -104,7 +124,13 @@ static double round_trip(setup *s, long S, double alpha, long *crossings)
         nz = fmax(nz, fabs(z0[j]));
         err = fmax(err, fabs(z[j] - z0[j]));
     }
+    free(out);
     return err / nz;
+}
+
+static double round_trip(setup *s, long S, double alpha, long *crossings)
+{
+    return round_trip_v(s, S, alpha, crossings, NULL);
 }
 
 /* Rotating pendulum, alpha = 0: 2000 steps through >= 10 crossings and back to 1e-9. */
@@ -176,6 +202,87 @@ static void test_chain(void)
     }
     CU_ASSERT(fabs(P0[1] - 0.5) <= 1e-12 && fabs(P0[2]) > 0.1);
     CU_ASSERT(perr <= 1e-13);
+    close_run(&s);
+}
+
+/*
+ * The reversible finish (dth_options.finish = DTH_FINISH_REVERSIBLE, scene key integrator.reversible):
+ * each segment is finished in double-double with the model, the kick and the step law read at the
+ * coarsened midpoint (regularize.c, dth__kicked_law_rev), so that the segment back from its end finds
+ * the same midpoint and the way back retraces every vertex of the way out bit for bit: the rotating
+ * pendulum and Kepler e = 0.9 (alpha = 1, the scenes' orbits) through >= 100 crossings, the pendulum
+ * over 2 x 20000 steps. The 2-D chain (its momenta projected out of the kick, kicks up to 6e-3 where
+ * dH/dmu is small) returns to the last bit of its largest coordinate: there a segment's conditioning
+ * amplifies the double-double resolution of the midpoints (about 2^-100) until, late on the way back,
+ * a coordinate near 0 differs in its last bits. The compensated finish's distance on the same orbits
+ * is printed beside it (round-off growth, 1e-13 to 1e-11).
+ */
+static void test_reversible_finish(void)
+{
+    double pq = 0, pp = 2.2, e = 0.9, kq[2] = {-(1 + e), 0}, kp[2] = {0, -sqrt((1 - e) / (1 + e))};
+    dth_kv chain[] = {{"preset", "chain"}, {"size", "3"}, {"dim", "2"}, {"L", "1"}};
+    double cq[6] = {0, 0, 0.5, 0, 1.0, 0}, cp[6] = {0, 1, 0, -2, 0, 1.5};
+    struct {
+        const char *name;
+        const dth_model_type *t;
+        const dth_kv *mkv;
+        size_t nmkv, n;
+        const char *alpha;
+        const double *q, *p;
+        double h;
+        long S, min_cross;
+        int exact; /* every vertex bit for bit (else: the end within 4 eps) */
+        dth_start start; /* a vertex start with wp = -H + psi h^2/8 (no incoming step: the arc from the
+                            ordinary step, which seeds the first segment) */
+    } orb[] = {{"rotating pendulum, h = 0.05", &dth_model_pendulum, NULL, 0, 1, "0", &pq, &pp, 0.05, 4400, 100, 1, DTH_START_MIDPOINT},
+               {"rotating pendulum, h = 0.05, long", &dth_model_pendulum, NULL, 0, 1, "0", &pq, &pp, 0.05, 20000, 450, 1, DTH_START_MIDPOINT},
+               {"rotating pendulum, vertex start", &dth_model_pendulum, NULL, 0, 1, "0", &pq, &pp, 0.05, 2000, 40, 1, DTH_START_VERTEX},
+               {"Kepler e = 0.9, alpha = 1, h = 0.05", &dth_model_kepler, NULL, 0, 2, "1", kq, kp, 0.05, 23000, 100, 1, DTH_START_MIDPOINT},
+               {"2-D chain of 3, h = 0.02", &dth_model_coupled, chain, 4, 6, "0", cq, cp, 0.02, 1000, 20, 0, DTH_START_MIDPOINT}};
+    for (size_t i = 0; i < sizeof orb / sizeof orb[0]; i++) {
+        double rt[2];
+        long cr[2], mism = -1;
+        for (int f = 0; f < 2; f++) {
+            setup s = open_run_fin(orb[i].t, orb[i].mkv, orb[i].nmkv, orb[i].n, orb[i].alpha, orb[i].q, orb[i].p, orb[i].h,
+                                   orb[i].start, f ? DTH_FINISH_COMPENSATED : DTH_FINISH_REVERSIBLE,
+                                   orb[i].start == DTH_START_VERTEX ? -(0.5 * pp * pp - 1) + pp * pp * 0.05 * 0.05 / 8 : NAN);
+            rt[f] = round_trip_v(&s, orb[i].S, atof(orb[i].alpha), &cr[f], f ? NULL : &mism);
+            close_run(&s);
+        }
+        printf("\n    %s, 2 x %ld steps, %ld crossings: reversible %.1e (%ld vertices differ), compensated %.1e",
+               orb[i].name, orb[i].S, cr[0], rt[0], mism, rt[1]);
+        CU_ASSERT(cr[0] >= orb[i].min_cross);
+        CU_ASSERT(rt[0] <= 4 * DBL_EPSILON);
+        if (orb[i].exact) {
+            CU_ASSERT(rt[0] == 0);
+            CU_ASSERT_EQUAL(mism, 0);
+        }
+    }
+}
+
+/* Under the reversible finish the kick is still projected off the quadratic invariants (the projector
+ * continued from the coarse point to the midpoint): Kepler's L through pericentres as under the
+ * compensated finish (test_kepler_round_trip_L); wp untouched, midpoints on H = 0. */
+static void test_reversible_invariants(void)
+{
+    double e = 0.9, q0[2] = {-(1 + e), 0}, p0[2] = {0, -sqrt((1 - e) / (1 + e))};
+    setup s = open_run_fin(&dth_model_kepler, NULL, 0, 2, "0.75", q0, p0, 0.05, DTH_START_MIDPOINT, DTH_FINISH_REVERSIBLE, NAN);
+    const double *z0 = dth_integrator_vertex(s.it);
+    double L0 = z0[0] * z0[4] - z0[1] * z0[3], Lerr = 0, wp0 = z0[5], eu = 0;
+    int crossings = 0;
+    for (int k = 0; k < 2000; k++) {
+        dth_step_info inf;
+        CU_ASSERT_EQUAL_FATAL(dth_integrator_step(s.it, &inf), DTH_OK);
+        if (inf.flags & DTH_STEP_CROSSING) crossings++;
+        const double *z = dth_integrator_vertex(s.it);
+        Lerr = fmax(Lerr, fabs(z[0] * z[4] - z[1] * z[3] - L0) / fabs(L0));
+        CU_ASSERT(z[5] == wp0);
+        eu = fmax(eu, energy_ulps(s.m, dth_integrator_midpoint(s.it)));
+    }
+    printf("\n    Kepler e = 0.9, 2000 steps, %d crossings: |dL|/L %.1e, midpoint energy within %.1f ulps", crossings, Lerr, eu);
+    CU_ASSERT(crossings >= 8);
+    CU_ASSERT(Lerr <= 1e-14);
+    CU_ASSERT(eu <= 8);
     close_run(&s);
 }
 
@@ -305,12 +412,14 @@ static void test_segment_at_pericentre(void)
  * Where no kicked segment can exist: the 1-D harmonic oscillator reports its energy as a
  * (quadratic) invariant, so projecting it out leaves no kick. fallback=no refuses at the first
  * replaced step with the state untouched; fallback=yes keeps every ordinary DTH step (energy
- * exact, the run carries on).
+ * exact, the run carries on), each flagged DTH_STEP_ONEWAY (not reversible: the step back asks the
+ * regularizer again, which takes its segment where one exists). Under both finishes.
  */
 static void test_fallback(void)
 {
     double q0 = 1, p0 = 0;
-    for (int fb = 0; fb < 2; fb++) {
+    for (int c = 0; c < 4; c++) {
+        int fb = c & 1;
         dth_model *m = NULL;
         dth_regularizer *r = NULL;
         dth_integrator *it = NULL;
@@ -322,18 +431,23 @@ static void test_fallback(void)
         dth_options_default(&o);
         o.h = 0.1;
         o.start = DTH_START_MIDPOINT;
+        o.finish = c < 2 ? DTH_FINISH_COMPENSATED : DTH_FINISH_REVERSIBLE;
         o.regularizer = r;
         CU_ASSERT_FATAL(dth_integrator_new(m, &o, &it) == DTH_OK);
         CU_ASSERT_FATAL(dth_integrator_start(it, &q0, &p0, 0.0) == DTH_OK);
         CU_ASSERT_FATAL(dth_integrator_step(it, NULL) == DTH_OK); /* the exact first step */
         double z1[4], wp0 = dth_integrator_vertex(it)[3];
-        int rc = DTH_OK, kept = 0;
+        int rc = DTH_OK, kept = 0, oneway = 0;
         for (int k = 0; k < 100 && !rc; k++) {
             dth_step_info inf;
             memcpy(z1, dth_integrator_vertex(it), sizeof z1);
             rc = dth_integrator_step(it, &inf);
             if (!rc && !(inf.flags & DTH_STEP_REGULARIZED)) kept++;
+            /* a kept step is flagged: the step back from its end asks the regularizer again */
+            if (!rc && !(inf.flags & DTH_STEP_REGULARIZED) && (inf.flags & DTH_STEP_ONEWAY)) oneway++;
+            if (!rc && (inf.flags & DTH_STEP_REGULARIZED)) CU_ASSERT_EQUAL(inf.flags & DTH_STEP_NONREVERSIBLE, 0);
         }
+        CU_ASSERT_EQUAL(oneway, kept);
         /* the first of these steps may be a kicked segment with mu = 0: seeded with the ordinary
          * step (the arc is fixed there, so the law gives the ordinary step's lambda), it already
          * solves the equations; later seeds do not, and Newton's mu column is zero */
@@ -382,6 +496,8 @@ static CU_TestInfo tests[] = {
     {"pendulum: round trip through crossings, energy, step law", test_pendulum_round_trip},
     {"kepler e=0.9: round trip, L exact", test_kepler_round_trip_L},
     {"2-D chain: crossings, round trip, momenta", test_chain},
+    {"reversible finish: round trips retrace every vertex", test_reversible_finish},
+    {"reversible finish: L and energy kept", test_reversible_invariants},
     {"pendulum phase: second order", test_phase_order},
     {"kick is O(h^3)", test_kick_order},
     {"kepler e=0.99: a kicked segment at every step through pericentres", test_segment_at_pericentre},

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * Restart at every step, bit for bit: for each shipped regularizer (none, land, prescribed; with
- * and without the branch check) and each model (the rotating pendulum through psi = 0, Kepler e = 0.9, the harmonic
+ * Restart at every step, bit for bit: for each shipped regularizer (none, land, prescribed, also under
+ * the reversible finish; with and without the branch check) and each model (the rotating pendulum through psi = 0, Kepler e = 0.9, the harmonic
  * oscillator, a 2-D chain through psi = 0), a straight run saves a checkpoint before every step;
  * from each one a fresh integrator with a fresh regularizer is restored and steps on, and every
  * step it takes (status, step record, vertex, and the whole serialised state after it) must equal
@@ -34,6 +34,7 @@ typedef struct reg_case {
     const dth_regularizer_type *type; /* NULL: no regularizer attached */
     dth_kv kv[2];
     size_t nkv;
+    int reversible; /* 1: the reversible finish (DTH_FINISH_REVERSIBLE) */
 } reg_case;
 
 static const dth_kv chain_kv[] = {{"preset", "chain"}, {"size", "3"}, {"dim", "2"}, {"k", "1"}, {"L", "1"}};
@@ -49,12 +50,14 @@ static const model_case models[] = {
 };
 
 static const reg_case regs[] = {
-    {"raw", NULL, {{0}}, 0},
-    {"none", &dth_reg_none, {{0}}, 0},
-    {"land", &dth_reg_land, {{0}}, 0},
-    {"land clock=no", &dth_reg_land, {{"clock", "no"}}, 1},
-    {"prescribed", &dth_reg_prescribed, {{0}}, 0},
-    {"prescribed alpha=1", &dth_reg_prescribed, {{"alpha", "1"}}, 1},
+    {"raw", NULL, {{0}}, 0, 0},
+    {"none", &dth_reg_none, {{0}}, 0, 0},
+    {"land", &dth_reg_land, {{0}}, 0, 0},
+    {"land clock=no", &dth_reg_land, {{"clock", "no"}}, 1, 0},
+    {"prescribed", &dth_reg_prescribed, {{0}}, 0, 0},
+    {"prescribed alpha=1", &dth_reg_prescribed, {{"alpha", "1"}}, 1, 0},
+    {"prescribed reversible", &dth_reg_prescribed, {{0}}, 0, 1},
+    {"prescribed a=1 rev.", &dth_reg_prescribed, {{"alpha", "1"}}, 1, 1},
 };
 
 typedef struct rec {
@@ -81,6 +84,7 @@ static int make(const dth_model *m, const model_case *mc, const reg_case *rc, in
     o.start = mc->start;
     o.branch_check = bc;
     o.regularizer = x->reg;
+    if (rc->reversible) o.finish = DTH_FINISH_REVERSIBLE;
     if (dth_integrator_new(m, &o, &x->it)) return -1;
     return 0;
 }
@@ -188,6 +192,8 @@ static void test_every_step(void)
         CU_ASSERT_FATAL(dth_model_new(mc->type, mc->kv, mc->nkv, mc->n, NULL, &m, err, sizeof err) == DTH_OK);
         for (size_t j = 0; j < sizeof regs / sizeof regs[0]; j++)
             for (int bc = 1; bc >= 0; bc--) {
+                /* the reversible finish's vertex start does not find this state's offset (dth_start.c) */
+                if (regs[j].reversible && mc->start == DTH_START_VERTEX) continue;
                 long cr = 0, ran = 0;
                 long steps = (long)(scale * (double)mc->steps);
                 long bad = check_case(m, mc, &regs[j], bc, steps, &cr, &ran);

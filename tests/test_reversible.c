@@ -217,11 +217,115 @@ static void test_refused(void)
     dth_model_free(chain);
 }
 
+/* The vertices a driver run samples: how many arrived by a step flagged DTH_STEP_NONREVERSIBLE. */
+typedef struct flag_count {
+    long nonrev, vertices;
+} flag_count;
+
+static int count_flags(void *user, const dth_sample *s)
+{
+    flag_count *f = user;
+    /* each leg's last vertex comes as its END sample */
+    if (!(s->kind == DTH_SAMPLE_VERTEX || (s->kind == DTH_SAMPLE_END && !s->za)) || s->k == 0) return 0;
+    f->vertices++;
+    if (s->step->flags & DTH_STEP_NONREVERSIBLE) f->nonrev++;
+    return 0;
+}
+
+/*
+ * The run driver's round trip as dth run --roundtrip does it (S steps, dth_integrator_reverse, on to
+ * vertex 2 S) from the start vertex: its distance to the start over the largest |q|, |p|, with the
+ * driver's count of non-reversible steps (dth_run_state.nonreversible, both legs) against the steps'
+ * flags, and the crossings of the way out.
+ */
+static double driver_trip(const dth_model *m, const dth_regularizer_type *rt, const dth_kv *kv, size_t nkv, double q0,
+                          double p0, long S, dth_finish fin, dth_run_state *st, long *flagged, long *crossings)
+{
+    char err[256];
+    dth_regularizer *r = NULL;
+    CU_ASSERT_FATAL(dth_regularizer_new(rt, kv, nkv, m, NULL, &r, err, sizeof err) == DTH_OK);
+    dth_options o;
+    dth_options_default(&o);
+    o.h = 0.05;
+    o.finish = fin;
+    o.regularizer = r;
+    dth_integrator *it = NULL;
+    CU_ASSERT_FATAL(dth_integrator_new(m, &o, &it) == DTH_OK);
+    CU_ASSERT_FATAL(dth_integrator_start(it, &q0, &p0, 0.0) == DTH_OK);
+    double z0[4];
+    memcpy(z0, dth_integrator_vertex(it), sizeof z0);
+    flag_count f = {0, 0};
+    dth_run_config c;
+    dth_run_config_default(&c);
+    c.steps = S;
+    c.points = DTH_POINTS_VERTICES;
+    c.sample = count_flags;
+    c.user = &f;
+    dth_run_state_init(st);
+    CU_ASSERT_EQUAL_FATAL(dth_run(it, &c, st), DTH_OK);
+    *crossings = st->crossings;
+    dth_integrator_reverse(it);
+    c.steps = 2 * S;
+    st->k0 = S;
+    st->t_stop = st->t;
+    CU_ASSERT_EQUAL_FATAL(dth_run(it, &c, st), DTH_OK);
+    const double *z = dth_integrator_vertex(it);
+    double e = fmax(fabs(z[0] - z0[0]), fabs(z[2] - z0[2])) / fmax(fabs(z0[0]), fabs(z0[2]));
+    *flagged = f.nonrev;
+    CU_ASSERT_EQUAL(f.vertices, 2 * S);
+    dth_integrator_free(it);
+    dth_regularizer_free(r);
+    return e;
+}
+
+/*
+ * Reversibility stated per run (issue 23 item 4): the driver counts the steps that are not their own
+ * reverse, exactly the steps flagged so. `prescribed` under the reversible finish takes none, and its
+ * round trip through >= 100 crossings of the rotating pendulum returns exactly, also from the start
+ * vertex (the midpoint start's exact first step obeys its constant step law); under the compensated
+ * finish to round-off. `land` resets the offset at each crossing and corrects the clock near it: those
+ * steps are counted, and its round trip does not return. `prescribed` on the 1-D oscillator, where no
+ * kicked segment exists (its energy is a quadratic invariant), keeps ordinary steps (fallback = yes):
+ * counted too.
+ */
+static void test_driver_counts(void)
+{
+    dth_model *pen = model(&dth_model_pendulum, NULL, 0, 1), *har = model(&dth_model_harmonic, NULL, 0, 1);
+    dth_kv a0[] = {{"alpha", "0"}};
+    dth_run_state st;
+    long fl, cr;
+    double e = driver_trip(pen, &dth_reg_prescribed, a0, 1, 0, 2.2, 4400, DTH_FINISH_REVERSIBLE, &st, &fl, &cr);
+    printf("\n    prescribed, reversible finish, rotating pendulum 2 x 4400 steps from the start vertex (%ld crossings out): "
+           "%.1e, %ld non-reversible", cr, e, st.nonreversible);
+    CU_ASSERT(cr >= 100);
+    CU_ASSERT(e == 0);
+    CU_ASSERT_EQUAL(st.nonreversible, 0);
+    CU_ASSERT_EQUAL(fl, 0);
+    e = driver_trip(pen, &dth_reg_prescribed, a0, 1, 0, 2.2, 4400, DTH_FINISH_COMPENSATED, &st, &fl, &cr);
+    printf("\n    prescribed, compensated finish, the same: %.1e, %ld non-reversible", e, st.nonreversible);
+    CU_ASSERT(e <= 1e-12);
+    CU_ASSERT_EQUAL(st.nonreversible, 0);
+    for (int f = 1; f <= 2; f++) {
+        e = driver_trip(pen, &dth_reg_land, NULL, 0, 0, 2.2, 127, (dth_finish)f, &st, &fl, &cr);
+        printf("\n    land, %s finish, rotating pendulum 2 x 127 steps (%ld crossings out): %.1e, %ld non-reversible "
+               "(%ld flagged)", dth_finish_name((dth_finish)f), cr, e, st.nonreversible, fl);
+        CU_ASSERT(st.nonreversible >= cr && st.nonreversible == fl);
+        CU_ASSERT(e > 1e-6);
+    }
+    e = driver_trip(har, &dth_reg_prescribed, NULL, 0, 1, 0, 100, DTH_FINISH_REVERSIBLE, &st, &fl, &cr);
+    printf("\n    prescribed on the 1-D oscillator (no kicked segment: fallback): %ld of 200 steps non-reversible (%ld "
+           "flagged), round trip %.1e", st.nonreversible, fl, e);
+    CU_ASSERT(st.nonreversible >= 190 && st.nonreversible == fl);
+    dth_model_free(pen);
+    dth_model_free(har);
+}
+
 static CU_TestInfo reversible_tests[] = {
     {"round trips return to the start", test_round_trips},
     {"midpoint energy over 10^5 steps", test_energy},
     {"tangent map symplectic", test_tangent},
     {"banded solvers and other values refused", test_refused},
+    {"the driver counts the steps that are not their own reverse", test_driver_counts},
     CU_TEST_INFO_NULL,
 };
 

@@ -91,7 +91,7 @@ static void test_every_key_bad_value(void)
         size_t wl = dth_scene_key_describe(i, what, sizeof what);
         CU_ASSERT(wl > 0 && wl == strlen(what));
         const char *v = malformed(in->type);
-        if (k->as_name) snprintf(want, sizeof want, "unknown method '%s'", v); /* dth_options_check's words */
+        if (k->as_name == DTH__NAME_GIVEN) snprintf(want, sizeof want, "unknown method '%s'", v); /* dth_options_check's words */
         else if (in->type == DTH_SCENE_TEXT) snprintf(want, sizeof want, "an empty value is not %s", what);
         else snprintf(want, sizeof want, "'%s' is not %s", v, what);
         expect_refused(in, v, want);
@@ -212,11 +212,52 @@ static void test_options_rules_at_their_line(void)
     CU_ASSERT_EQUAL(setup(BASE "method = rk4\n", NULL, 0, err, sizeof err), DTH_OK);
 }
 
+/* Order 4's keys and rules at their lines: its table and band, midpoint rows, the regularizers it takes
+ * (land, the default, switches on its band; none; land's parameters and prescribed are refused). */
+static void test_order4_rules(void)
+{
+    char err[1024];
+    CU_ASSERT_EQUAL(setup(BASE "order = 4\n", NULL, 0, err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL(setup(BASE "order = 4\ntable = yoshida4\nband_time = 0.5\n", NULL, 0, err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL(setup(BASE "order = 4\n[regularize]\nmethod = none\n", NULL, 0, err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL(setup(BASE "order = 4\n[regularize]\nmethod = land\n", NULL, 0, err, sizeof err), DTH_OK);
+    CU_ASSERT_EQUAL(setup(BASE "order = 6\n", NULL, 0, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT(says(err, "keys.ini:9: integrator.order: order = 6: not offered", "order = 4"));
+    CU_ASSERT_EQUAL(setup(BASE "order = 3\n", NULL, 0, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT(says(err, "keys.ini:9: integrator.order: ", "order 2 or 4"));
+    CU_ASSERT_EQUAL(setup(BASE "table = yoshida4\n", NULL, 0, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT(says(err, "keys.ini:9: integrator.table: ", "table applies to order = 4 only"));
+    CU_ASSERT_EQUAL(setup(BASE "band_time = 0.5\n", NULL, 0, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT(says(err, "keys.ini:9: integrator.band_time: ", "band_time applies to order = 4 only"));
+    CU_ASSERT_EQUAL(setup(BASE "order = 4\ntable = nope\n", NULL, 0, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT(says(err, "keys.ini:10: integrator.table: 'nope' is not one of suzuki4, yoshida4, yoshida6a, kahanli6, "
+                        "kahanli8", NULL));
+    CU_ASSERT_EQUAL(setup(BASE "order = 4\nmethod = rk4\n", NULL, 0, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT(says(err, "keys.ini:10: integrator.method: ", "has an order of its own"));
+    CU_ASSERT_EQUAL(setup(BASE "order = 4\n[output]\npoints = midpoints\n", NULL, 0, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT(says(err, "keys.ini:11: output.points: ", "midpoints exist for order 2 only"));
+    /* prescribed: at the later of the two keys */
+    CU_ASSERT_EQUAL(setup(BASE "order = 4\n[regularize]\nmethod = prescribed\n", NULL, 0, err, sizeof err),
+                    DTH_EINVAL);
+    CU_ASSERT(says(err, "keys.ini:11: regularize.method: order = 4 with regularizer 'prescribed': not supported",
+                   "order = 2 for 'prescribed'"));
+    CU_ASSERT_EQUAL(setup(BASE "[regularize]\nmethod = prescribed\n[integrator]\norder = 4\n", NULL, 0, err, sizeof err),
+                    DTH_EINVAL);
+    CU_ASSERT(says(err, "keys.ini:12: integrator.order: order = 4 with regularizer 'prescribed'", NULL));
+    CU_ASSERT_EQUAL(setup(BASE "[regularize]\nmethod = prescribed\n", NULL, 0, err, sizeof err), DTH_OK);
+    /* land's own parameters are order 2's */
+    CU_ASSERT_EQUAL(setup(BASE "order = 4\n[regularize]\nkappa = 0.02\n", NULL, 0, err, sizeof err), DTH_EINVAL);
+    CU_ASSERT(says(err, "keys.ini:11: regularize.kappa: the parameters of regularizer 'land' apply to order 2",
+                   "integrator.band_time"));
+    CU_ASSERT_EQUAL(setup(BASE "[regularize]\nkappa = 0.02\n", NULL, 0, err, sizeof err), DTH_OK);
+}
+
 static CU_TestInfo key_tests[] = {
     {"every key: a bad value names FILE:LINE, the key and what it accepts", test_every_key_bad_value},
     {"the documented defaults are the setup's starting values", test_documented_defaults},
     {"unknown keys and sections: did you mean", test_did_you_mean},
     {"dth_options_check's rules at the line of their key", test_options_rules_at_their_line},
+    {"order 4's keys and rules at their line", test_order4_rules},
     CU_TEST_INFO_NULL,
 };
 

@@ -661,16 +661,18 @@ class Result:
     k, t, lam (the step), q (m, n), p (m, n), wp, H (= wp + H_phys), E (= H_phys, the energy),
     z (m, 2n+2), kind (vertex, midpoint, time, end), invariants (m, ninv) with invariant_names
     (and inv: a dict name -> column); iters, branch, ordinary (1: an ordinary DTH step, 0: a
-    regularizer's); with diagnostics: psi, dpsi, region (names).
+    regularizer's); reversible (1: the step is its own reverse, 0: not: dth run's diagnostics column);
+    err_q, err_p (the estimated global error |dq|, |dp| at each sample, dth run's
+    diagnostics columns; NaN without an estimate); with diagnostics: psi, dpsi, region (names).
     events: an Events. status (0 or a positive status: the trajectory could not go on),
     status_name, message, stop ("end", "event", "failed"), steps (vertex index at the end),
-    t_stop, crossings, regularized, max_ratio; megno, lyapunov, megno_span, megno_t_stop where
+    t_stop, crossings, regularized, nonreversible (steps not their own reverse), max_ratio; megno, lyapunov, megno_span, megno_t_stop where
     asked for.
     """
 
     def to_pandas(self):
         """The samples as a pandas DataFrame, one row per sample with dth run's columns: k, kind, t,
-        lam, q1..qn, p1..pn, wp, H, E, iters, branch, ordinary, the invariants by name and, with
+        lam, q1..qn, p1..pn, wp, H, E, iters, branch, ordinary, reversible, err_q, err_p, the invariants by name and, with
         diagnostics, psi, dpsi, region (needs pandas: Debian python3-pandas). r.events.to_pandas()
         gives the events."""
         pd = _pandas()
@@ -679,7 +681,7 @@ class Result:
         cols.update({"q%d" % (j + 1): self.q[:, j] for j in range(n)})
         cols.update({"p%d" % (j + 1): self.p[:, j] for j in range(n)})
         cols.update({"wp": self.wp, "H": self.H, "E": self.E, "iters": self.iters, "branch": self.branch,
-                     "ordinary": self.ordinary})
+                     "ordinary": self.ordinary, "reversible": self.reversible, "err_q": self.err_q, "err_p": self.err_p})
         cols.update(self.inv)
         if hasattr(self, "psi"):
             cols.update({"psi": self.psi, "dpsi": self.dpsi, "region": self.region})
@@ -759,7 +761,8 @@ class _Collect:
         z = s.z
         k = s.index if s.kind == L.DTH_SAMPLE_TIME or (s.kind == L.DTH_SAMPLE_END and self.rs.dt > 0) else s.k
         lam = getattr(s.step, "lambda")
-        row = [k, s.kind, lam, ffi.unpack(z, N), self.energy(z), s.step.iters, int(s.step.branch), s.step.flags]
+        row = [k, s.kind, lam, ffi.unpack(z, N), self.energy(z), s.step.iters, int(s.step.branch), s.step.flags,
+               (s.err_q, s.err_p)]
         if self.ninv:
             if L.dth_model_invariants(self.model, z, self.inv) == 0:
                 row.append(ffi.unpack(self.inv, self.ninv))
@@ -805,8 +808,15 @@ class _Collect:
         # 1: the step is an ordinary (symplectic) DTH step, 0: a regularizer's (dth run's column ordinary)
         reg = lib().DTH_STEP_REGULARIZED
         r.ordinary = np.array([0 if x[7] & reg else 1 for x in rows], dtype=np.int64)
+        # 1: the step is its own reverse, 0: not (a regularizer's reset, clock correction or fallback;
+        # dth run's diagnostics column reversible)
+        nrev = lib().DTH_STEP_NONREVERSIBLE
+        r.reversible = np.array([0 if x[7] & nrev else 1 for x in rows], dtype=np.int64)
+        # the estimated global error |dq|, |dp| at each sample (NaN without [integrator] estimate)
+        r.err_q = np.array([x[8][0] for x in rows], dtype=np.float64)
+        r.err_p = np.array([x[8][1] for x in rows], dtype=np.float64)
         r.invariant_names = list(self.inv_names)
-        c = 8
+        c = 9
         if self.ninv:
             r.invariants = np.array([x[c] for x in rows], dtype=np.float64).reshape(m, self.ninv)
             c += 1
@@ -1235,6 +1245,7 @@ class Simulation:
         r.stop = _STOP.get(st.stop, str(st.stop))
         r.steps, r.t_stop = st.k, st.t_stop
         r.crossings, r.regularized, r.max_ratio = st.crossings, st.regularized, st.max_ratio
+        r.nonreversible = st.nonreversible
         if meg is not None:
             r.megno, r.lyapunov, r.megno_span, r.megno_t_stop = meg.result()
         if st.stop == L.DTH_RUN_SAMPLES:

@@ -144,6 +144,8 @@ typedef struct dth_options {
     dth_linsolve linsolve;
     dth_finish finish;
     int estimate;
+    const char *table;
+    double band_time;
 } dth_options;
 typedef enum dth_branch {
     DTH_BRANCH_NONE = 0, DTH_BRANCH_MINUS = 1, DTH_BRANCH_PLUS = 2, DTH_BRANCH_GHOST = 3,
@@ -158,7 +160,8 @@ typedef struct dth_step_info {
     int proj_iters;
     double lerr;
 } dth_step_info;
-enum { DTH_STEP_REGULARIZED = 1, DTH_STEP_CROSSING = 2, DTH_STEP_RESET = 4, DTH_STEP_CLOCK = 8 };
+enum { DTH_STEP_REGULARIZED = 1, DTH_STEP_CROSSING = 2, DTH_STEP_RESET = 4, DTH_STEP_CLOCK = 8, DTH_STEP_ONEWAY = 16,
+       DTH_STEP_NONREVERSIBLE = 28 };
 typedef struct dth_integrator dth_integrator;
 int dth_options_check(const dth_model *model, dth_options *opt, char *err, size_t errlen);
 int dth_integrator_new(const dth_model *model, const dth_options *opt, dth_integrator **out);

@@ -108,7 +108,15 @@ class TestRunMatchesCli(unittest.TestCase):
         np.testing.assert_array_equal(r.z[:, [0, 1, 2, 3]], np.column_stack(
             [floats(c[x]) for x in ("q1", "t", "p1", "wp")]))
         np.testing.assert_array_equal(r.ordinary, [int(x) for x in c["ordinary"]])
+        # land's reset and clock-corrected steps are not reversible: dth run's column, and the run's count
+        np.testing.assert_array_equal(r.reversible, [int(x) for x in c["reversible"]])
+        self.assertIn(0, r.reversible)
+        self.assertGreater(r.nonreversible, 0)
         np.testing.assert_array_equal(r.psi, floats(c["psi"]))
+        # the estimated global error, dth run's err_q, err_p columns
+        np.testing.assert_array_equal(r.err_q, floats(c["err_q"]))
+        np.testing.assert_array_equal(r.err_p, floats(c["err_p"]))
+        self.assertTrue(np.all(np.isfinite(r.err_q[1:])))
         self.assertGreater(r.regularized, 0)
         self.assertIn(0, r.ordinary)
 

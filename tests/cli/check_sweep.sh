@@ -68,7 +68,7 @@ if [ -n "$MPIRUN" ]; then
     [ $fails -eq 0 ] && echo "check_sweep (MPI): all passed"
     exit $((fails != 0))
 fi
-HDR="run,initial.q,initial.p,status,steps,t,energy_error,psi_crossings,regularized_share,events,megno,lyapunov,megno_t"
+HDR="run,initial.q,initial.p,status,steps,t,energy_error,psi_crossings,regularized_share,events,megno,lyapunov,megno_t,err_q,err_p"
 [ "$(head -1 "$T/s1.csv")" = "$HDR" ] || fail "header: $(head -1 "$T/s1.csv")"
 # grid order (q slowest), status, end time, energy at round-off, MEGNO only where it ran
 awk -F, -v OFS=, 'function abs(x) { return x < 0 ? -x : x }
@@ -89,6 +89,8 @@ awk -F, -v OFS=, 'function abs(x) { return x < 0 ? -x : x }
       if (($11 == "") != ($13 < 10) || ($12 == "") != ($13 < 10)) { print "row " NR ": megno " $11 " over " $13; bad = 1 }
       if ($9 == 0 && !($13 >= 20.025 && $13 < 20.3)) { print "row " NR ": no regularized step but megno_t " $13; bad = 1 }
       if ($9 > 0 && !($13 < 20)) { print "row " NR ": regularized steps but megno_t " $13; bad = 1 }
+      # the estimated global error at t = 20: finite and below the orbit size (h = 0.05)
+      if (!($14 > 0 && $14 < 0.5 && $15 > 0 && $15 < 0.5)) { print "row " NR ": estimate " $14 ", " $15; bad = 1 }
       if ($9 == 0) nfull++
       if ($8 > 0 && $9 == 0) { print "row " NR ": crossings without regularized steps"; bad = 1 } }
     END { if (nfull < 500) { print "only " nfull " runs without regularized steps"; bad = 1 } exit bad }' "$T/s1.csv" >"$T/aw" ||
@@ -151,15 +153,15 @@ ok "--list (quoted value, -s), trajectories byte-identical to dth run, MEGNO end
 printf 'initial.q[2],initial.p\n0.1,"0.39665266081716044, 0"\n-0.1,"0.56803755744375446, 0"\n' >"$T/hh.csv"
 "$DTH" sweep "$ROOT/docs/examples/henon-heiles.ini" --model-lib "$HH:example_henon_heiles" --list "$T/hh.csv" \
     -s integrator.t_end=1000 -o "$T/hh-out.csv" 2>"$T/hh.err" || fail "HH sweep: $(cat "$T/hh.err")"
-# fields counted from the end (a quoted list value holds commas): megno_t, lyapunov, megno, events, ...
+# fields counted from the end (a quoted list value holds commas): err_p, err_q, megno_t, lyapunov, megno, events, ...
 awk 'function abs(x) { return x < 0 ? -x : x }
     NR == 1 { next }
-    { n = split($0, f, ","); m = f[n - 2]; l = f[n - 1]; ev = f[n - 3]; e = f[n - 6] }
+    { n = split($0, f, ","); m = f[n - 4]; l = f[n - 3]; ev = f[n - 5]; e = f[n - 8] }
     NR == 2 && !(abs(m - 2) < 0.02) { print "regular orbit: megno " m; bad = 1 }
     NR == 3 && !(m > 20 && l > 0.05) { print "chaotic orbit: megno " m " lyapunov " l; bad = 1 }
     !(e < 1e-14 && ev > 100) { print "energy error " e ", events " ev; bad = 1 }
     END { exit bad }' "$T/hh-out.csv" >"$T/aw" || fail "Henon-Heiles MEGNO: $(cat "$T/aw"; cat "$T/hh-out.csv")"
-ok "Henon-Heiles (--model-lib): MEGNO $(awk -F, 'NR > 1 { n = split($0, f, ","); printf "%s ", f[n - 2] }' "$T/hh-out.csv")"
+ok "Henon-Heiles (--model-lib): MEGNO $(awk -F, 'NR > 1 { n = split($0, f, ","); printf "%s ", f[n - 4] }' "$T/hh-out.csv")"
 
 # ---- usage errors (exit 2, one line naming the problem)
 expect2() {

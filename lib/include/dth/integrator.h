@@ -24,7 +24,9 @@
 extern "C" {
 #endif
 
-/** How the initial state (q0, p0, t0) is placed on the trajectory. */
+/** How the initial state (q0, p0, t0) is placed on the trajectory (order 2; with dth_options.order = 4
+ *  both mean the vertex z_0 = (q0, t0, p0) with wp = -H_phys there or the explicit wp, and the first
+ *  step is the start step of length h that makes the composition's levels). */
 typedef enum dth_start {
     /** (q0, t0, p0) is the first midpoint, wp = -H_phys: the first step is exactly h. */
     DTH_START_MIDPOINT = 0,
@@ -97,8 +99,10 @@ typedef struct dth_options {
     size_t size;                /**< sizeof(dth_options), set by dth_options_default */
     const char *method;         /**< how to step: "dth" (NULL means "dth") or a fixed-step baseline of
                                      methods.h ("midpoint", "gauss4", "rk4", "verlet", "midpoint-proj") */
-    int order;                  /**< order of the DTH method (2); baselines have their own order and
-                                     take the default */
+    int order;                  /**< order of the DTH method: 2 (the default) or 4 (a composition of
+                                     level-shifted DTH steps, `table`); baselines have their own order and
+                                     take the default. 6 and 8 are refused: the construction measures order
+                                     4 with every 6th- and 8th-order table (docs/theory.md, "Order 4") */
     double h;                   /**< first step; its sign is the direction of travel (a baseline's step) */
     dth_start start;            /**< start mode (DTH only) */
     int has_wp;                 /**< vertex start: use `wp` exactly as the vertex's wp */
@@ -118,6 +122,13 @@ typedef struct dth_options {
                                      autonomous model) costs about 4 gradients and one projection per step
                                      (16 to 36 % of a step on the smallest models). Default 0; scene files
                                      turn it on ([integrator] estimate = yes, their default) */
+    const char *table;          /**< order 4: the composition's coefficient table, "suzuki4" (5 stages, the
+                                     default: NULL) or "yoshida4" (3 stages); also "yoshida6a", "kahanli6",
+                                     "kahanli8" (nominally of order 6, 6, 8: here order 4, see `order`) */
+    double band_time;           /**< order 4 with a regularizer: a psi = 0 crossing is entered where it is
+                                     less than band_time ahead in time (|psi / psi'| < band_time) as well as
+                                     two steps ahead (the default rule, band_time = 0): a band fixed in phase
+                                     space, which keeps order 4 through crossings at more band steps */
 } dth_options;
 
 /** Fill `o` with defaults: size, method "dth", order 2, h = 0.01, midpoint start, max_iter = 30,
@@ -160,12 +171,19 @@ typedef struct dth_step_info {
 
 /** dth_step_info.flags */
 enum {
-    DTH_STEP_REGULARIZED = 1u, /**< a regularizer changed the vertex or replaced the step */
+    DTH_STEP_REGULARIZED = 1u, /**< a regularizer changed the vertex or replaced the step (order 4: a band step) */
     DTH_STEP_CROSSING = 2u,    /**< psi changed sign across this step */
-    DTH_STEP_RESET = 4u,       /**< the regularizer moved the new vertex off its segment (an offset reset):
+    DTH_STEP_RESET = 4u,       /**< the regularizer moved the new vertex off its segment (an offset reset;
+                                    order 4: a band exit, whose projection moved the vertex it starts from):
                                     the step is neither symplectic nor reversible */
-    DTH_STEP_CLOCK = 8u        /**< the regularizer corrected the new vertex's time (q, p, wp are the step's):
+    DTH_STEP_CLOCK = 8u,       /**< the regularizer corrected the new vertex's time (q, p, wp are the step's):
                                     the extended map is not symplectic in t, nor reversible */
+    DTH_STEP_ONEWAY = 16u,     /**< a regularizer that replaces every step kept the ordinary step here
+                                    (prescribed's fallback): the step back from its end is the regularizer's
+                                    segment again, not this step's reverse, so the step is not reversible */
+    /** Not a flag: the flags of a step that is not its own reverse (a round trip through it does not
+     *  come back; dth_run_state.nonreversible counts such steps) */
+    DTH_STEP_NONREVERSIBLE = DTH_STEP_RESET | DTH_STEP_CLOCK | DTH_STEP_ONEWAY
 };
 
 /** The integrator: a method (the DTH step or a fixed-step baseline, dth_options.method) with its
@@ -208,9 +226,11 @@ DTH_API void dth_integrator_reverse(dth_integrator *it);
 
 /** The current vertex z_k (length 2n+2). */
 DTH_API const double *dth_integrator_vertex(const dth_integrator *it);
-/** The midpoint of the last step (length 2n+2), or NULL before the first step. */
+/** The midpoint of the last step (length 2n+2), or NULL before the first step; always NULL for order 4
+ *  (its substeps' midpoints lie on their levels, not on H = 0). */
 DTH_API const double *dth_integrator_midpoint(const dth_integrator *it);
-/** The incoming (last) step lambda, 0 before the first step of a vertex start (a baseline: its h). */
+/** The incoming (last) step lambda, 0 before the first step of a vertex start (a baseline: its h; order
+ *  4: the composite step tau, the sum of its substeps). */
 DTH_API double dth_integrator_lambda(const dth_integrator *it);
 /** The direction of travel, +1 or -1 (NaN for NULL). */
 DTH_API double dth_integrator_direction(const dth_integrator *it);
@@ -250,8 +270,10 @@ DTH_API int dth_integrator_error_at(dth_integrator *it, const double *z, double 
 
 /**
  * Tangent map of the last step, M = d z_{k+1} / d z_k ((2n+2)^2, row-major), by implicit
- * differentiation of the bordered system, factored afresh at the converged midpoint.
- * @return DTH_OK; DTH_EINVAL before any step or after a regularizer's step (no tangent map);
+ * differentiation of the bordered system, factored afresh at the converged midpoint (order 4: the
+ * product of its substeps' maps; the midpoint rule's for its start and band steps).
+ * @return DTH_OK; DTH_EINVAL before any step or after a regularizer's step or an order-4 band exit
+ *         (no tangent map);
  *         the model's status.
  */
 DTH_API int dth_integrator_tangent(dth_integrator *it, double *M);

@@ -60,6 +60,10 @@ typedef struct dth_reg_event {
     int plain_pending;      /**< 1: the ordinary step has not been computed (the type's replaces_all
                                  said so; plain_status is then DTH_EUNSUPPORTED): answering KEEP
                                  computes it and takes it, or ends the step with its status */
+    int finish;             /**< the integrator's finish (dth_finish, integrator.h; appended in the
+                                 prescribed reversible finish): with DTH_FINISH_REVERSIBLE a replacing
+                                 segment may hand back its offset in double-double (dth_reg_action.dlo),
+                                 so that a segment and the one back from its end meet exactly */
 } dth_reg_event;
 
 /** What the integrator tells `observe` about an ordinary step it takes (borrowed for the call). */
@@ -101,6 +105,10 @@ typedef struct dth_reg_action {
                           test's step ratio from the last ordinary step, not from this segment */
     double dt;       /**< REPLACE: a correction of the new vertex's time (a clock correction: no other
                           coordinate moves), 0 for none */
+    double *dlo;     /**< REPLACE, read only where ev->finish is DTH_FINISH_REVERSIBLE: the integrator owns it
+                          (N doubles, zeroed): the low part of the offset, d + dlo in double-double (each
+                          |dlo[j]| at most half an ulp of d[j]; autonomous models: the t entry is half the
+                          low part of lambda, the wp entry 0), z_(k+1) = z_k + 2 (d + dlo) in double-double */
 } dth_reg_action;
 
 /** Layout version of dth_regularizer_type (model.h says how tables are versioned). 3: the
@@ -154,7 +162,9 @@ typedef struct dth_regularizer_type {
      * Optional: nonzero if this instance replaces every step. The integrator then calls apply at
      * every step *before* computing the ordinary step (ev->plain_pending = 1), which saves that
      * step's cost; admit is not called. Asked at every step, so the answer may change (e.g. once a
-     * constant is fixed). NULL: apply is called only at the events above.
+     * constant is fixed). NULL: apply is called only at the events above. An ordinary step such an
+     * instance keeps (DTH_REG_KEEP) is flagged DTH_STEP_ONEWAY: the step back from its end is asked of
+     * the hook again, so it is not this step's reverse.
      */
     int (*replaces_all)(const void *self);
     /**

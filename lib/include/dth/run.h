@@ -158,8 +158,8 @@ typedef struct dth_run_state {
     double q_max, p_max; /**< the largest |q|, |p| at the vertices so far (the stop rule's scale) */
     double lam_max;      /**< the largest |lambda| of the steps so far */
     double t_lam_max;    /**< the time of the vertex that step arrived at */
-    long nonreversible;  /**< steps with no reverse (flagged DTH_STEP_RESET or DTH_STEP_CLOCK): a round
-                              trip of the run does not come back to its start */
+    long nonreversible;  /**< steps with no reverse (a flag of DTH_STEP_NONREVERSIBLE: RESET, CLOCK or
+                              ONEWAY): a round trip of the run does not come back to its start */
     double e_err;        /**< a fixed-step baseline's energy error |H_phys(z_k) - H_phys(z_0)| at the current
                               vertex (0 for the DTH step, whose midpoints keep the energy) */
     double e_scale;      /**< the size of the energy's terms at the first vertex, |H_phys| + sum |y_j dH/dy_j|
@@ -205,9 +205,12 @@ typedef struct dth_run_config {
      *  are far too large for its orbit (a Kepler orbit of e = 0.9 started at its pericentre with
      *  h = 0.01: steps up to 96 h, the end a third of the orbit off) ends with a status instead of an
      *  orbit-sized error; a long run whose phase error grows at steps near h is left to run (its
-     *  estimate says how far off it is). */
+     *  estimate says how far off it is). The DTH method of order 4 also counts as run away where its
+     *  band steps (prescribed-step compositions around psi = 0, not solved for) were more than half
+     *  of at least 10 steps. */
     double stop_error;
-    /** The multiple of the integrator's h beyond which steps count as run away (default 16; 0: never stop). */
+    /** The multiple of the integrator's h beyond which steps count as run away (default 16; 0: never stop;
+     *  the DTH method of order 4: its 3/2 power, dth_run_step_limit). */
     double step_ratio;
     /** 1: each step record gets the local error estimate lerr (dth_step_info); 3 flows per step. */
     int local_error;
@@ -216,6 +219,15 @@ typedef struct dth_run_config {
 /** Defaults: steps = 0, t0 = NAN, points = VERTICES, every = 1, stop_error = 0.25, step_ratio = 16,
  *  nothing else. */
 DTH_API void dth_run_config_default(dth_run_config *cfg);
+
+/**
+ * The largest |lambda| that the stop rule (dth_run_config.step_ratio) does not count as run away from
+ * h: step_ratio |h|; for the DTH method of order 4 step_ratio^(3/2) |h|, since its steps follow
+ * tau^2 psi = const where the DTH step's follow lambda^6 psi^2 = const, so the same change of psi along
+ * an orbit moves its step by the 3/2 power of the ratio (Kepler e = 0.6 from the pericentre: 21.8 h at
+ * the apocentre against order 2's 7.8 h). INFINITY for step_ratio <= 0, NaN without an integrator.
+ */
+DTH_API double dth_run_step_limit(const dth_integrator *it, double step_ratio);
 
 struct dth_run_setup; /* scene.h */
 
