@@ -258,6 +258,14 @@ static int calibrate(run_job *j)
                   rs->h_max > 0 && rs->tol > 0 ? " and tol" : "", err);
         return rc < 0 && rc != DTH_EINVAL ? CLI_FAIL : CLI_USAGE;
     }
+    /* the calibrated first step goes into the scene a checkpoint records: a resume starts its integrator
+     * with it (dth_integrator_h, the reference of integrator.warn_ratio's stop), without pilots */
+    char set[80];
+    snprintf(set, sizeof set, "integrator.h=%.17g", rs->opt.h);
+    if (dth_scene_set_from(j->scene, "the calibration of integrator.h_max / tol", set, err, sizeof err)) {
+        cli_error("%s", err);
+        return CLI_FAIL;
+    }
     const dth_control_report *c = &j->ctl;
     char what[160];
     if (rs->h_max > 0 && rs->tol > 0)

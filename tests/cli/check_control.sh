@@ -10,6 +10,8 @@
 #    pilot over one orbit (then stderr says the estimate is an extrapolation);
 #  - a calibration that saw too little (pilot = 0.005) stops after the first step above 1.05 h_max:
 #    exit 3, the rows kept, a message naming the fix;
+#  - a checkpointed run resumed equals the run made at once (the calibrated first step is in the
+#    checkpoint's scene; the resume takes no pilots);
 #  - the plain h = 0.01 run warns (or stops) naming h_max and tol; what the keys refuse.
 # usage: check_control.sh PATH/TO/dth SOURCE_ROOT
 set -u
@@ -99,6 +101,20 @@ grep -q 'exceeds 1.05 integrator.h_max = 0.0105.*fix: pilots over the whole run.
     ok "guard: the message names the fix" || fail "guard: $(cat "$T/guard.err")"
 # the rows are kept, the last one the step that passed the bound
 m=$(check "guard rows" "$T/guard.csv" 'lm > 0.0105 && lm < 0.02 && rows >= 2') && ok "$m" || fail "$m"
+
+# ---- checkpoint and resume: the calibrated first step is recorded in the checkpoint's scene, and a
+# resume (no pilots) continues with it: one orbit, resumed to two, equals a run to two orbits whose
+# pilots ran to the same end (pilot = one orbit)
+O1=6.283185307179586 O2=12.566370614359172
+"$DTH" run "$SCENE" -s integrator.t_end=$O2 -s integrator.pilot=$O1 -o "$T/ref.csv" 2>"$T/ref.err" ||
+    fail "resume: reference run: $(cat "$T/ref.err")"
+"$DTH" run "$SCENE" -s integrator.t_end=$O1 -s integrator.pilot=$O1 -o "$T/part.csv" --checkpoint "$T/c.ckpt" \
+    2>"$T/part.err" || fail "resume: first leg: $(cat "$T/part.err")"
+"$DTH" run --resume "$T/c.ckpt" -s integrator.t_end=$O2 -o "$T/res.csv" 2>"$T/res.err" ||
+    fail "resume: $(cat "$T/res.err")"
+grep -q 'pilot run' "$T/res.err" && fail "resume: the resume ran pilots: $(cat "$T/res.err")"
+cmp -s "$T/ref.csv" "$T/res.csv" && ok "resume: one orbit resumed to two equals the run to two, byte for byte" ||
+    fail "resume: the resumed rows differ from the run's"
 
 # ---- refusals (exit 2, one line naming the key)
 refused() {
