@@ -59,6 +59,11 @@ typedef struct dth_reg_event {
     int plain_pending;      /**< 1: the ordinary step has not been computed (the type's replaces_all
                                  said so; plain_status is then DTH_EUNSUPPORTED): answering KEEP
                                  computes it and takes it, or ends the step with its status */
+    double lam_hint;        /**< the step the integrator aims for without history (signed): h (or
+                                 dth_integrator_set_vertex's lambda) before the first step, the last
+                                 ordinary step's after a replacement with `fresh`: the step a
+                                 regularizer can scale to where in_d is NULL (the last member: a
+                                 plugin compiled before it was added reads the others as before) */
 } dth_reg_event;
 
 /** What the integrator tells `observe` about an ordinary step it takes (borrowed for the call). */
