@@ -13,9 +13,9 @@
  *   B. the replaced steps of `land` at four crossings of the rotating pendulum (q0 = 0, p0 = 2.2,
  *      h = 0.05, midpoint start; from the second crossing on), M by central differences (eps = 1e-7
  *      relative): each perturbed step from the state the run had at that vertex (the run replayed from
- *      the start, then dth_integrator_set_vertex), so the regularizer's own state is the run's. A
- *      crossing whose ordinary step has no root cannot be probed this way (after set_vertex the
- *      regularizer sees no incoming step and refuses): those are skipped, and counted;
+ *      the start, then dth_integrator_set_vertex), so the regularizer's own state is the run's (after
+ *      set_vertex it scales to the lambda given, the incoming step's). A crossing whose probe fails is
+ *      skipped, and counted;
  *   C. `prescribed` (alpha = 0) on the same orbit: its steps at four crossings (psibar ~ 0) and the one
  *      with the largest psi, M the same way.
  * Usage: bench_offset_map
@@ -272,9 +272,7 @@ static void part_replaced(const dth_regularizer_type *type, const char *title)
         dth_model_free(m);
     }
     if (skipped)
-        printf("\n%d crossing(s) before these not probed: their ordinary step has no root (a fold), and after\n"
-               "dth_integrator_set_vertex the regularizer sees no incoming step there (it refuses: \"a crossing at the first step\").\n",
-               skipped);
+        printf("\n%d crossing(s) before these not probed: a perturbed step from it failed.\n", skipped);
     printf("\n");
 }
 

@@ -42,7 +42,15 @@ void cli_usage_run(FILE *f)
                "                        -s may change steps/t_end (counted from the original start); the\n"
                "                        output is the rows the run had written plus the rest, bit for bit\n"
                "                        (rows on the step an earlier t_end cut are rebuilt from its midpoint\n"
-               "                        and match a run made at once only to round-off)\n");
+               "                        and match a run made at once only to round-off)\n"
+               "the step: DTH's steps keep lambda^6 psi^2 = C along the run (docs/theory.md), and one key fixes C:\n"
+               "  -s integrator.h=H       the first step is H; later steps grow where psi is small (many H on an\n"
+               "                          eccentric orbit; a warning above integrator.warn_ratio H)\n"
+               "  -s integrator.h_max=X   every step at most X: pilot runs choose C before the first step; a\n"
+               "                          step above 1.05 X later stops the run (exit 3, rows kept)\n"
+               "  -s integrator.tol=EPS   the estimated position error at t_end about EPS/2: pilot runs with\n"
+               "                          the error estimate choose C (an extrapolation is said on stderr)\n"
+               "  the end line names the one used and the largest step taken\n");
 }
 
 /* dth run's options. */
@@ -74,6 +82,9 @@ typedef struct run_job {
     char origin[2][1100]; /* where the scene named the output and the events file (r.out_origin, r.ev_origin) */
     dth_run_state S;      /* the driver's state */
     double omega;         /* the fastest rate of the linearized flow at the start (0: unknown) */
+    dth_control_report ctl; /* integrator.h_max / tol: the calibration (ctl.passes = 0: none) */
+    double h_ref;         /* the step the user asked for, which warn_ratio and the messages compare with: h_max
+                             with it, h without h_max and tol; 0 with tol alone (the error is the target) */
     int rc, werr;         /* the driver's status; an output could not be written */
 } run_job;
 
@@ -225,6 +236,59 @@ static int check_model(run_job *j)
     if (!j->o.model_check) return GO_ON;
     int st = cli_check_model(&j->rs, j->o.scene_path, "the initial state", "--no-model-check runs it anyway");
     return st ? st : GO_ON;
+}
+
+/* integrator.h_max and tol (control.h): the run's constant chosen by pilot runs before the first step,
+ * rs.opt.h set to the first step that gives it; said on stderr. A resume continues the checkpointed run's
+ * constant (its state holds it): no pilots, the guard of h_max only. */
+static int calibrate(run_job *j)
+{
+    dth_run_setup *rs = &j->rs;
+    j->ctl.size = sizeof j->ctl;
+    j->h_ref = rs->h_max > 0 ? rs->h_max : rs->tol > 0 ? 0 : rs->h_asked;
+    if (!(rs->h_max > 0) && !(rs->tol > 0)) return GO_ON;
+    if (j->o.resume_path) return GO_ON;
+    int tty = isatty(STDERR_FILENO);
+    if (tty) fprintf(stderr, "dth run: calibrating the step (pilot runs)...");
+    char err[1024];
+    int rc = dth_run_setup_control(rs, &j->ctl, err, sizeof err);
+    if (tty) fprintf(stderr, "\r%50s\r", "");
+    if (rc) {
+        cli_error("%s: %s%s: %s", j->o.scene_path, rs->h_max > 0 ? "integrator.h_max" : "integrator.tol",
+                  rs->h_max > 0 && rs->tol > 0 ? " and tol" : "", err);
+        return rc < 0 && rc != DTH_EINVAL ? CLI_FAIL : CLI_USAGE;
+    }
+    /* the calibrated first step goes into the scene a checkpoint records: a resume starts its integrator
+     * with it (dth_integrator_h, the reference of integrator.warn_ratio's stop), without pilots */
+    char set[80];
+    snprintf(set, sizeof set, "integrator.h=%.17g", rs->opt.h);
+    if (dth_scene_set_from(j->scene, "the calibration of integrator.h_max / tol", set, err, sizeof err)) {
+        cli_error("%s", err);
+        return CLI_FAIL;
+    }
+    const dth_control_report *c = &j->ctl;
+    char what[160];
+    if (rs->h_max > 0 && rs->tol > 0)
+        snprintf(what, sizeof what, "integrator.h_max = %g and tol = %g (%s binds)", rs->h_max, rs->tol,
+                 c->C_hmax < c->C_tol ? "h_max" : "tol");
+    else if (rs->h_max > 0)
+        snprintf(what, sizeof what, "integrator.h_max = %g", rs->h_max);
+    else
+        snprintf(what, sizeof what, "integrator.tol = %g", rs->tol);
+    fprintf(stderr, "dth: %s: first step %.6g (the run's constant lambda^6 psi^2 = %.4g), from %d pilot run%s of %ld "
+            "step%s to t = %.10g\n", what, c->h0, c->C, c->passes, CLI_S(c->passes), c->steps, CLI_S(c->steps),
+            c->t_pilot);
+    if (rs->tol > 0)
+        fprintf(stderr, "dth: integrator.tol: the pilots' error estimate at t_end %.3g %s, predicted for the run "
+                "%.3g\n", c->est, c->extrapolated ? "is an EXTRAPOLATION (linear in time) from a pilot that ended "
+                "before t_end, not a run to it" : "(a pilot run to t_end)", c->est_pred);
+    if (rs->h_max > 0 && !c->hmax_settled)
+        cli_error("warning: integrator.h_max: after %d passes the pilots still met steps above h_max (the last at t = "
+                  "%.6g): the run stops (exit 3) at its first step above %.3g", c->passes, c->t_excursion, c->step_max);
+    if (c->pilot_status)
+        cli_error("warning: a pilot's step failed at t = %.6g (%s): the calibration used the orbit before it, and the "
+                  "run meets that step too", c->t_failed, dth_strerror(c->pilot_status));
+    return GO_ON;
 }
 
 /* The integrator at the initial state, or at the checkpoint's. */
@@ -587,10 +651,36 @@ static void regularized_share(const run_job *j)
 static void estimate_note(const run_job *j, char *buf, size_t len)
 {
     const dth_run_state *S = &j->S;
+    const dth_run_setup *rs = &j->rs;
     buf[0] = '\0';
-    if (isnan(S->err_q)) return;
-    snprintf(buf, len, "; estimated error |dq| %.2g, |dp| %.2g at t = %.10g; largest step %.3g = %.3g h", S->err_q,
-             S->err_p, S->t, S->lam_max, S->lam_max / fabs(j->rs.opt.h));
+    int w = 0;
+    if (!isnan(S->err_q))
+        w = snprintf(buf, len, "; estimated error |dq| %.2g, |dp| %.2g at t = %.10g", S->err_q, S->err_p, S->t);
+    if (w < 0 || (size_t)w >= len) return;
+    if (rs->h_max > 0 && rs->tol > 0)
+        snprintf(buf + w, len - (size_t)w, "; largest step %.3g = %.3g h_max (step control integrator.h_max = %g and "
+                 "tol = %g, first step %.3g)", S->lam_max, S->lam_max / rs->h_max, rs->h_max, rs->tol, fabs(rs->opt.h));
+    else if (rs->h_max > 0)
+        snprintf(buf + w, len - (size_t)w, "; largest step %.3g = %.3g h_max (step control integrator.h_max = %g, "
+                 "first step %.3g)", S->lam_max, S->lam_max / rs->h_max, rs->h_max, fabs(rs->opt.h));
+    else if (rs->tol > 0)
+        snprintf(buf + w, len - (size_t)w, "; largest step %.3g (step control integrator.tol = %g, first step %.3g)",
+                 S->lam_max, rs->tol, fabs(rs->opt.h));
+    else
+        snprintf(buf + w, len - (size_t)w, "; largest step %.3g = %.3g h (step control integrator.h = %g)", S->lam_max,
+                 S->lam_max / fabs(rs->opt.h), fabs(rs->opt.h));
+}
+
+/* Why a run stopped at the guard of integrator.h_max (DTH_ESTEPSIZE after a step above rs.step_max). */
+static void guard_msg(const run_job *j, char *buf, size_t len)
+{
+    const dth_run_state *S = &j->S;
+    const dth_run_setup *rs = &j->rs;
+    snprintf(buf, len, "the step lambda = %.4g at t = %.6g exceeds 1.05 integrator.h_max = %.4g: the run's constant "
+             "was calibrated by pilots to t = %.6g and this part of the orbit needs a smaller one; fix: pilots over the "
+             "whole run (leave integrator.pilot out, or set it to t_end), or a smaller integrator.h_max (e.g. %.3g)",
+             S->lam_max, S->t_lam_max, rs->step_max, isnan(rs->pilot) ? rs->t_end : rs->pilot,
+             rs->h_max * rs->h_max / S->lam_max);
 }
 
 /* Why a run stopped on its error estimate (DTH_EACCURACY), and the fix. */
@@ -620,6 +710,12 @@ static void accuracy_msg(const run_job *j, char *buf, size_t len)
              "proportion)", p ? 'p' : 'q', p ? S->err_p : S->err_q,
              100 * (p ? S->err_p / S->p_max : S->err_q / S->q_max), p ? 'p' : 'q', p ? S->p_max : S->q_max,
              j->rs.stop_error, S->lam_max, S->lam_max / fabs(j->rs.opt.h), S->t_lam_max);
+    if (j->rs.tol > 0 || j->rs.h_max > 0) {
+        size_t w = strlen(buf);
+        if (w < len)
+            snprintf(buf + w, len - w, "; with step control (integrator.%s = %g): a smaller one, or integrator.pilot = "
+                     "t_end", j->rs.h_max > 0 ? "h_max" : "tol", j->rs.h_max > 0 ? j->rs.h_max : j->rs.tol);
+    }
 }
 
 /* Whether the run retraces itself, for the end line: the steps that are not their own reverse
@@ -695,16 +791,21 @@ static int report(const run_job *j)
     if (rc == DTH_EACCURACY) {
         accuracy_msg(j, amsg, sizeof amsg);
         emsg = amsg;
+    } else if (rc == DTH_ESTEPSIZE && j->rs.step_max > 0 && S->lam_max > j->rs.step_max) {
+        guard_msg(j, amsg, sizeof amsg);
+        emsg = amsg;
     }
-    /* the library's bound (order 4: warn_ratio^(3/2) h, dth_run_step_limit) */
-    double lim = dth_run_step_limit(j->it, j->rs.warn_ratio);
-    if (rc >= 0 && S->lam_max > lim)
+    /* the bound of the library's stop rule (order 4: warn_ratio^(3/2), dth_run_step_limit) against the
+     * step the user asked for (h, or h_max; none with tol alone) */
+    double wr = j->rs.opt.order == 4 ? pow(j->rs.warn_ratio, 1.5) : j->rs.warn_ratio;
+    if (rc >= 0 && wr > 0 && j->h_ref != 0 && S->lam_max > wr * fabs(j->h_ref))
         cli_error("warning: the largest step was lambda = %.3g = %.3g h (at t = %.6g, more than %s = %g h): DTH steps "
                   "follow %s = const along the orbit, and h sets them only at the start (docs/theory.md); the "
-                  "estimated error says what they cost",
-                  S->lam_max, S->lam_max / fabs(j->rs.opt.h), S->t_lam_max,
-                  j->rs.opt.order == 4 ? "integrator.warn_ratio^(3/2) for order 4" : "integrator.warn_ratio",
-                  lim / fabs(j->rs.opt.h), j->rs.opt.order == 4 ? "tau^2 psi" : "lambda^6 psi^2");
+                  "estimated error says what they cost; for steps that stay small: -s integrator.h_max=%.3g (every "
+                  "step at most that), or -s integrator.tol=EPS (an error at the end)",
+                  S->lam_max, S->lam_max / fabs(j->h_ref), S->t_lam_max,
+                  j->rs.opt.order == 4 ? "integrator.warn_ratio^(3/2) for order 4" : "integrator.warn_ratio", wr,
+                  j->rs.opt.order == 4 ? "tau^2 psi" : "lambda^6 psi^2", fabs(j->h_ref));
     if (S->stop == DTH_RUN_SAMPLES) { /* the library's bound (run.h) */
         cli_error("stopped at k=%ld, t=%.17g: output.dt = %.3g asks for more than %d rows within one step (a larger "
                   "output.dt, or output.points = vertices; the rows so far are kept)", S->k, S->t, j->rs.dt,
@@ -731,7 +832,7 @@ static int report(const run_job *j)
     regularized_share(j);
     nonreversible_warning(j);
     if (r->progress == 1 || S->regularized || S->nonreversible || j->o.roundtrip ||
-        j->rs.opt.finish == DTH_FINISH_REVERSIBLE)
+        j->rs.opt.finish == DTH_FINISH_REVERSIBLE || j->ctl.passes)
         fprintf(stderr, "dth: %ld step%s to t = %.17g, %ld row%s to %s%s%s%s\n", S->k, CLI_S(S->k), S->t_stop,
                 S->samples, CLI_S(S->samples), j->path ? j->path : "standard output", crossing, revn, est);
     if (r->has_ev && (r->progress == 1 || S->stop == DTH_RUN_EVENT))
@@ -773,6 +874,7 @@ static int run_cmd(int argc, char **argv, const char **sets)
     st = st ? st : load_input(&j);
     if (st == GO_ON) st = check_setup(&j);
     if (st == GO_ON) st = check_model(&j);
+    if (st == GO_ON) st = calibrate(&j);
     if (st == GO_ON) st = start_integrator(&j);
     if (st == GO_ON) st = init_rows(&j);
     if (st == GO_ON) st = choose_outputs(&j);

@@ -522,10 +522,12 @@ static int on_event(void *user, const dth_sample *s)
     return 0;
 }
 
-/* The run's integrator (the DTH step or a baseline: dth_options.method), at the initial state. */
-static int start_stepper(runctx *c, const dth_run_setup *rs)
+/* The run's integrator (the DTH step or a baseline: dth_options.method), at the initial state; with
+ * integrator.h_max or tol, at the first step their pilots choose for this run (control.h). */
+static int start_stepper(runctx *c, dth_run_setup *rs)
 {
-    int rc = dth_integrator_new(rs->model, &rs->opt, &c->it);
+    int rc = dth_run_setup_control(rs, NULL, NULL, 0);
+    if (!rc) rc = dth_integrator_new(rs->model, &rs->opt, &c->it);
     if (!rc) rc = dth_integrator_start(c->it, rs->q0, rs->p0, rs->t0);
     return rc;
 }

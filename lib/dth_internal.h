@@ -113,7 +113,8 @@ int dth__dth_polish(void *core, double lam, const double *d0, double *lam_out, d
 /** Doubles of workspace dth__model_grad_psi needs. */
 size_t dth__model_gpsi_work(const dth_model *m);
 /** The gradient of psi over y = (q, t, p) (d values) at y, D^3H[u, u, .] + 2 H J^T H u with u = J grad H
- *  (the third derivative by a second difference of the gradient along u), and psi, psi' there
+ *  (the third derivative from the model's `third` by polarization, else by a second difference of the
+ *  gradient along u), and psi, psi' there
  *  (dth_model_psi). Dense Hessians only. */
 int dth__model_grad_psi(const dth_model *m, const double *y, double *gpsi, double *psi, double *dpsi, double *work);
 

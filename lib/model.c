@@ -838,6 +838,36 @@ size_t dth__model_gpsi_work(const dth_model *m)
     return dth_model_work_size(m) + d * d + 6 * d;
 }
 
+/* D^3 H[u, u, e_i] for every i by polarization of the model's cubic form T(v) = D^3H[v, v, v]:
+ * D^3H[u, u, b] = (T(u + b) - T(u - b) - 2 T(b)) / 6 with b = s e_i, s = max |u_i| (no step to choose:
+ * exact to the round-off of T, at any |y|). */
+static int d3uu_third(const dth_model *m, const double *y, const double *u, double *out, double *v)
+{
+    size_t d = 2 * m->info.n + 1;
+    double s = 0;
+    for (size_t i = 0; i < d; i++) s = fmax(s, fabs(u[i]));
+    if (!(s > 0)) {
+        memset(out, 0, d * sizeof *out);
+        return DTH_OK;
+    }
+    for (size_t i = 0; i < d; i++) {
+        if (i == m->info.n && m->info.autonomous) {
+            out[i] = 0; /* no t dependence */
+            continue;
+        }
+        double t[3];
+        for (int k = 0; k < 3; k++) {
+            for (size_t j = 0; j < d; j++) v[j] = k == 2 ? 0 : u[j];
+            v[i] += k == 1 ? -s : s;
+            int r3 = m->type->third(m->self, y, v, &t[k]);
+            if (r3) return r3 > 0 ? DTH_EDOMAIN : DTH_EMODEL;
+        }
+        out[i] = (t[0] - t[1] - 2 * t[2]) / (6 * s);
+        if (!isfinite(out[i])) return DTH_EDOMAIN;
+    }
+    return DTH_OK;
+}
+
 int dth__model_grad_psi(const dth_model *m, const double *y, double *gpsi, double *psi, double *dpsi, double *work)
 {
     size_t n = m->info.n, d = 2 * n + 1;
@@ -847,18 +877,27 @@ int dth__model_grad_psi(const dth_model *m, const double *y, double *gpsi, doubl
     if (!rc) rc = dth_model_eval(m, y, DTH_EVAL_GRAD | DTH_EVAL_HESS, NULL, g, A);
     if (rc) return rc;
     dth__flow_y(n, g, u);
-    /* D^3 H[u, u, .] by the second difference of the gradient along u (error O(e^2) + eps / e^2) */
-    double ynorm = 1, unorm = 0;
-    for (size_t i = 0; i < d; i++) {
-        if (i != n) ynorm = fmax(ynorm, fabs(y[i])); /* (q, p): the time's size sets no step */
-        unorm = fmax(unorm, fabs(u[i]));
+    if (m->type->third) {
+        /* D^3 H[u, u, .] from the model's third derivative (into gm) */
+        rc = d3uu_third(m, y, u, gm, ys);
+        if (rc) return rc;
+    } else {
+        /* D^3 H[u, u, .] by the second difference of the gradient along u (error O(e^2) + eps / e^2; the step
+         * grows with |y|, so it is coarse where |q| is large, e.g. angles after many turns: give the model
+         * `third`) */
+        double ynorm = 1, unorm = 0;
+        for (size_t i = 0; i < d; i++) {
+            if (i != n) ynorm = fmax(ynorm, fabs(y[i])); /* (q, p): the time's size sets no step */
+            unorm = fmax(unorm, fabs(u[i]));
+        }
+        double e = sqrt(sqrt(DBL_EPSILON)) * ynorm / unorm;
+        for (size_t i = 0; i < d; i++) ys[i] = y[i] + e * u[i];
+        rc = dth_model_eval(m, ys, DTH_EVAL_GRAD, NULL, gp, NULL);
+        for (size_t i = 0; !rc && i < d; i++) ys[i] = y[i] - e * u[i];
+        if (!rc) rc = dth_model_eval(m, ys, DTH_EVAL_GRAD, NULL, gm, NULL);
+        if (rc) return rc;
+        for (size_t i = 0; i < d; i++) gm[i] = (gp[i] - 2 * g[i] + gm[i]) / (e * e);
     }
-    double e = sqrt(sqrt(DBL_EPSILON)) * ynorm / unorm;
-    for (size_t i = 0; i < d; i++) ys[i] = y[i] + e * u[i];
-    rc = dth_model_eval(m, ys, DTH_EVAL_GRAD, NULL, gp, NULL);
-    for (size_t i = 0; !rc && i < d; i++) ys[i] = y[i] - e * u[i];
-    if (!rc) rc = dth_model_eval(m, ys, DTH_EVAL_GRAD, NULL, gm, NULL);
-    if (rc) return rc;
     /* + 2 A J^T A u: v = A u, (J^T v)_q = -v_p, (J^T v)_p = v_q over y */
     for (size_t i = 0; i < d; i++) {
         double s = 0;
@@ -873,7 +912,7 @@ int dth__model_grad_psi(const dth_model *m, const double *y, double *gpsi, doubl
     for (size_t i = 0; i < d; i++) {
         double s = 0;
         for (size_t j = 0; j < d; j++) s += A[i * d + j] * ys[j];
-        gpsi[i] = (gp[i] - 2 * g[i] + gm[i]) / (e * e) + 2 * s;
+        gpsi[i] = gm[i] + 2 * s;
     }
     return DTH_OK;
 }

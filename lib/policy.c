@@ -220,7 +220,8 @@ static int known_psi_sign(dth__policy *p, const dth__view *v)
 static dth_reg_event reg_event(const dth__policy *p, const dth__view *v, int rc, int plain_ok, int sb)
 {
     dth_reg_event ev = {v->model, v->N, v->z, v->zlo, v->lam, v->dir, p->st.psi_sign, rc, plain_ok ? v->d : NULL,
-                        plain_ok ? v->lambda : 0.0, plain_ok ? sb : 0, v->have_prev ? v->dprev : NULL, 0, p->finish};
+                        plain_ok ? v->lambda : 0.0, plain_ok ? sb : 0, v->have_prev ? v->dprev : NULL, 0, p->finish,
+                        v->lam_hint};
     return ev;
 }
 

@@ -711,7 +711,14 @@ int dth__kicked_joint(const dth_model *model, const double *z, const double *zlo
             break;
         }
         if (it >= 3 && r > 0.25 * rprev) { /* no longer quadratic: accept at the noise floor, else give up late */
-            if (r < 1e-9) {
+            /* the noise floor: r, or the chords the last corrections move, against the state's size (where |q|
+             * is large, e.g. angles after many turns, a short step's lambda is not resolved to 1e-9 of itself) */
+            double uu = 0, rs = 0;
+            for (size_t j = 0; j < d; j++)
+                if (j != n) uu += c.g[j] * c.g[j];
+            for (size_t a = 0; a < q; a++) rs = fmax(rs, fabs(c.dx[a]));
+            rs = fmax(rs, fmax(fabs(c.dx[q]) * sqrt(uu), fabs(c.dx[q + 1]) * sqrt(nn))) / zs;
+            if (r < 1e-9 || rs < 1e-11) {
                 rc = DTH_OK;
                 break;
             }

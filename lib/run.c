@@ -40,6 +40,7 @@ void dth_run_config_from_setup(dth_run_config *cfg, const dth_run_setup *rs)
     cfg->nevents = rs->nevents;
     cfg->stop_error = rs->stop_error;
     cfg->step_ratio = rs->warn_ratio;
+    cfg->step_max = rs->step_max;
 }
 
 /* ---------------------------------------------------------------- dense output */
@@ -563,6 +564,10 @@ static int drive_step(drv *d)
     if (!isnan(d->t_stop)) {
         d->ended_by = DTH_RUN_EVENT; /* a terminal event: the loop's end */
         return DTH_OK;
+    }
+    if (cfg->step_max > 0 && fabs(info.lambda) > cfg->step_max) { /* run.h: the step bound */
+        d->ended_by = DTH_RUN_FAILED;
+        return DTH_ESTEPSIZE;
     }
     if (runaway(d)) {
         d->ended_by = DTH_RUN_FAILED;

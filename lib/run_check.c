@@ -48,6 +48,8 @@ int dth_run_check(const dth_integrator *it, const dth_run_config *cfg, const dth
                    "travel (%s)", i, cfg->times[i], i - 1, cfg->times[i - 1], dir > 0 ? "increasing" : "decreasing");
         }
     }
+    if (!(cfg->step_max >= 0) || isinf(cfg->step_max))
+        NO("step_max = %g: the largest step must be finite and >= 0 (0: no bound)", cfg->step_max);
     if (cfg->nevents && !cfg->events) NO("nevents = %zu but no events (NULL)", cfg->nevents);
     for (size_t e = 0; e < cfg->nevents; e++)
         if (!cfg->events[e].g) NO("event %zu has no function g (NULL)", e);

@@ -761,6 +761,46 @@ static int check_length(setup_ctx *c, dth_run_setup *rs, const char *src)
     return DTH_OK;
 }
 
+/* integrator.h_max, tol and pilot (control.h): a DTH run to t_end; h defaults to h_max (or a thousandth of
+ * the run for tol alone), in the direction of t_end; the guard step_max = 1.05 h_max. */
+static int check_control(setup_ctx *c, dth_run_setup *rs)
+{
+    const entry *hm = given(c, "integrator", "h_max"), *tol = given(c, "integrator", "tol"),
+                *pilot = given(c, "integrator", "pilot"), *h = given(c, "integrator", "h"),
+                *t_end = given(c, "integrator", "t_end"), *steps = given(c, "integrator", "steps"),
+                *method = given(c, "integrator", "method"), *wp = given(c, "initial", "wp");
+    const entry *ask = (tol && rs->tol > 0) ? tol : (hm && rs->h_max > 0) ? hm : NULL;
+    if (!ask) {
+        if (pilot) return bad(c->err, c->errlen, pilot, "the end of the pilots of h_max and tol: give one of them");
+        rs->h_asked = rs->opt.h;
+        return DTH_OK;
+    }
+    if (strcmp(rs->opt.method, "dth"))
+        return bad(c->err, c->errlen, ask, "chooses the constant of a DTH run; method '%s' takes the fixed step h (%s)",
+                   rs->opt.method, method ? method->origin : "method");
+    if (rs->opt.order != 2) /* its pilots and step law are order 2's (lambda^6 psi^2 = C) */
+        return bad(c->err, c->errlen, ask, "calibrates order 2's step law; order %d's steps follow another "
+                   "(tau^2 psi = const): use h with order %d, or order = 2", rs->opt.order, rs->opt.order);
+    if (!t_end || (steps && is_override(steps) && !is_override(t_end)))
+        return bad(c->err, c->errlen, ask, "calibrates the run up to its end: give [integrator] t_end= instead of "
+                   "steps=");
+    if (wp)
+        return bad(c->err, c->errlen, ask, "chooses the first step, which the explicit initial.wp (%s) fixes: leave "
+                   "one out", wp->origin);
+    double span = rs->t_end - rs->t0;
+    if (!h) {
+        rs->opt.h = rs->h_max > 0 ? copysign(rs->h_max, span) : span / 1000;
+        if (!(rs->opt.h != 0))
+            return bad(c->err, c->errlen, t_end, "t_end = %.17g is the start t: no run to calibrate", rs->t_end);
+    }
+    if (pilot && !(isfinite(rs->pilot) && (rs->pilot - rs->t0) * rs->opt.h > 0 && (rs->pilot - rs->t_end) * rs->opt.h <= 0))
+        return bad(c->err, c->errlen, pilot, "%.17g: the pilots' end must lie after t = %.17g and not beyond t_end = %.17g",
+                   rs->pilot, rs->t0, rs->t_end);
+    rs->h_asked = rs->opt.h;
+    rs->step_max = rs->h_max > 0 ? 1.05 * rs->h_max : 0;
+    return DTH_OK;
+}
+
 /* What is written: dt against every and points, midpoints for DTH only, points=auto resolved. */
 static int check_rows(setup_ctx *c, dth_run_setup *rs)
 {
@@ -810,11 +850,16 @@ static int check_cross(setup_ctx *c, dth_run_setup *rs)
     if (c->x->np != rs->n)
         return bad(c->err, c->errlen, p, "%zu value%s, but initial.q has %zu (%s)", c->x->np, c->x->np == 1 ? "" : "s",
                    rs->n, q->origin);
-    if (!given(c, "integrator", "h")) {
-        dth__set_err(c->err, c->errlen, "%s: missing [integrator] h= (the first step; its sign sets the direction)", src);
+    const entry *hm = given(c, "integrator", "h_max"), *tol = given(c, "integrator", "tol");
+    int ctl = (hm && rs->h_max > 0) || (tol && rs->tol > 0);
+    if (!given(c, "integrator", "h") && !ctl) {
+        dth__set_err(c->err, c->errlen, "%s: missing [integrator] h= (the first step; its sign sets the direction), "
+                     "or h_max= or tol=", src);
         return DTH_EINVAL;
     }
-    int rc = check_length(c, rs, src);
+    int rc = check_control(c, rs);
+    if (rc) return rc;
+    rc = check_length(c, rs, src);
     if (rc) return rc;
     if (wp && rs->opt.start != DTH_START_VERTEX)
         return bad(c->err, c->errlen, wp, "an explicit wp applies only with [integrator] start=vertex");

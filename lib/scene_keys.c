@@ -115,9 +115,13 @@ static const dth__scene_key keys[] = {
          "H_phys(z_0) by about psi h^2/8; `dth run` warns when they differ by more than 1 %, and when an explicit "
          "wp encodes a first step more than 10 % from h."),
      .to = RS(opt.start), .choice = starts},
-    {KEY("integrator", "h", NUMBER, 1, "",
-         "The first step. Later steps are whatever the DTH equations give (the energy holds, the step size "
-         "varies); a baseline's fixed step."),
+    {KEY("integrator", "h", NUMBER, 0, "",
+         "The first step. Later steps are whatever the DTH equations give: away from psi = 0 they keep "
+         "lambda^6 psi^2 = C, one constant C for the run, which h fixes at the start (docs/theory.md, \"What h "
+         "fixes\"), so on an eccentric orbit they can grow to many h. For a bound on every step give `h_max`, for "
+         "an error at the end `tol`. A baseline's fixed step. Required unless `h_max` or `tol` is given: with "
+         "`h_max` h gives the direction only, with `tol` alone the first pilot's step too (default: the sign of "
+         "t_end - t, and (t_end - t) / 1000)."),
      .to = RS(opt.h), .bound = DTH__NONZERO, .note = "its sign sets the direction of time",
      .refuse = "the step must be nonzero (its sign sets the direction of time)"},
     {KEY("integrator", "steps", INTEGER, 0, "",
@@ -196,6 +200,24 @@ static const dth__scene_key keys[] = {
          "by default): its steps follow tau^2 psi = const, where the DTH step's follow lambda^6 psi^2 = const, so "
          "the same change of psi moves its step by the 3/2 power of the ratio."),
      .to = RS(warn_ratio), .bound = DTH__GE, .lo = 0, .note = "0: never warn, never stop"},
+    {KEY("integrator", "h_max", NUMBER, 0, "0",
+         "The largest step the run may take. DTH's steps follow lambda^6 psi^2 = C; with `h_max` the run's "
+         "constant C (its first step) is chosen before the first step, by silent pilot runs from the initial "
+         "state to `pilot`, so that every step stays <= h_max (the step where psi is smallest sets the largest "
+         "step). A later step above 1.05 h_max (a part of the orbit the pilots did not see) stops the run after "
+         "it with exit 3, the rows kept. Needs `t_end` and `method = dth` with `order = 2`; the pilots cost about one run."),
+     .to = RS(h_max), .bound = DTH__GE, .lo = 0, .note = "0: no bound"},
+    {KEY("integrator", "tol", NUMBER, 0, "0",
+         "The estimated global position error |q - q_exact| at `t_end` the run aims at: pilot runs with the "
+         "error estimate (`estimate`) find C such that the estimate, which grows as C^(1/3) (lambda^2), ends "
+         "at about tol / 2. Where the last pilot ended before `t_end` (`pilot`, or a step that failed), its "
+         "estimate is extrapolated linearly in time and `dth run` says so. With `h_max` as well, the smaller "
+         "constant wins. Needs `t_end` and `method = dth` with `order = 2`."),
+     .to = RS(tol), .bound = DTH__GE, .lo = 0, .note = "0: none"},
+    {KEY("integrator", "pilot", NUMBER, 0, "",
+         "The time the pilots of `h_max` and `tol` run to (between `t` and `t_end`; default `t_end`): for a periodic orbit one "
+         "period sees all of it at a fraction of the cost; `tol` then extrapolates the estimate to `t_end`."),
+     .to = RS(pilot)},
     {KEY("integrator", "linsolve", CHOICE, 0, "auto",
          "The linear solver of the step's Newton system: all give the same steps to round-off and differ in cost "
          "(docs/performance.md; more below the table). The banded ones need a model with a banded Hessian."),
@@ -288,6 +310,7 @@ void dth__scene_defaults(dth_run_setup *rs, dth__scene_extra *x, const dth_alloc
     rs->opt.estimate = 1; /* scene runs report an error estimate (integrator.h) */
     rs->stop_error = 0.25;
     rs->warn_ratio = 16;
+    rs->pilot = NAN;
     snprintf(rs->method, sizeof rs->method, "dth");
     snprintf(rs->regularize, sizeof rs->regularize, "none");
     rs->every = 1;

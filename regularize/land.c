@@ -8,13 +8,17 @@
  *     H(zbar) = 0, whose step lambda is an unknown too, closed by landing its end vertex just past
  *     psi = 0, psi(z_b) = kappa psi'(z_b) dir l(z_b), l = (C/psi'^2)^(1/8) the crossing's time scale
  *     (one Newton on (d, lambda, mu));
- *   - the offset reset: the end vertex moved along n, no time passing, onto the exit branch of the level
- *     set I = C of ordinary DTH's step invariant (step_invariant.c), so the ordinary steps after the
- *     crossing continue the run's step sequence (C: the run's constant, lambda^6 psi^2 of its first
- *     step, or the parameter `invariant`);
- *   - where the landing step would exceed `bound` times the last step (psi bends away from its linear
- *     model), a kicked segment of the last step's length that does not cross yet, its end reset onto
- *     I = C on its own side: the next vertex tries again.
+ *   - the offset reset: the end vertex moved along n, no time passing and not back across psi = 0, onto
+ *     the exit branch of the level set I = C of ordinary DTH's step invariant (step_invariant.c), so the
+ *     ordinary steps after the crossing continue the run's step sequence (C: the run's constant,
+ *     lambda^6 psi^2 of its first step, or the parameter `invariant`; before any ordinary step, the
+ *     vertex's own I);
+ *   - where the landing does not converge, does not cross or would exceed `bound` times the last ordinary
+ *     step (psi bends away from its linear model), a kicked segment of the last ordinary step's length
+ *     or 1/2, 1/4, 1/8 of it: the longest that does not cross, its end reset onto I = C on its own side
+ *     (the next vertex tries again), else the longest that crosses, reset onto the exit branch; where no
+ *     reset exists (the move that would reach the level set crosses psi = 0 first) the first converged
+ *     segment as it is (apply).
  * Ordinary steps are raw DTH bit for bit (symplectic, their own reverse); a replaced step keeps the
  * energy at its midpoint and the quadratic invariants, and is neither symplectic nor reversible (the
  * reset collapses a direction: DTH_STEP_RESET).
@@ -26,6 +30,10 @@
 #include "dth_internal.h"
 #include "reg_common.h"
 
+/* candidates of a replaced step (apply): the landing (0) and the fallback segments of 1, 1/2, 1/4, 1/8 of the
+ * last ordinary step (1..4) */
+enum { NCAND = 5 };
+
 typedef struct land {
     const dth_model *model;
     const dth_allocator *alloc;
@@ -33,7 +41,7 @@ typedef struct land {
     double C;       /* the run's step invariant I (lambda^6 psi^2 far from psi = 0) */
     int C_fixed;    /* C set (parameter `invariant`, or the first ordinary step): a constant after that */
     double kappa;   /* the landing distance past psi = 0 in units of l */
-    double bound;   /* the largest landing step, in units of the last step */
+    double bound;   /* the largest landing step, in units of the last ordinary step */
     double dir;     /* the event's direction of travel (the closing condition's) */
     int clock;      /* the clock correction on (parameter `clock`; autonomous models only) */
     int crossed;    /* a crossing was replaced: window corrections apply as they come */
@@ -44,6 +52,7 @@ typedef struct land {
     double *ck;     /* the clock's workspace: Hessian, u, (J H) u, (J H)^2 u, and dth__model_d3aab's */
     double *kj, *gp, *kick; /* workspaces of dth__kicked_joint, dth__model_grad_psi, dth__kick_at (at the
                                first crossing: ordinary steps need none) */
+    double *cd;             /* the replaced step's candidate segments' offsets (NCAND x N, with kj) */
     double *vec, *pw;       /* the vectors below, and dth_model_psi's workspace (at creation, O(n)) */
     double *d, *zb, *y, *g, *nv, *gpsi;
 } land;
@@ -53,8 +62,8 @@ static const dth_param_spec params[] = {
                       "first ordinary step, so the steps after each crossing continue the run's"},
     {"kappa", "0.01", "how far past psi = 0 the landing segment ends, in units of the crossing's time scale "
                       "(C/psi'^2)^(1/8) (> 0)"},
-    {"bound", "2", "the largest landing step in units of the last step; beyond it a segment of the last "
-                   "step's length that does not cross yet (> 1)"},
+    {"bound", "2", "the largest landing step in units of the last ordinary step; beyond it a segment of the last "
+                   "ordinary step's length (or 1/2, 1/4, 1/8) that does not cross yet (> 1)"},
     {"clock", "yes", "correct the time of the steps near psi = 0 (|psi psi''| < 1.15 psi'^2) by their leading local "
                      "time error, once the run has crossed (yes/no; autonomous models only): second order through "
                      "crossings"},
@@ -120,10 +129,11 @@ static int workspace(land *r)
     r->nkj = dth__kicked_joint_work_size(r->model);
     r->ngp = dth__model_gpsi_work(r->model);
     r->nkick = dth__kick_work_size(r->model);
-    r->kj = dth_calloc(r->alloc, r->nkj + r->ngp + r->nkick, sizeof(double));
+    r->kj = dth_calloc(r->alloc, r->nkj + r->ngp + r->nkick + NCAND * r->N, sizeof(double));
     if (!r->kj) return DTH_ENOMEM;
     r->gp = r->kj + r->nkj;
     r->kick = r->gp + r->ngp;
+    r->cd = r->kick + r->nkick;
     return DTH_OK;
 }
 
@@ -247,50 +257,128 @@ static int land_close(void *ctx, const double *yb, double *c, double *grad)
 }
 
 /*
+ * The reset's residual at nu: the end vertex zb moved to y = zb + nu n(m), n read at the move's own
+ * midpoint m = zb + nu n(m)/2 (a fixed point in m, from the last n: n moves by O(nu), so two or three
+ * rounds), and F = wp + H(y) - R(psi(y), psi'(y)), R the offset on the level set I = C (exit: its exit
+ * branch, continuous through psi = 0; else the branch on psi's own side). dF: its derivative along n (n's
+ * own motion left out). Returns 1 where psi(y) has left zb's side *s0 (the move keeps the vertex on the side
+ * the segment reached; *s0 = 0: set it, at nu = 0), 0, or a status.
+ */
+static int reset_eval(land *r, const double *zb, double wp, int exit, int *s0, double nu, double tol, double *F,
+                      double *dF)
+{
+    size_t n = r->n, d = r->N - 1;
+    int rc;
+    for (int k = 0; k < 8; k++) {
+        for (size_t j = 0; j < d; j++)
+            r->y[j] = nu == 0 ? zb[j] : zb[j] + (j < n ? 0.5 * nu * r->nv[j] : j > n ? 0.5 * nu * r->nv[j - 1] : 0);
+        memcpy(r->g, r->nv, 2 * n * sizeof *r->g);
+        rc = dth__kick_at(r->model, r->y, r->nv, r->kick);
+        if (rc) return rc;
+        double moved = 0;
+        for (size_t i = 0; i < 2 * n; i++) moved = fmax(moved, fabs(nu * (r->nv[i] - r->g[i])));
+        if (moved <= tol || nu == 0) break;
+    }
+    for (size_t j = 0; j < d; j++) r->y[j] = nu == 0 ? zb[j] : zb[j] + (j < n ? nu * r->nv[j] : j > n ? nu * r->nv[j - 1] : 0);
+    double H, psi, dpsi, R, dR;
+    rc = dth_model_eval(r->model, r->y, DTH_EVAL_H | DTH_EVAL_GRAD, &H, r->g, NULL);
+    if (!rc) rc = dth__model_grad_psi(r->model, r->y, r->gpsi, &psi, &dpsi, r->gp);
+    if (rc) return rc;
+    if (*s0 == 0) { /* nu = 0: psi's side at zb */
+        if (psi == 0) return DTH_ENOROOT;
+        *s0 = psi > 0 ? 1 : -1;
+    }
+    if (psi == 0 || (psi > 0 ? 1 : -1) != *s0) return 1;
+    rc = exit ? dth__inv_exit_offset(r->C, psi, dpsi, r->dir, &R, &dR) : dth__inv_level_offset(r->C, psi, dpsi, &R, &dR);
+    if (rc) return DTH_EDOMAIN;
+    double gn = 0, pn = 0;
+    for (size_t i = 0; i < n; i++) {
+        gn += r->g[i] * r->nv[i] + r->g[n + 1 + i] * r->nv[n + i];
+        pn += r->gpsi[i] * r->nv[i] + r->gpsi[n + 1 + i] * r->nv[n + i];
+    }
+    *F = wp + H - R;
+    *dF = gn - dR * pn;
+    return isfinite(*F) && isfinite(*dF) ? DTH_OK : DTH_EDOMAIN;
+}
+
+/*
  * The reset of the end vertex zb along the kick direction, no time passing: zb' = zb + nu n(m) with n read
  * at the move's own midpoint m = (zb + zb')/2 (so the quadratic invariants, whose gradients at m are
- * orthogonal to n(m), are kept exactly, as by a kicked segment), and wp + H(zb') = R(psi, psi') there,
- * R the offset on the level set I = C (exit: its exit branch; else on the vertex's own side), by a scalar
- * Newton on nu (n(m) refreshed each iteration: it moves by O(nu)). The jump zb' - zb goes to jump (N).
+ * orthogonal to n(m), are kept exactly, as by a kicked segment), and wp + H(zb') = R(psi, psi') there
+ * (reset_eval). A safeguarded Newton on the scalar nu: Newton's step while it stays inside what is known
+ * (the bracket of a sign change of F once there is one, and short of any nu where psi left zb's side),
+ * else bisection. DTH_ENOROOT: no reset exists on zb's side (F keeps its sign up to where psi changes
+ * sign: the move along n that would put the offset on the level set crosses psi = 0 first; the own-side
+ * level set's offset jumps there). *iters: the residuals evaluated. The jump zb' - zb goes to jump (N).
  */
 static int reset(land *r, const double *zb, double wp, int exit, double *jump, int *iters)
 {
     size_t n = r->n, N = r->N, d = N - 1;
-    double nu = 0, scale = 1e-300, nn = 0;
+    double scale = 1e-300;
     for (size_t j = 0; j < d; j++)
         if (j != n) scale = fmax(scale, fabs(zb[j])); /* over (q, p): no bits depend on t */
-    int it, rc;
-    for (it = 1; it <= 30; it++) {
-        for (size_t j = 0; j < d; j++) r->y[j] = zb[j] + (j < n ? 0.5 * nu * r->nv[j] : j > n ? 0.5 * nu * r->nv[j - 1] : 0);
-        if (it == 1) memcpy(r->y, zb, d * sizeof *r->y);
-        rc = dth__kick_at(r->model, r->y, r->nv, r->kick); /* n at the move's midpoint */
-        if (rc) return rc;
-        nn = 0;
-        for (size_t i = 0; i < 2 * n; i++) nn += r->nv[i] * r->nv[i];
-        for (size_t j = 0; j < d; j++) r->y[j] = zb[j] + (j < n ? nu * r->nv[j] : j > n ? nu * r->nv[j - 1] : 0);
-        double H, psi, dpsi, R, dR;
-        rc = dth_model_eval(r->model, r->y, DTH_EVAL_H | DTH_EVAL_GRAD, &H, r->g, NULL);
-        if (!rc) rc = dth__model_grad_psi(r->model, r->y, r->gpsi, &psi, &dpsi, r->gp);
-        if (rc) return rc;
-        rc = exit ? dth__inv_exit_offset(r->C, psi, dpsi, r->dir, &R, &dR) : dth__inv_level_offset(r->C, psi, dpsi, &R, &dR);
-        if (rc) return DTH_EREFUSED;
-        double gn = 0, pn = 0;
-        for (size_t i = 0; i < n; i++) {
-            gn += r->g[i] * r->nv[i] + r->g[n + 1 + i] * r->nv[n + i];
-            pn += r->gpsi[i] * r->nv[i] + r->gpsi[n + 1 + i] * r->nv[n + i];
+    double tol = 4 * DBL_EPSILON * scale;
+    int rc, s0 = 0;
+    *iters = 0;
+    /* a: the last nu evaluated with F(0)'s sign; b: the last with the other sign (have_b); lim: the last nu
+     * where psi had left its side (have_lim) */
+    double nu = 0, a = 0, Fa = NAN, b = NAN, Fb = NAN, lim = NAN, F = NAN, dF = NAN;
+    int have_b = 0, have_lim = 0, it, done = 0;
+    for (it = 1; it <= 60 && !done; it++) {
+        rc = reset_eval(r, zb, wp, exit, &s0, nu, tol, &F, &dF); /* nu = 0 first: n at zb, the fixed point's start */
+        ++*iters;
+        if (rc < 0 || rc > 1) return rc;
+        double nrm = 0;
+        for (size_t i = 0; i < 2 * n; i++) nrm += r->nv[i] * r->nv[i];
+        nrm = sqrt(nrm);
+        double next;
+        if (rc == 1) { /* psi left its side at nu (never at nu = 0): a limit; halfway back to a */
+            lim = nu;
+            have_lim = 1;
+            next = have_b ? 0.5 * (a + b) : 0.5 * (a + lim);
+        } else {
+            if (it == 1 || (F > 0) == (Fa > 0)) {
+                a = nu;
+                Fa = F;
+            } else {
+                b = nu;
+                Fb = F;
+                have_b = 1;
+            }
+            if (F == 0) break;
+            /* Newton's step, kept inside the bracket (or short of the side's limit) */
+            next = nu - F / dF;
+            double lo = have_b ? fmin(a, b) : have_lim ? fmin(a, lim) : -INFINITY;
+            double hi = have_b ? fmax(a, b) : have_lim ? fmax(a, lim) : INFINITY;
+            if (!(next > lo && next < hi)) {
+                if (!have_b && !have_lim) return DTH_ENOCONV; /* not finite */
+                next = have_b ? 0.5 * (a + b) : 0.5 * (a + lim);
+            } else if (fabs(next - nu) * nrm <= tol) {
+                break; /* Newton converged: the last n(m) belongs to this nu */
+            }
         }
-        double F = wp + H - R, dF = gn - dR * pn, dnu = F / dF;
-        if (!isfinite(dnu)) return DTH_EREFUSED;
-        if (fabs(dnu) * sqrt(nn) <= 4 * DBL_EPSILON * scale) break; /* the last n(m) belongs to this nu */
-        nu -= dnu;
+        if (have_b && fabs(b - a) * nrm <= tol) { /* bracketed to round-off: the better end */
+            double best = fabs(Fb) < fabs(Fa) ? b : a;
+            if (best != nu || rc == 1) {
+                nu = best;
+                rc = reset_eval(r, zb, wp, exit, &s0, nu, tol, &F, &dF); /* its own n(m) */
+                ++*iters;
+                if (rc) return rc == 1 ? DTH_ENOROOT : rc;
+            }
+            done = 1;
+        } else if (!have_b && have_lim && fabs(lim - a) * nrm <= tol) {
+            return DTH_ENOROOT; /* F keeps its sign up to where psi changes sign */
+        } else {
+            nu = next;
+        }
     }
-    *iters = it;
+    if (it > 60 && !done) return DTH_ENOCONV;
     memset(jump, 0, N * sizeof *jump);
     for (size_t i = 0; i < n; i++) {
         jump[i] = nu * r->nv[i];
         jump[n + 1 + i] = nu * r->nv[n + i];
     }
-    return it > 30 ? DTH_ENOCONV : DTH_OK;
+    return DTH_OK;
 }
 
 /* The root of a x^2 + b x + c nearest 0 on the side dir (NaN: none). */
@@ -313,13 +401,20 @@ static double side_root(double a, double b, double c, double dir)
 }
 
 /* The step to the landing target from psi's quadratic model psi + psi' l + psi'' l^2 / 2 (psi'' = d2, 0 if
- * unknown), the target's psi' at the landing point: a few fixed-point rounds. NaN: no landing ahead. */
+ * unknown), the target's psi' at the landing point: a few fixed-point rounds. The landing crosses psi = 0:
+ * from a vertex moving away from it (psi psi' dir >= 0: just after a crossing, where psi dips back) the
+ * target is past the model's next zero, with psi' there. NaN: no crossing ahead. */
 static double landing_step(const land *r, double psi, double dpsi, double d2)
 {
-    double l = NAN;
+    double l = NAN, db0 = dpsi;
+    if (psi * dpsi * r->dir >= 0) { /* receding: psi' where the model comes back through 0 */
+        double l0 = side_root(0.5 * d2, dpsi, psi, r->dir);
+        if (isnan(l0)) return NAN;
+        db0 = dpsi + d2 * l0;
+    }
     for (int k = 0; k < 8; k++) {
-        double db = isnan(l) ? dpsi : dpsi + d2 * l;
-        if (db == 0) return NAN;
+        double db = isnan(l) ? db0 : dpsi + d2 * l;
+        if (db == 0 || (psi != 0 && (db * r->dir > 0) == (psi > 0))) return NAN; /* not toward the other side */
         double tgt = r->kappa * db * r->dir * pow(r->C / (db * db), 0.125);
         double ln = side_root(0.5 * d2, dpsi, psi - tgt, r->dir);
         if (isnan(ln)) return NAN;
@@ -379,6 +474,55 @@ static int segment(land *r, const dth_reg_event *ev, const dth__kj_close *close,
     return DTH_OK;
 }
 
+typedef struct cand {
+    int rc;           /* the segment's status (DTH_OK: converged; -1: not computed) */
+    int crossed;      /* its end vertex has the other sign of psi */
+    double lam, mu, res;
+} cand;
+
+/* Candidate k: the segment (its offset d into r->cd + k N), whether it crossed. */
+static int candidate(land *r, const dth_reg_event *ev, int k, double psi, double dpsi, double d2, double rho_a,
+                     double lam_ref, cand *c, int *its)
+{
+    size_t N = r->N;
+    double lam0, mu0, pb, lk = k ? r->dir * lam_ref / (double)(1 << (k - 1)) : 0;
+    dth__kj_close landing = {land_close, r, 0}, fixed = {NULL, NULL, lk};
+    int it = 0;
+    c->rc = seed(r, ev, psi, dpsi, d2, rho_a, lam_ref, lk, &lam0, &mu0);
+    if (!c->rc) c->rc = segment(r, ev, k ? &fixed : &landing, lam0, mu0, &c->lam, &c->mu, &c->res, &it);
+    if (!c->rc) c->rc = dth_model_psi(r->model, r->zb, &pb, NULL, r->pw);
+    *its += it;
+    if (c->rc < 0) return c->rc; /* hard errors end the step */
+    if (c->rc) return DTH_OK;
+    c->crossed = (pb > 0) != (psi > 0);
+    memcpy(r->cd + (size_t)k * N, r->d, N * sizeof *r->d);
+    return DTH_OK;
+}
+
+/* The reset of candidate k's end vertex onto I = C (exit: the exit branch; else psi's own side). */
+static int reset_cand(land *r, const dth_reg_event *ev, int k, int exit, double *jump, int *its)
+{
+    size_t N = r->N;
+    const double *dk = r->cd + (size_t)k * N;
+    for (size_t j = 0; j < N; j++) r->zb[j] = ev->z[j] + (ev->zlo[j] + 2 * dk[j]);
+    int it = 0, rc = reset(r, r->zb, ev->z[N - 1] + ev->zlo[N - 1], exit, jump, &it);
+    *its += it;
+    return rc;
+}
+
+/*
+ * The replaced step. In order, the first that works:
+ *   1. the landing segment (converged, crossed, within `bound` times the last ordinary step), reset onto the
+ *      exit branch;
+ *   2. a segment of the last ordinary step's length, or 1/2, 1/4, 1/8 of it: the longest that does not cross,
+ *      reset onto I = C on its own side (the next vertex tries again); then the longest that crosses, reset
+ *      onto the exit branch;
+ *   3. no reset exists for any of them (the move along n that would put the offset on the level set crosses
+ *      psi = 0 first, or does not converge): the first converged one of 1-2 as it is, its end offset the
+ *      kicked segment's (flagged like the others; the next step starts from it, and the next crossing
+ *      restores C).
+ * Refused only if no segment converges at all.
+ */
 static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
 {
     land *r = self;
@@ -391,63 +535,73 @@ static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
     rc = dth__model_grad_psi(r->model, r->y, r->gpsi, &psi, &dpsi, r->gp);
     if (!rc) rc = dth_model_eval(r->model, r->y, DTH_EVAL_H, &Hp, NULL, NULL);
     if (rc) return rc;
-    double lam_last = fabs(ev->lam_in != 0 ? ev->lam_in : ev->plain_lambda), rho_a = ev->z[N - 1] + ev->zlo[N - 1] + Hp;
-    if (!(lam_last > 0)) {
-        act->why = "a crossing at the first step: no step to continue (a start further from psi = 0, or a smaller h)";
+    /* the last ordinary step: the incoming one, or after a replaced step (or before the first step) the one
+     * the integrator aims for (the last ordinary step's, or h) */
+    double lam_ref = fabs(ev->in_d && ev->lam_in != 0 ? ev->lam_in : ev->lam_hint);
+    if (!(lam_ref > 0)) lam_ref = fabs(ev->lam_in != 0 ? ev->lam_in : ev->plain_lambda);
+    double rho_a = ev->z[N - 1] + ev->zlo[N - 1] + Hp;
+    if (!(lam_ref > 0) || !isfinite(lam_ref)) {
+        act->why = "no step to continue (the integrator gave no step size)";
         return DTH_EREFUSED;
     }
-    if (!r->C_fixed) { /* crossing before any ordinary step: the incoming step's far-field invariant */
-        double l2 = lam_last * lam_last;
-        r->C = l2 * l2 * l2 * psi * psi;
+    if (!r->C_fixed) {
+        /* a crossing before any ordinary step: the vertex's own step invariant (what the ordinary steps from it
+         * keep), else the far-field invariant of the step asked for, else a crossing time scale of that step */
+        double I = dth__inv_I(psi, rho_a, dpsi), l2 = lam_ref * lam_ref;
+        r->C = isfinite(I) && I > 0 ? I : l2 * l2 * l2 * psi * psi;
+        if (!(r->C > 0) || !isfinite(r->C)) r->C = l2 * l2 * l2 * l2 * dpsi * dpsi;
         r->C_fixed = r->C > 0 && isfinite(r->C);
         if (!r->C_fixed) {
-            act->why = "psi = 0 at the first vertex: no step invariant to continue";
+            act->why = "psi = psi' = 0 at the first vertex: no step invariant to continue (a start away from psi = 0)";
             return DTH_EREFUSED;
         }
-    }
-    if (dpsi == 0) {
-        act->why = "psi' = 0 at the vertex: no crossing to land past";
-        return DTH_EREFUSED;
     }
     /* psi'' from psi' at the last two vertices (observe), 0 without: the landing step's quadratic model,
      * which also finds a crossing back through 0 just after a dip (psi grazing 0) */
     double d2 = r->have_prev && r->lam_prev != 0 ? (dpsi - r->dpsi_prev) / r->lam_prev : 0;
     if (!isfinite(d2)) d2 = 0;
-    double lam0, mu0, lam, mu, res;
-    int its = 0, its2 = 0, exit = 1;
-    rc = seed(r, ev, psi, dpsi, d2, rho_a, lam_last, 0, &lam0, &mu0);
-    dth__kj_close landing = {land_close, r, 0};
-    if (!rc) rc = segment(r, ev, &landing, lam0, mu0, &lam, &mu, &res, &its);
-    if (rc || fabs(lam) > r->bound * lam_last) {
-        /* no landing within the bound (psi bends away, dips and turns back, or creeps along 0 near a
-         * separatrix): a segment of the last step's length, or a half, quarter, eighth of it, reset onto
-         * I = C on its own side, or on the exit branch where it crossed after all; the next vertex tries
-         * again. Preferred: the longest that does not cross; else the longest that converged. */
-        int rb = DTH_EREFUSED, found = 0;
-        for (int pass = 0; pass < 2 && !found; pass++)
-            for (int k = 0; k < 4 && !found; k++) {
-                double lk = r->dir * lam_last / (double)(1 << k), pb;
-                dth__kj_close fixed = {NULL, NULL, lk};
-                int its1 = 0;
-                rb = seed(r, ev, psi, dpsi, d2, rho_a, lam_last, lk, &lam0, &mu0);
-                if (!rb) rb = segment(r, ev, &fixed, lk, mu0, &lam, &mu, &res, &its1);
-                if (!rb) rb = dth_model_psi(r->model, r->zb, &pb, NULL, r->pw);
-                its += its1;
-                if (rb) continue;
-                exit = (pb > 0) != (psi > 0);
-                found = !exit || pass == 1;
-            }
-        if (!found) {
-            act->why = rc ? "no landing segment past psi = 0 (an unresolved crossing: a smaller h)"
-                          : "no landing segment within the bound, and no segment of the last step's length or a part of it";
-            return rc ? rc : DTH_EREFUSED;
+    cand c[NCAND];
+    for (int k = 0; k < NCAND; k++) c[k].rc = -1;
+    int its = 0, its2 = 0, pick = -1, k;
+    double *jump = act->jump;
+    /* 1. the landing */
+    if (dpsi != 0) {
+        rc = candidate(r, ev, 0, psi, dpsi, d2, rho_a, lam_ref, &c[0], &its);
+        if (rc) return rc;
+        if (!c[0].rc && c[0].crossed && fabs(c[0].lam) <= r->bound * lam_ref) {
+            rc = reset_cand(r, ev, 0, 1, jump, &its2);
+            if (rc < 0) return rc;
+            if (!rc) pick = 0;
         }
     }
-    rc = reset(r, r->zb, ev->z[N - 1] + ev->zlo[N - 1], exit, act->jump, &its2);
-    if (rc) {
-        act->why = "the offset reset onto the run's step invariant did not converge";
-        return rc > 0 ? DTH_EREFUSED : rc;
+    /* 2. the fallback segments: the longest that does not cross (own side), then the longest that crosses */
+    for (int pass = 0; pass < 2 && pick < 0; pass++)
+        for (k = 1; k < NCAND && pick < 0; k++) {
+            if (c[k].rc == -1) {
+                rc = candidate(r, ev, k, psi, dpsi, d2, rho_a, lam_ref, &c[k], &its);
+                if (rc) return rc;
+            }
+            if (c[k].rc || c[k].crossed != pass) continue;
+            rc = reset_cand(r, ev, k, pass, jump, &its2);
+            if (rc < 0) return rc;
+            if (!rc) pick = k;
+        }
+    /* 3. no reset: the first converged segment as it is (the landing, then the longest that does not cross,
+     * then the longest that crosses) */
+    if (pick < 0) {
+        if (!c[0].rc && c[0].crossed && fabs(c[0].lam) <= r->bound * lam_ref) pick = 0;
+        for (int pass = 0; pass < 2 && pick < 0; pass++)
+            for (k = 1; k < NCAND && pick < 0; k++)
+                if (!c[k].rc && c[k].crossed == pass) pick = k;
+        if (pick < 0) {
+            act->why = "no landing segment past psi = 0, and no segment of 1, 1/2, 1/4, 1/8 of the last ordinary "
+                       "step converged (an unresolved crossing: a smaller h)";
+            return DTH_EREFUSED;
+        }
+        memset(jump, 0, N * sizeof *jump);
     }
+    memcpy(r->d, r->cd + (size_t)pick * N, N * sizeof *r->d);
+    double lam = c[pick].lam;
     if (r->clock) { /* the segment's own correction (w = 1: psi ~ 0 at its midpoint), and the windows' so far */
         for (size_t j = 0; j + 1 < N; j++) r->y[j] = ev->z[j] + (ev->zlo[j] + r->d[j]);
         rc = clock_add(r, r->y, lam, 1.0, &act->dt);
@@ -462,7 +616,7 @@ static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
     memcpy(act->d, r->d, N * sizeof *act->d);
     act->what = DTH_REG_REPLACE;
     act->lambda = lam;
-    act->residual = res;
+    act->residual = c[pick].res;
     act->iters = its + its2;
     act->fresh = 1;
     return DTH_OK;

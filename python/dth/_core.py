@@ -666,7 +666,9 @@ class Result:
     diagnostics columns; NaN without an estimate); with diagnostics: psi, dpsi, region (names).
     events: an Events. status (0 or a positive status: the trajectory could not go on),
     status_name, message, stop ("end", "event", "failed"), steps (vertex index at the end),
-    t_stop, crossings, regularized, nonreversible (steps not their own reverse), max_ratio; megno, lyapunov, megno_span, megno_t_stop where
+    t_stop, crossings, regularized, nonreversible (steps not their own reverse), max_ratio, lam_max
+    (the largest step of the run so far) and t_lam_max (where it ended), err_q_end and err_p_end (the error
+    estimate at the last vertex; NaN without one); megno, lyapunov, megno_span, megno_t_stop where
     asked for.
     """
 
@@ -920,6 +922,11 @@ class Simulation:
     checkpoint, a property) waits until it returns; a call from inside the run (a model, event or
     progress callback of the same thread) raises DthError. After close() every method and property
     raises DthError ("the Simulation is closed").
+
+    A scene with integrator.h_max or integrator.tol is calibrated when the Simulation is made: pilot runs
+    to the scene's t_end choose the first step (control.h, dth_run_setup_control), and `control` holds
+    what they found (h0, C, passes, steps, est, est_pred, extrapolated, ...; None without either key).
+    Each run() stops with status DTH_ESTEPSIZE after a step above 1.05 h_max.
     """
 
     _lock = None  # a partly built one (an exception in __init__) closes without errors
@@ -977,6 +984,9 @@ class Simulation:
                 raise DthError(-1, "%s: model '%s' fails its derivative check at the initial state: %s "
                                "(check_model=False runs it anyway)" % (self.scene.name, self.model_name,
                                                                       ffi.string(rep.message).decode()))
+        self.control = None
+        if _restore is None and (rs.h_max > 0 or rs.tol > 0):
+            self._calibrate()
         why = ffi.new("char[]", 256)
         opt = ffi.new("dth_options *")
         opt[0] = rs.opt
@@ -1014,6 +1024,29 @@ class Simulation:
                 self.close()
                 raise DthError(rc, "%s: cannot start at the initial state: %s (%s)" % (
                     self.scene.name, strerror(rc), msg))
+
+    def _calibrate(self):
+        """integrator.h_max / tol (control.h): the run's constant chosen by pilot runs to the scene's t_end
+        before the first step (dth_run_setup_control); self.control says what was found."""
+        L, rs = lib(), self._rs
+        rep = ffi.new("dth_control_report *")
+        rep.size = ffi.sizeof("dth_control_report")
+        err = ffi.new("char[]", _ERRLEN)
+        rc = L.dth_run_setup_control(rs, rep, err, _ERRLEN)
+        try:
+            _raise_pending()
+        except BaseException:
+            self.close()
+            raise
+        if rc:
+            self.close()
+            raise DthError(rc, "%s: integrator.%s: %s" % (self.scene.name, "h_max" if rs.h_max > 0 else "tol",
+                                                          _err(err)))
+        self.control = {k: getattr(rep, k) for k in ("h0", "C", "C_hmax", "C_tol", "step_max", "passes", "steps",
+                                                     "t_pilot", "est", "est_pred", "hmax_restarts", "t_excursion",
+                                                     "pilot_status", "t_failed")}
+        self.control["extrapolated"] = bool(rep.extrapolated)
+        self.control["hmax_settled"] = bool(rep.hmax_settled)
 
     def _events_setup(self, events):
         """The run's events: the scene's [events], then the Python ones (cffi callbacks)."""
@@ -1177,6 +1210,7 @@ class Simulation:
                 raise TypeError("dth: steps is an integer (a vertex index), not %r" % (steps,))
             cfg.has_t_end, cfg.steps = 0, int(steps)
         cfg.t0 = rs.t0
+        cfg.step_max = rs.step_max  # integrator.h_max's guard (1.05 h_max; 0: none)
         cfg.points, cfg.every, cfg.dt = rs.points, rs.every, rs.dt
         if dt is not None:
             cfg.points, cfg.dt = 2, float(dt)
@@ -1246,6 +1280,8 @@ class Simulation:
         r.steps, r.t_stop = st.k, st.t_stop
         r.crossings, r.regularized, r.max_ratio = st.crossings, st.regularized, st.max_ratio
         r.nonreversible = st.nonreversible
+        r.lam_max, r.t_lam_max = st.lam_max, st.t_lam_max
+        r.err_q_end, r.err_p_end = st.err_q, st.err_p
         if meg is not None:
             r.megno, r.lyapunov, r.megno_span, r.megno_t_stop = meg.result()
         if st.stop == L.DTH_RUN_SAMPLES:

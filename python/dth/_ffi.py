@@ -283,6 +283,7 @@ typedef struct dth_run_config {
     double stop_error;
     double step_ratio;
     int local_error;
+    double step_max;
 } dth_run_config;
 void dth_run_config_default(dth_run_config *cfg);
 int dth_run_check(const dth_integrator *it, const dth_run_config *cfg, const dth_run_state *st, char *err,
@@ -334,6 +335,11 @@ typedef struct dth_run_setup {
     dth_regularizer *regularizer;
     double stop_error;
     double warn_ratio;
+    double h_max;
+    double tol;
+    double pilot;
+    double h_asked;
+    double step_max;
 } dth_run_setup;
 int dth_scene_setup(const dth_scene *s, const dth_registry *reg, dth_run_setup *out, char *err, size_t errlen);
 void dth_run_setup_clear(dth_run_setup *rs);
@@ -404,13 +410,36 @@ int dth_megno_new_len(const dth_integrator *it, const double *delta0, size_t len
 void dth_megno_free(dth_megno *g);
 int dth_megno_update(dth_megno *g, dth_integrator *it);
 void dth_megno_get(const dth_megno *g, dth_megno_result *r);
+
+/* control.h */
+typedef struct dth_control_report {
+    size_t size;
+    double h0;
+    double C;
+    double C_hmax;
+    double C_tol;
+    double step_max;
+    int passes;
+    long steps;
+    double t_pilot;
+    int extrapolated;
+    double est;
+    double est_pred;
+    int hmax_restarts;
+    int hmax_settled;
+    double t_excursion;
+    int pilot_status;
+    double t_failed;
+} dth_control_report;
+int dth_run_setup_control(dth_run_setup *rs, dth_control_report *rep, char *err, size_t errlen);
+double dth_control_law(double C, double psi, double dpsi);
 """
 
 # Types whose layout the meson test compares with the C compiler's (gen_layout.py).
 STRUCTS = ["dth_allocator", "dth_kv", "dth_param_spec", "dth_model_args", "dth_model_info", "dth_model_type",
            "dth_model_check_report", "dth_options", "dth_step_info", "dth_diag", "dth_sample", "dth_event",
            "dth_event_spec", "dth_run_state", "dth_run_config", "dth_run_setup", "dth_root", "dth_root_set",
-           "dth_root_options", "dth_blob", "dth_megno_result"]
+           "dth_root_options", "dth_blob", "dth_megno_result", "dth_control_report"]
 
 ffi = FFI()
 ffi.cdef(CDEF)

@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: MIT
 """Tests of the Python API of issue 25: events as Python callables located like the built-in ones,
 Python models with the optional table entries (third, hdiff, domain), models from a Hamiltonian's
-formula (SymPy -> C -> a shared object), Result.to_pandas and Result.plot."""
+formula (SymPy -> C -> a shared object), Result.to_pandas and Result.plot; and of issue 26:
+integrator.h_max and tol in a Simulation."""
 import math
 import os
 import subprocess
@@ -335,6 +336,46 @@ class TestResultViews(unittest.TestCase):
             path = os.path.join(d, "p.png")
             r.plot(path)
             self.assertGreater(os.path.getsize(path), 1000)
+
+
+class TestStepControl(unittest.TestCase):
+    """integrator.h_max and integrator.tol (issue 26): the Simulation calibrates before the first step."""
+
+    def test_h_max_bounds_every_step(self):
+        """Kepler e = 0.9 from its pericentre, one orbit, h_max = 0.01: every step <= 1.05 h_max, exit 0,
+        the calibration in sim.control; without the calibration's first step the same run's steps reach
+        74 times h."""
+        over = {"integrator.t_end": 2 * math.pi}
+        with dth.Simulation(scene("kepler-e09-hmax.ini"), set=over) as sim:
+            c = sim.control
+            r = sim.run()
+        self.assertTrue(c["hmax_settled"])
+        self.assertGreaterEqual(c["passes"], 2)
+        self.assertLess(c["h0"], 1e-3)
+        self.assertEqual(c["step_max"], 1.05 * 0.01)
+        self.assertEqual(r.status, 0)
+        self.assertLessEqual(r.lam_max, 0.0105)
+        self.assertLessEqual(float(np.max(r.lam)), 0.0105)
+        self.assertLess(r.err_q_end, 1e-3)
+
+    def test_tol_and_the_guard(self):
+        """tol = 1e-3: the estimate at the end within 10x of tol; a pilot too short for h_max leaves the run
+        to its guard (status DTH_ESTEPSIZE after the first step above 1.05 h_max)."""
+        over = {"integrator.t_end": 2 * math.pi, "integrator.h_max": 0, "integrator.tol": 1e-3}
+        with dth.Simulation(scene("kepler-e09-hmax.ini"), set=over) as sim:
+            self.assertFalse(sim.control["extrapolated"])
+            r = sim.run()
+        self.assertEqual(r.status, 0)
+        self.assertTrue(1e-4 <= r.err_q_end <= 1e-2, r.err_q_end)
+        over = {"integrator.t_end": 2 * math.pi, "integrator.pilot": 0.005}
+        with dth.Simulation(scene("kepler-e09-hmax.ini"), set=over) as sim:
+            r = sim.run()
+        self.assertEqual(r.status_name, "DTH_ESTEPSIZE")
+        self.assertGreater(r.lam_max, 0.0105)
+
+    def test_no_control_no_report(self):
+        with dth.Simulation(scene("kepler-e06.ini"), set={"integrator.t_end": 1}) as sim:
+            self.assertIsNone(sim.control)
 
 
 if __name__ == "__main__":

@@ -16,5 +16,6 @@
 #include "dth/methods.h"
 #include "dth/run.h"
 #include "dth/chaos.h"
+#include "dth/control.h"
 
 #endif

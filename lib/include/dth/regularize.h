@@ -64,6 +64,11 @@ typedef struct dth_reg_event {
                                  prescribed reversible finish): with DTH_FINISH_REVERSIBLE a replacing
                                  segment may hand back its offset in double-double (dth_reg_action.dlo),
                                  so that a segment and the one back from its end meet exactly */
+    double lam_hint;        /**< the step the integrator aims for without history (signed): h (or
+                                 dth_integrator_set_vertex's lambda) before the first step, the last
+                                 ordinary step's after a replacement with `fresh`: the step a
+                                 regularizer can scale to where in_d is NULL (appended after finish: a
+                                 plugin compiled before them reads the others as before) */
 } dth_reg_event;
 
 /** What the integrator tells `observe` about an ordinary step it takes (borrowed for the call). */

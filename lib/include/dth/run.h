@@ -117,7 +117,9 @@ typedef enum dth_run_stop {
     DTH_RUN_END = 1,      /**< reached t_end or the step count */
     DTH_RUN_EVENT = 2,    /**< a terminal event */
     DTH_RUN_CALLBACK = 3, /**< a callback returned nonzero (dth_run returns its value) */
-    DTH_RUN_FAILED = 4,   /**< a step failed (dth_run returns its status; the state is at the last vertex) */
+    DTH_RUN_FAILED = 4,   /**< a step failed (dth_run returns its status; the state is at the last vertex), or
+                               the driver stopped after a step: DTH_EACCURACY (stop_error), DTH_ESTEPSIZE
+                               (step_max); the state is then at the vertex that step arrived at */
     DTH_RUN_SAMPLES = 5   /**< the output times asked for more than DTH_RUN_MAX_SAMPLES_PER_STEP samples
                                within one step (dth_run returns DTH_EINVAL; the samples so far are valid and
                                the state is at the vertex after that step) */
@@ -214,10 +216,15 @@ typedef struct dth_run_config {
     double step_ratio;
     /** 1: each step record gets the local error estimate lerr (dth_step_info); 3 flows per step. */
     int local_error;
+    /** > 0: a step longer than this stops the run after it, with DTH_ESTEPSIZE (st->stop = DTH_RUN_FAILED;
+     *  st->lam_max and st->t_lam_max say which step; its samples are handed out, the state is at the vertex
+     *  it arrived at). The guard of a run calibrated for h_max (control.h: dth_control_report.step_max,
+     *  1.05 h_max): a part of the orbit the pilots did not see. 0 (the default): no bound. */
+    double step_max;
 } dth_run_config;
 
 /** Defaults: steps = 0, t0 = NAN, points = VERTICES, every = 1, stop_error = 0.25, step_ratio = 16,
- *  nothing else. */
+ *  step_max = 0, nothing else. */
 DTH_API void dth_run_config_default(dth_run_config *cfg);
 
 /**

@@ -5,7 +5,8 @@
  * Sections and keys (docs/user-guide.md has their tables, made from dth_scene_key_at):
  *   [model]      name=, then the model's own parameters
  *   [initial]    q=, p= (n comma-separated values each), t=, wp=
- *   [integrator] method=, start=, h=, steps= or t_end=, max_iter=, K=, branch_check=, reversible=, linsolve=
+ *   [integrator] method=, start=, h= (or h_max=, tol=), steps= or t_end=, max_iter=, K=, branch_check=,
+ *                reversible=, estimate=, stop_error=, warn_ratio=, h_max=, tol=, pilot=, linsolve=
  *   [regularize] method=, then the regularizer's parameters
  *   [output]     file=, points=, every=, dt=, diagnostics=
  *   [events]     section=, time=, distance= and their options
@@ -188,6 +189,16 @@ typedef struct dth_run_setup {
                                        opt.regularizer), NULL for raw DTH */
     double stop_error;  /**< dth_run_config.stop_error (default 0.25) */
     double warn_ratio;  /**< warn where a step exceeds this multiple of h (default 16; 0: never) */
+    double h_max;       /**< [integrator] h_max: every step at most this (0: not asked for; control.h,
+                             dth_run_setup_control chooses the first step for it) */
+    double tol;         /**< [integrator] tol: the estimated global position error at t_end at most this
+                             (0: not asked for; dth_run_setup_control) */
+    double pilot;       /**< [integrator] pilot: the time the calibration's pilots run to (NaN: t_end) */
+    double h_asked;     /**< the h the scene gave (h_max where it gave none; opt.h is the calibrated first
+                             step after dth_run_setup_control) */
+    double step_max;    /**< dth_run_config.step_max (dth_run_config_from_setup copies it): 1.05 h_max with
+                             h_max, set by dth_scene_setup, so that an uncalibrated run cannot pass h_max
+                             silently either; 0: no bound */
 } dth_run_setup;
 
 /**
