@@ -1,11 +1,14 @@
 /* SPDX-License-Identifier: MIT */
 /*
- * dth run's checkpoints: the "cli" blob next to the integrator's state (dth/checkpoint.h) holds
- * the run driver's loop state (dth/run.h) and each output's progress (absolute paths, the bytes
- * already final and their hash), written field by field from one table and validated field by
- * field when read; the scene is saved as text that loads back (dth_scene_text); a resume may
- * change only the run's length and the output names.
+ * dth run's checkpoints: the library saves the integrator and the run driver's loop state
+ * (dth_checkpoint_write_file_run); the "cli" blob next to them holds what only dth run knows, each
+ * output's progress (absolute paths, the bytes already final and their hash) and the scene's hash,
+ * as a record of the library's field codec (dth_fields_encode) validated field by field when read;
+ * the scene is saved as text that loads back (dth_scene_text); a resume may change only the run's
+ * length and the output names, and the rows it continues must be the ones this run would write.
  */
+#include <errno.h>
+#include <fcntl.h>
 #include <limits.h>
 #include <stdarg.h>
 #include <math.h>
@@ -13,186 +16,51 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 #include "ckpt.h"
 
 static const unsigned char MAGIC[8] = {'D', 'T', 'H', 'R', 'U', 'N', 'C', 'K'};
-enum { VERSION = 3 }; /* 3: named fields (1, 2: a copy of a C struct with fixed path buffers) */
-enum { T_I64 = 1, T_F64 = 2, T_STR = 3 };
-enum { M_INT, M_UINT, M_LONG, M_U64, M_DBL, M_STR };
-enum { C_NONE, C_FINITE, C_NONNEG, C_FINITE_OR_NAN, C_PATH };
-enum { MAX_STR = 4096, MAX_NAME = 32, MAX_FIELDS = 64 };
+/* 4: the run driver's state in the library's checkpoint, this blob a record of the field codec;
+ * 3: named fields of its own codec; 1, 2: a copy of a C struct with fixed path buffers */
+enum { VERSION = 4, HEAD = 12 };
 
-typedef struct fld {
-    const char *name;
-    int mem;        /* the member's C type */
-    void *p;        /* the member */
-    long long lo, hi; /* integer range */
-    int check;      /* doubles, strings */
-} fld;
-
-/* The one table: every field of the blob and where it lives in c. */
-static size_t fields(cli_ckpt *c, fld *f)
-{
-    dth_run_state *S = &c->S;
-    size_t k = 0;
-#define I(nm, m, ptr, lo, hi) f[k++] = (fld){nm, m, ptr, lo, hi, C_NONE}
-#define D(nm, ptr, chk) f[k++] = (fld){nm, M_DBL, ptr, 0, 0, chk}
-#define S_(nm, ptr) f[k++] = (fld){nm, M_STR, ptr, 0, 0, C_PATH}
-    I("run.started", M_INT, &S->started, 0, 1);
-    I("run.pending", M_INT, &S->pending, 0, 1);
-    I("run.k", M_LONG, &S->k, 0, LONG_MAX);
-    I("run.k0", M_LONG, &S->k0, 0, LONG_MAX);
-    I("run.samples", M_LONG, &S->samples, 0, LONG_MAX);
-    I("run.events", M_LONG, &S->events, 0, LONG_MAX);
-    I("run.j", M_LONG, &S->j, 0, LONG_MAX);
-    D("run.t", &S->t, C_FINITE);
-    D("run.t_first", &S->t_first, C_FINITE);
-    D("run.in.lambda", &S->in.lambda, C_FINITE);
-    I("run.in.iters", M_INT, &S->in.iters, 0, INT_MAX);
-    D("run.in.residual", &S->in.residual, C_FINITE_OR_NAN);
-    I("run.in.branch", M_INT, &S->in.branch, DTH_BRANCH_NONE, DTH_BRANCH_REG);
-    I("run.in.flags", M_UINT, &S->in.flags, 0, DTH_STEP_REGULARIZED | DTH_STEP_CROSSING | DTH_STEP_NONREVERSIBLE);
-    I("run.in.proj_iters", M_INT, &S->in.proj_iters, 0, INT_MAX);
-    D("run.in.lerr", &S->in.lerr, C_FINITE_OR_NAN);
-    I("run.crossings", M_LONG, &S->crossings, 0, LONG_MAX);
-    I("run.regularized", M_LONG, &S->regularized, 0, LONG_MAX);
-    D("run.max_ratio", &S->max_ratio, C_NONNEG);
-    I("run.prev_crossing", M_INT, &S->prev_crossing, 0, 1);
-    I("run.stop", M_INT, &S->stop, DTH_RUN_RUNNING, DTH_RUN_FAILED);
-    D("run.t_stop", &S->t_stop, C_FINITE);
-    D("run.err_q", &S->err_q, C_FINITE_OR_NAN);
-    D("run.err_p", &S->err_p, C_FINITE_OR_NAN);
-    D("run.q_max", &S->q_max, C_NONNEG);
-    D("run.p_max", &S->p_max, C_NONNEG);
-    D("run.lam_max", &S->lam_max, C_NONNEG);
-    D("run.t_lam_max", &S->t_lam_max, C_FINITE);
-    I("run.nonreversible", M_LONG, &S->nonreversible, 0, LONG_MAX);
-    D("run.e_err", &S->e_err, C_NONNEG);
-    D("run.e_scale", &S->e_scale, C_NONNEG);
-    I("scene.hash", M_U64, &c->scene_hash, 0, 0);
-    S_("out.path", &c->out.path);
-    S_("out.tmp", &c->out.tmp);
-    I("out.bytes", M_U64, &c->out.bytes, 0, 0);
-    I("out.hash", M_U64, &c->out.hash, 0, 0);
-    S_("ev.path", &c->ev.path);
-    S_("ev.tmp", &c->ev.tmp);
-    I("ev.bytes", M_U64, &c->ev.bytes, 0, 0);
-    I("ev.hash", M_U64, &c->ev.hash, 0, 0);
-#undef I
-#undef D
-#undef S_
-    return k;
-}
-/* A field added to the driver's state must be added to the table: the last member is e_scale. */
-_Static_assert(offsetof(dth_run_state, e_scale) + sizeof(double) == sizeof(dth_run_state),
-               "dth_run_state changed: update the field table of cli/ckpt.c");
-
-static int wire_type(int mem) { return mem == M_DBL ? T_F64 : mem == M_STR ? T_STR : T_I64; }
-
-/* ---- bytes */
-
-typedef struct wbuf {
-    unsigned char *p;
-    size_t len, cap;
-    int bad;
-} wbuf;
-
-static void put(wbuf *w, const void *src, size_t n)
-{
-    if (w->bad) return;
-    if (w->len + n > w->cap) {
-        size_t cap = w->cap ? 2 * w->cap : 512;
-        while (cap < w->len + n) cap *= 2;
-        unsigned char *q = realloc(w->p, cap);
-        if (!q) {
-            w->bad = 1;
-            return;
-        }
-        w->p = q;
-        w->cap = cap;
-    }
-    memcpy(w->p + w->len, src, n);
-    w->len += n;
-}
-
-static void put_le(wbuf *w, uint64_t v, int n)
-{
-    unsigned char b[8];
-    for (int i = 0; i < n; i++) b[i] = (unsigned char)(v >> (8 * i));
-    put(w, b, (size_t)n);
-}
+/* The one table: every field of the blob and where it lives in a cli_ckpt. */
+#define OUT_FIELDS(o) \
+    {#o ".path", offsetof(cli_ckpt, o.path), DTH_FIELD_STR, DTH_CHECK_ANY, 1}, \
+    {#o ".tmp", offsetof(cli_ckpt, o.tmp), DTH_FIELD_STR, DTH_CHECK_ANY, 1}, \
+    {#o ".bytes", offsetof(cli_ckpt, o.bytes), DTH_FIELD_U64, DTH_CHECK_ANY, 1}, \
+    {#o ".hash", offsetof(cli_ckpt, o.hash), DTH_FIELD_U64, DTH_CHECK_ANY, 1}
+static const dth_field fields[] = {
+    {"scene.hash", offsetof(cli_ckpt, scene_hash), DTH_FIELD_U64, DTH_CHECK_ANY, 1},
+    OUT_FIELDS(out),
+    OUT_FIELDS(ev),
+};
+enum { NFIELDS = sizeof fields / sizeof fields[0] };
+_Static_assert(sizeof(unsigned long long) == 8, "the U64 fields");
 
 int cli_ckpt_encode(const cli_ckpt *c, unsigned char **blob, size_t *len)
 {
-    fld f[MAX_FIELDS];
-    cli_ckpt copy = *c; /* the table points into a cli_ckpt */
-    size_t nf = fields(&copy, f);
-    wbuf w = {0};
-    put(&w, MAGIC, sizeof MAGIC);
-    put_le(&w, VERSION, 4);
-    put_le(&w, nf, 4);
-    for (size_t i = 0; i < nf; i++) {
-        size_t nl = strlen(f[i].name);
-        put_le(&w, (uint64_t)wire_type(f[i].mem), 1);
-        put_le(&w, nl, 1);
-        put(&w, f[i].name, nl);
-        switch (f[i].mem) {
-        case M_INT: put_le(&w, (uint64_t)(int64_t)*(int *)f[i].p, 8); break;
-        case M_UINT: put_le(&w, *(unsigned *)f[i].p, 8); break;
-        case M_LONG: put_le(&w, (uint64_t)(int64_t)*(long *)f[i].p, 8); break;
-        case M_U64: put_le(&w, *(unsigned long long *)f[i].p, 8); break;
-        case M_DBL: {
-            uint64_t v;
-            memcpy(&v, f[i].p, 8);
-            put_le(&w, v, 8);
-            break;
-        }
-        default: {
-            const char *s = *(char **)f[i].p ? *(char **)f[i].p : "";
-            size_t sl = strlen(s);
-            if (sl > MAX_STR) w.bad = 1;
-            put_le(&w, sl, 4);
-            put(&w, s, sl);
-        }
-        }
-    }
-    if (w.bad) {
-        free(w.p);
+    size_t rl;
+    if (dth_fields_encode(fields, NFIELDS, c, NULL, 0, &rl)) return -1;
+    unsigned char *b = malloc(HEAD + rl);
+    if (!b) return -1;
+    memcpy(b, MAGIC, sizeof MAGIC);
+    for (int i = 0; i < 4; i++) b[8 + i] = (unsigned char)((unsigned)VERSION >> (8 * i));
+    if (dth_fields_encode(fields, NFIELDS, c, b + HEAD, rl, &rl)) {
+        free(b);
         return -1;
     }
-    *blob = w.p;
-    *len = w.len;
-    return 0;
-}
-
-typedef struct rbuf {
-    const unsigned char *p;
-    size_t len, pos;
-} rbuf;
-
-static int get(rbuf *r, void *dst, size_t n)
-{
-    if (n > r->len - r->pos) return -1;
-    if (dst) memcpy(dst, r->p + r->pos, n);
-    r->pos += n;
-    return 0;
-}
-
-static int get_le(rbuf *r, int n, uint64_t *v)
-{
-    unsigned char b[8];
-    if (get(r, b, (size_t)n)) return -1;
-    *v = 0;
-    for (int i = n - 1; i >= 0; i--) *v = (*v << 8) | b[i];
+    *blob = b;
+    *len = HEAD + rl;
     return 0;
 }
 
 void cli_ckpt_clear(cli_ckpt *c)
 {
-    free(c->out.path);
-    free(c->out.tmp);
-    free(c->ev.path);
-    free(c->ev.tmp);
+    dth_free(NULL, c->out.path);
+    dth_free(NULL, c->out.tmp);
+    dth_free(NULL, c->ev.path);
+    dth_free(NULL, c->ev.tmp);
     memset(c, 0, sizeof *c);
 }
 
@@ -208,88 +76,86 @@ static int fail(char *err, size_t errlen, const char *fmt, ...)
     return -1;
 }
 
+/* What holds together: absolute paths, a byte count only with a file, an output file. */
+static int outputs_valid(const cli_ckpt *c, char *err, size_t errlen)
+{
+    const cli_ckpt_out *o[2] = {&c->out, &c->ev};
+    for (int i = 0; i < 2; i++) {
+        const char *what = i ? "events" : "output";
+        if ((o[i]->path[0] && o[i]->path[0] != '/') || (o[i]->tmp[0] && o[i]->tmp[0] != '/'))
+            return fail(err, errlen, "field '%s.%s' is not an absolute path", i ? "ev" : "out",
+                        o[i]->path[0] && o[i]->path[0] != '/' ? "path" : "tmp");
+        if (!o[i]->path[0] && (o[i]->bytes || o[i]->tmp[0]))
+            return fail(err, errlen, "the run state names no %s file but counts its bytes", what);
+        if (o[i]->bytes > ((unsigned long long)1 << 62))
+            return fail(err, errlen, "the run state's %s byte count is out of range", what);
+    }
+    if (!c->out.path[0]) return fail(err, errlen, "the run state names no output file");
+    return 0;
+}
+
 int cli_ckpt_decode(const void *blob, size_t len, cli_ckpt *c, char *err, size_t errlen)
 {
     memset(c, 0, sizeof *c);
-    rbuf r = {blob, len, 0};
-    unsigned char magic[8];
-    uint64_t ver = 0, nf = 0;
-    if (!blob || get(&r, magic, 8) || memcmp(magic, MAGIC, 8))
+    const unsigned char *b = blob;
+    if (!blob || len < HEAD || memcmp(b, MAGIC, sizeof MAGIC))
         return fail(err, errlen, "not a checkpoint of dth run (no run state)");
-    if (get_le(&r, 4, &ver) || ver != VERSION)
-        return fail(err, errlen, "a checkpoint of another version of dth run (its run state has layout %llu, this "
-                                 "dth reads %d only): finish it with the dth that wrote it", (unsigned long long)ver, VERSION);
-    fld f[MAX_FIELDS];
-    size_t want = fields(c, f);
-    int seen[MAX_FIELDS] = {0};
-    if (get_le(&r, 4, &nf) || nf != want)
-        return fail(err, errlen, "the run state has %llu fields, this dth %zu", (unsigned long long)nf, want);
-    for (uint64_t i = 0; i < nf; i++) {
-        uint64_t type, nl;
-        char name[MAX_NAME + 1];
-        if (get_le(&r, 1, &type) || get_le(&r, 1, &nl) || nl == 0 || nl > MAX_NAME || get(&r, name, (size_t)nl))
-            goto truncated;
-        name[nl] = '\0';
-        if (memchr(name, '\0', (size_t)nl)) return fail(err, errlen, "a field name holds a NUL byte");
-        size_t k = 0;
-        while (k < want && strcmp(f[k].name, name)) k++;
-        if (k == want) return fail(err, errlen, "unknown field '%s' in the run state", name);
-        if (seen[k]++) return fail(err, errlen, "field '%s' appears twice in the run state", name);
-        if (type != (uint64_t)wire_type(f[k].mem)) return fail(err, errlen, "field '%s' has the wrong type", name);
-        if (f[k].mem == M_STR) {
-            uint64_t sl;
-            if (get_le(&r, 4, &sl)) goto truncated;
-            if (sl > MAX_STR) return fail(err, errlen, "field '%s' is longer than 4096 bytes", name);
-            if (sl > r.len - r.pos) goto truncated;
-            const unsigned char *sp = r.p + r.pos;
-            if (memchr(sp, '\0', (size_t)sl)) return fail(err, errlen, "field '%s' holds a NUL byte", name);
-            if (sl && sp[0] != '/') return fail(err, errlen, "field '%s' is not an absolute path", name);
-            char *s = malloc((size_t)sl + 1);
-            if (!s) return fail(err, errlen, "out of memory");
-            memcpy(s, sp, (size_t)sl);
-            s[sl] = '\0';
-            r.pos += (size_t)sl;
-            *(char **)f[k].p = s;
-            continue;
-        }
-        uint64_t v;
-        if (get_le(&r, 8, &v)) goto truncated;
-        if (f[k].mem == M_DBL) {
-            double x;
-            memcpy(&x, &v, sizeof x);
-            int ok = f[k].check == C_FINITE ? isfinite(x)
-                     : f[k].check == C_NONNEG ? isfinite(x) && x >= 0
-                     : f[k].check == C_FINITE_OR_NAN ? !isinf(x) : 1;
-            if (!ok) return fail(err, errlen, "field '%s' holds an invalid value", name);
-            *(double *)f[k].p = x;
-        } else if (f[k].mem == M_U64) {
-            *(unsigned long long *)f[k].p = v;
-        } else {
-            long long x = (long long)(int64_t)v;
-            if (x < f[k].lo || x > f[k].hi) return fail(err, errlen, "field '%s' is out of range", name);
-            if (f[k].mem == M_INT) *(int *)f[k].p = (int)x;
-            else if (f[k].mem == M_UINT) *(unsigned *)f[k].p = (unsigned)x;
-            else *(long *)f[k].p = (long)x;
-        }
+    unsigned ver = 0;
+    for (int i = 3; i >= 0; i--) ver = (ver << 8) | b[8 + i];
+    if (ver != VERSION)
+        return fail(err, errlen, "a checkpoint of another version of dth run (its run state has layout %u, this "
+                                 "dth reads %d only): finish it with the dth that wrote it", ver, VERSION);
+    char msg[400];
+    int rc = dth_fields_decode(fields, NFIELDS, c, b + HEAD, len - HEAD, NULL, msg, sizeof msg);
+    if (rc) {
+        memset(c, 0, sizeof *c);
+        return fail(err, errlen, "%s", rc == DTH_ENOMEM ? "out of memory" : msg);
     }
-    if (r.pos != r.len) return fail(err, errlen, "the run state has trailing bytes");
-    for (size_t k = 0; k < want; k++)
-        if (!seen[k]) return fail(err, errlen, "field '%s' is missing from the run state", f[k].name);
-    /* what holds together */
-    const cli_ckpt_out *o[2] = {&c->out, &c->ev};
-    for (int i = 0; i < 2; i++) {
-        if (!o[i]->path[0] && (o[i]->bytes || o[i]->tmp[0]))
-            return fail(err, errlen, "the run state names no %s file but counts its bytes", i ? "events" : "output");
-        if (o[i]->bytes > ((unsigned long long)1 << 62))
-            return fail(err, errlen, "the run state's %s byte count is out of range", i ? "events" : "output");
+    if (outputs_valid(c, err, errlen)) {
+        cli_ckpt_clear(c);
+        return -1;
     }
-    if (!c->out.path[0]) return fail(err, errlen, "the run state names no output file");
-    if (c->S.k0 > c->S.k) return fail(err, errlen, "field '%s' exceeds field '%s'", "run.k0", "run.k");
-    if (!c->S.started && (c->S.k || c->S.samples || c->S.events || c->S.j))
-        return fail(err, errlen, "the run state has counts but no start");
     return 0;
-truncated:
-    return fail(err, errlen, "the run state is truncated");
+}
+
+/* ---- the rows a resume continues: the header this run writes, one line per sample ---- */
+
+int cli_ckpt_check_rows(const cli_ckpt_out *o, int ev, const char *from, const char *header, size_t hlen, long rows,
+                        char *err, size_t errlen)
+{
+    const char *f = ev ? "ev.bytes" : "out.bytes";
+    if (o->bytes < hlen + 1)
+        return fail(err, errlen, "field '%s' counts %llu bytes of '%s', fewer than its header line of %zu", f, o->bytes,
+                    from, hlen + 1);
+    int fd = open(from, O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return fail(err, errlen, "cannot read '%s': %s", from, strerror(errno));
+    char chunk[1 << 16];
+    unsigned long long at = 0, lines = 0;
+    int rc = 0, last = 0;
+    while (!rc && at < o->bytes) {
+        size_t want = o->bytes - at < sizeof chunk ? (size_t)(o->bytes - at) : sizeof chunk;
+        ssize_t r = read(fd, chunk, want);
+        if (r < 0 && errno == EINTR) continue;
+        if (r <= 0) {
+            rc = fail(err, errlen, "'%s' is shorter than the %llu bytes field '%s' counts", from, o->bytes, f);
+            break;
+        }
+        for (size_t i = 0; i < (size_t)r; i++) {
+            if (at + i < hlen + 1 && chunk[i] != (at + i < hlen ? header[at + i] : '\n'))
+                rc = fail(err, errlen, "'%s' does not begin with the header line this scene writes (its columns "
+                          "differ from the resumed run's)", from);
+            if (chunk[i] == '\n') lines++;
+        }
+        last = chunk[r - 1];
+        at += (unsigned long long)r;
+    }
+    close(fd);
+    if (!rc && last != '\n')
+        rc = fail(err, errlen, "the %llu bytes of '%s' field '%s' counts end inside a row", o->bytes, from, f);
+    if (!rc && lines != 1 + (unsigned long long)rows)
+        rc = fail(err, errlen, "the %llu bytes of '%s' field '%s' counts hold %llu rows, field '%s' of the run state %ld",
+                  o->bytes, from, f, lines - 1, ev ? "events" : "samples", rows);
+    return rc;
 }
 
 /* ---- files */
@@ -324,7 +190,6 @@ int cli_ckpt_write(const char *path, const dth_integrator *it, const dth_scene *
     unsigned char *blob = NULL;
     cli_ckpt c;
     memset(&c, 0, sizeof c);
-    c.S = *S;
     int rc = dth_scene_text(scene, keep_entry, &has_t_end, &text, &tlen);
     if (!rc && (out_state(out, &c.out) || out_state(ev, &c.ev))) rc = DTH_ENOMEM;
     if (!rc) {
@@ -333,7 +198,7 @@ int cli_ckpt_write(const char *path, const dth_integrator *it, const dth_scene *
     }
     if (!rc) {
         dth_blob blobs[] = {{"scene", text, tlen}, {"cli", blob, blen}};
-        rc = dth_checkpoint_write_file(it, blobs, 2, path, err, errlen);
+        rc = dth_checkpoint_write_file_run(it, S, blobs, 2, path, err, errlen);
     } else if (err && errlen) {
         snprintf(err, errlen, "cannot write checkpoint '%s': %s", path, dth_strerror(rc));
     }
@@ -359,6 +224,8 @@ int cli_ckpt_read(const char *path, void **buf, size_t *len, const char **scene,
     } else if (cli_ckpt_decode(cb, cblen, c, msg, sizeof msg)) {
         snprintf(err, errlen, "%s: %s", path, msg);
         rc = DTH_EPARSE;
+    } else if ((rc = dth_checkpoint_run_state(*buf, *len, &c->S, msg, sizeof msg)) != 0) {
+        snprintf(err, errlen, "%s: %s", path, msg);
     } else if (c->scene_hash != cli_fnv1a(CLI_FNV_OFFSET, text, *scene_len)) {
         snprintf(err, errlen, "%s: its scene does not match its run state", path);
         rc = DTH_EPARSE;

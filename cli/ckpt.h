@@ -13,19 +13,28 @@ typedef struct cli_ckpt_out {
     unsigned long long bytes, hash; /* bytes already final (header included) and their FNV-1a 64 */
 } cli_ckpt_out;
 
-/* The "cli" blob: the run driver's state, the scene's hash, the outputs' progress. */
+/* What a checkpoint of dth run holds beyond the integrator: the run driver's state (the library's
+ * "run" section), and in the "cli" blob the scene's hash and the outputs' progress. */
 typedef struct cli_ckpt {
-    dth_run_state S;
+    dth_run_state S;               /* read by dth_checkpoint_run_state, restored by dth_checkpoint_restore_run */
     unsigned long long scene_hash; /* FNV-1a 64 of the checkpoint's "scene" blob */
     cli_ckpt_out out, ev;
 } cli_ckpt;
 
-/* The blob as bytes (malloc'd): a magic, a version, then named, typed fields. 0 or -1 (memory). */
+/* The blob as bytes (malloc'd): a magic, a version, then the record of the library's field codec
+ * (dth_fields_encode) of every field but S. 0 or -1 (memory). */
 int cli_ckpt_encode(const cli_ckpt *c, unsigned char **blob, size_t *len);
-/* Parse and validate a blob: every field present once, in range, strings without NUL and at most
+/* Parse and validate a blob (S stays zero): every field in order, strings without NUL and at most
  * 4096 bytes, paths absolute. 0, or -1 with the reason in err. Free with cli_ckpt_clear. */
 int cli_ckpt_decode(const void *blob, size_t len, cli_ckpt *c, char *err, size_t errlen);
 void cli_ckpt_clear(cli_ckpt *c);
+
+/* The first o->bytes bytes of the file `from`, which a resume continues, are the rows this run
+ * would have written: the header line (`header`, hlen bytes, without its newline), then `rows`
+ * lines (the run state's samples, or events: ev = 1), and they end with a line. 0, or -1 naming
+ * the file and the field. */
+int cli_ckpt_check_rows(const cli_ckpt_out *o, int ev, const char *from, const char *header, size_t hlen, long rows,
+                        char *err, size_t errlen);
 
 /* Write a checkpoint of the run to `path`: the integrator, the scene as text that loads back
  * (only the one of steps= and t_end= in force), and the blob (absolute paths of out and ev, which
@@ -33,8 +42,9 @@ void cli_ckpt_clear(cli_ckpt *c);
 int cli_ckpt_write(const char *path, const dth_integrator *it, const dth_scene *scene, int has_t_end,
                    const dth_run_state *S, const cli_out *out, const cli_out *ev, char *err, size_t errlen);
 
-/* Read a checkpoint of dth run: *buf (free) holds it for dth_checkpoint_restore, *scene points to
- * its scene text in *buf, c the decoded blob. 0, or a dth status with the reason in err. */
+/* Read a checkpoint of dth run: *buf (free) holds it for dth_checkpoint_restore_run, *scene points
+ * to its scene text in *buf, c the decoded blob and run state. 0, or a dth status with the reason in
+ * err. */
 int cli_ckpt_read(const char *path, void **buf, size_t *len, const char **scene, size_t *scene_len, cli_ckpt *c,
                   char *err, size_t errlen);
 

@@ -305,7 +305,7 @@ static int start_integrator(run_job *j)
         return CLI_USAGE;
     }
     rc = dth_integrator_new(rs->model, &rs->opt, &j->it);
-    if (!rc && resume_path) rc = dth_checkpoint_restore(j->it, j->res.buf, j->res.len, err, sizeof err);
+    if (!rc && resume_path) rc = dth_checkpoint_restore_run(j->it, &j->res.c.S, j->res.buf, j->res.len, err, sizeof err);
     else if (!rc) rc = dth_integrator_start(j->it, rs->q0, rs->p0, rs->t0);
     if (rc && resume_path && j->it) {
         cli_error("%s", err);

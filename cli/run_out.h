@@ -61,6 +61,8 @@ const char *run_code_name(const run_out *r, int kind, long v);
 size_t run_code_count(const run_out *r, int kind);
 /* The tables' headers (r->fmt's). 0 or -1. */
 int run_headers(run_out *r);
+/* The header line (without its newline) of the trajectory (ev = 0) or the events table, in r->line. */
+void run_header_line(run_out *r, int ev, const char **line, size_t *len);
 /* The driver's sample callback: one row per sample. */
 int run_on_sample(void *user, const dth_sample *s);
 /* The driver's event callback: one row per located event in the events table. */
@@ -85,8 +87,8 @@ int run_on_checkpoint(void *user, const dth_run_state *st);
 void run_clean_stale(const char *path, const char *ev_path, const char *ckpt_path, const char *resume_path,
                      const cli_ckpt *c);
 /* The rows the checkpointed run c had made final, into the new outputs: from its temporary file if
- * it was killed (or failed), else from the file it finished; the bytes must hash as recorded. 0 or
- * -1 (printed). */
+ * it was killed (or failed), else from the file it finished; the bytes must hash as recorded and
+ * be this run's header and one row per sample (event) of the run state. 0 or -1 (printed). */
 int run_resume_prefix(run_out *r, const cli_ckpt *c, const char *ckpt, const char *ev_path);
 /* The checkpoint of the start (or of the resumed state), written before the first step so a run
  * never learns only at its first checkpoint that it cannot write one: 0; 1: an output could not be

@@ -48,7 +48,8 @@ void run_clean_stale(const char *path, const char *ev_path, const char *ckpt_pat
 }
 
 /* The rows the checkpointed run had made final, into the new outputs: from its temporary file if it
- * was killed (or failed), else from the file it finished; the bytes must hash as recorded. */
+ * was killed (or failed), else from the file it finished; the bytes must hash as recorded and be
+ * this run's header and one row per sample (per event) the run state counts. */
 int run_resume_prefix(run_out *r, const cli_ckpt *c, const char *ckpt, const char *ev_path)
 {
     const cli_ckpt_out *src[2] = {&c->out, &c->ev};
@@ -70,6 +71,15 @@ int run_resume_prefix(run_out *r, const cli_ckpt *c, const char *ckpt, const cha
         else if (rc == CLI_PREFIX_WRITE)
             cli_error("cannot write '%s': %s", dst[i]->path ? dst[i]->path : "standard output", strerror(dst[i]->err));
         if (rc) return -1;
+        /* the bytes are the ones the run wrote: they must also be the rows this run continues */
+        const char *head;
+        size_t hlen;
+        char why[1400];
+        run_header_line(r, i, &head, &hlen);
+        if (cli_ckpt_check_rows(s, i, from, head, hlen, i ? c->S.events : c->S.samples, why, sizeof why)) {
+            cli_error("%s: the checkpointed run's output: %s", ckpt, why);
+            return -1;
+        }
     }
     return 0;
 }

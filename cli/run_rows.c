@@ -197,6 +197,12 @@ int run_on_event(void *user, const dth_sample *s)
 
 int run_headers(run_out *r) { return r->fmt->header(r); }
 
+void run_header_line(run_out *r, int ev, const char **line, size_t *len)
+{
+    *line = run_columns(r, ev);
+    *len = strlen(*line);
+}
+
 /* ---------------------------------------------------------------- setup and output files */
 
 int run_rows_init(run_out *r, const dth_run_setup *rs, int leg)

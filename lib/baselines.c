@@ -543,7 +543,7 @@ static int step(void *s, dth_step_info *info)
 #define FIXED_STATE(X)                                                                              \
     X(y, VEC, FINITE, "the state (q, t, p) and wp = -E0, high part")                               \
     X(ylo, VEC, FINITE, "its low part")                                                             \
-    X(h, F64, NONZERO, "the step (its sign the direction)")                                         \
+    X(h, F64, HSTEP, "the step (its sign the direction)")                                         \
     X(E0, F64, FINITE, "the initial energy")                                                        \
     X(started, INT, BOOL, "started")                                                                \
     X(have_prev, INT, BOOL, "Zp holds the last step's stage offsets")                               \
@@ -562,6 +562,22 @@ static size_t sections(void *s, dth__section *out)
     out[1] = (dth__section){"predictor", zp_field, 1, f, f->Zlen};
     out[2] = (dth__section){"force", fq_field, 1, f, f->n};
     return 3;
+}
+
+/* A restored state's rules between fields: a state holds steps only once started, and carries
+ * wp = -E0. */
+static int consistent(const void *s, char *err, size_t errlen)
+{
+    const dth_fixed *f = s;
+    if (!f->started && (f->steps || f->have_prev || f->have_force)) {
+        snprintf(err, errlen, "field 'steps', 'have_prev' or 'have_force' is set, yet 'started' = 0");
+        return DTH_EPARSE;
+    }
+    if (f->started && f->y[f->d] != -f->E0) {
+        snprintf(err, errlen, "field 'E0' = %.17g is not minus the wp that field 'y' carries, %.17g", f->E0, f->y[f->d]);
+        return DTH_EPARSE;
+    }
+    return DTH_OK;
 }
 
 /* One stepper type per method: the table's entries, with their own create and check. */
@@ -584,7 +600,7 @@ BASELINE(4)
     {NAME_DOC, .check = check_##i, .create = create_##i, .destroy = destroy, .start = start,               \
      .set_vertex = set_vertex, .step = step, .reverse = reverse, .vertex = vertex, .midpoint = midpoint,       \
      .lambda = lambda, .direction = direction, .energy = energy, .steps = steps, .order = order,               \
-     .errmsg = errmsg, .wp_fixed = 1, .sections = sections}
+     .errmsg = errmsg, .wp_fixed = 1, .sections = sections, .consistent = consistent}
 static const dth__stepper_type types[NMETHODS] = {TYPE(0, M0), TYPE(1, M1), TYPE(2, M2), TYPE(3, M3), TYPE(4, M4)};
 _Static_assert(NMETHODS == 5, "one BASELINE and TYPE entry per method");
 

@@ -544,13 +544,9 @@ typedef struct optv {
     double band_time;
 } optv;
 static const dth__field opt_fields[] = {
-    {"order", offsetof(optv, order), DTH__K_LONG, DTH__C_ANY},
-    {"table", offsetof(optv, table), DTH__K_LONG, DTH__C_ANY},
-    {"finish", offsetof(optv, finish), DTH__K_LONG, DTH__C_ANY},
-    {"max_iter", offsetof(optv, max_iter), DTH__K_LONG, DTH__C_ANY},
-    {"linsolve", offsetof(optv, linsolve), DTH__K_LONG, DTH__C_ANY},
-    {"band", offsetof(optv, band), DTH__K_LONG, DTH__C_ANY},
-    {"band_time", offsetof(optv, band_time), DTH__K_F64, DTH__C_ANY},
+    DTH__FIELD(optv, order, LONG, ANY),    DTH__FIELD(optv, table, LONG, ANY),    DTH__FIELD(optv, finish, LONG, ANY),
+    DTH__FIELD(optv, max_iter, LONG, ANY), DTH__FIELD(optv, linsolve, LONG, ANY), DTH__FIELD(optv, band, LONG, ANY),
+    DTH__FIELD(optv, band_time, F64, ANY),
 };
 _Static_assert(sizeof(optv) <= 64, "options_section's scratch");
 

@@ -27,15 +27,15 @@
     X(dprev, VEC, FINITE, "offset zbar - z_(k-1) of the last step (predictor)")                     \
     X(dprev2, VEC, FINITE, "the offset of the step before it (quadratic predictor)")               \
     X(dprev3, VEC, FINITE, "the offset of the step before that")                                    \
-    X(lam, F64, FINITE, "the last step's lambda (0 if none)")                                       \
-    X(lam2, F64, FINITE, "lambda of the step before it")                                            \
-    X(lam3, F64, FINITE, "lambda of the step before that")                                          \
+    X(lam, F64, STEP, "the last step's lambda (0 if none)")                                       \
+    X(lam2, F64, STEP, "lambda of the step before it")                                            \
+    X(lam3, F64, STEP, "lambda of the step before that")                                          \
     X(nhist, INT, NHIST, "consecutive ordinary steps in dprev, dprev2, dprev3")                     \
     X(rho, F64, FINITE, "carried vertex offset H(z_k) of the compensated constraint")              \
     X(rholo, F64, FINITE, "its low part (double-double)")                                           \
-    X(lam_hint, F64, FINITE, "step size to aim for when there is no history")                       \
+    X(lam_hint, F64, STEP, "step size to aim for when there is no history")                       \
     X(dir, F64, UNIT, "direction of travel")                                                        \
-    X(h, F64, NONZERO, "the step option h as it stands (dth_integrator_reverse flips it)")         \
+    X(h, F64, HSTEP, "the step option h as it stands (dth_integrator_reverse flips it)")         \
     X(have_prev, INT, BOOL, "dprev and lam hold a step")                                            \
     X(have_mid, INT, BOOL, "zbar holds a midpoint")                                                 \
     X(pending_exact, INT, BOOL, "midpoint start: the exact first step is still to be taken")        \

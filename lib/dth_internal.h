@@ -43,19 +43,28 @@ static inline void dth__flow_z(size_t n, const double *grad, double *u)
 }
 /**
  * Check the head of a table a program or plugin filled (model.h: abi and size first): the magic, a
- * layout version from 2 to `version` (the current one, whose table has `full` bytes) and a size that
- * fits the version. `kind` names the table in the message ("model", "regularizer").
+ * layout version from `oldest` to `version` (the current one, whose table has `full` bytes) and a
+ * size that fits the version. `kind` names the table in the message ("model", "regularizer").
  * @return DTH_OK, DTH_EINVAL (message in err).
  */
-int dth__abi_check(unsigned abi, size_t size, unsigned version, size_t full, const char *kind, char *err, size_t len);
+int dth__abi_check(unsigned abi, size_t size, unsigned oldest, unsigned version, size_t full, const char *kind, char *err,
+                   size_t len);
 /** Copy a checked table of `size` bytes into `dst` (`full` bytes): members past size read as 0. */
 void dth__table_copy(void *dst, size_t full, const void *src, size_t size);
 struct dth_regularizer;
-/** Bytes of state a regularizer instance carries (0: stateless or NULL). */
+/** The fields of a regularizer instance's state (its type's list; *n = 0: stateless or NULL), the
+ *  struct they are offsets into, the count of a F64_PTR field of count 0 (2n + 2). */
+const struct dth_field *dth__reg_fields(const struct dth_regularizer *r, size_t *n);
+void *dth__reg_self(const struct dth_regularizer *r);
+size_t dth__reg_veclen(const struct dth_regularizer *r);
+/** The type's state_loaded callback after its fields were written (0 if it has none). */
+int dth__reg_loaded(struct dth_regularizer *r);
+/** Bytes of state a regularizer instance carries (0: stateless or NULL): its fields' bytes in
+ *  memory, for the policy's snapshot of a step (not a format: checkpoints write the fields). */
 size_t dth__reg_state_size(const struct dth_regularizer *r);
 /** Save that state into buf (dth__reg_state_size bytes). */
 void dth__reg_save_state(const struct dth_regularizer *r, void *buf);
-/** Load it back; -1 if len does not match or the regularizer rejects the bytes. */
+/** Load it back (then the type's state_loaded); -1 if len does not match or state_loaded refuses. */
 int dth__reg_load_state(struct dth_regularizer *r, const void *buf, size_t len);
 /** The instance's admit callback (regularize.h; the type has one). */
 int dth__reg_admit(struct dth_regularizer *r, const double *za, const double *zb, double lambda);

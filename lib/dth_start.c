@@ -266,6 +266,6 @@ void dth__dth_reverse(void *s)
         /* not stepped yet from a midpoint start: reversing means the exact step goes backward */
         it->st.pending_exact = 0;
         it->st.have_prev = 0;
-        it->st.lam_hint = -it->st.h;
+        it->st.lam_hint = it->st.h; /* h is flipped already: the step to aim for goes the new way */
     }
 }

@@ -375,12 +375,8 @@ typedef struct optv {
     double K;
 } optv;
 static const dth__field opt_fields[] = {
-    {"branch_check", offsetof(optv, branch_check), DTH__K_LONG, DTH__C_ANY},
-    {"finish", offsetof(optv, finish), DTH__K_LONG, DTH__C_ANY},
-    {"max_iter", offsetof(optv, max_iter), DTH__K_LONG, DTH__C_ANY},
-    {"order", offsetof(optv, order), DTH__K_LONG, DTH__C_ANY},
-    {"linsolve", offsetof(optv, linsolve), DTH__K_LONG, DTH__C_ANY},
-    {"K", offsetof(optv, K), DTH__K_F64, DTH__C_ANY},
+    DTH__FIELD(optv, branch_check, LONG, ANY), DTH__FIELD(optv, finish, LONG, ANY), DTH__FIELD(optv, max_iter, LONG, ANY),
+    DTH__FIELD(optv, order, LONG, ANY),        DTH__FIELD(optv, linsolve, LONG, ANY), DTH__FIELD(optv, K, F64, ANY),
 };
 _Static_assert(sizeof(optv) <= 64, "options_section's scratch");
 
@@ -426,4 +422,5 @@ const dth__stepper_type dth__stepper_dth = {
     .options_section = options_section,
     .regularizer = regularizer,
     .restored = restored,
+    .consistent = dth__dth_consistent,
 };

@@ -114,7 +114,7 @@ int dth_model_type_check(const dth_model_type *t, char *err, size_t errlen)
         dth__set_err(err, errlen, "no model table (NULL)");
         return DTH_EINVAL;
     }
-    int rc = dth__abi_check(t->abi, t->size, DTH_MODEL_TYPE_VERSION, sizeof *t, "model", err, errlen);
+    int rc = dth__abi_check(t->abi, t->size, 2, DTH_MODEL_TYPE_VERSION, sizeof *t, "model", err, errlen);
     if (rc) return rc;
     if (!t->name || !t->name[0] || !t->create || !t->eval) {
         dth__set_err(err, errlen, "model table '%s' lacks %s", t->name && t->name[0] ? t->name : "(unnamed)",

@@ -98,7 +98,8 @@ const dth_regularizer_type *dth_registry_regularizer_at(const dth_registry *r, s
     return (r && i < r->n_regs) ? r->regs[i] : NULL;
 }
 
-int dth__abi_check(unsigned abi, size_t size, unsigned version, size_t full, const char *kind, char *err, size_t len)
+int dth__abi_check(unsigned abi, size_t size, unsigned oldest, unsigned version, size_t full, const char *kind, char *err,
+                   size_t len)
 {
     if ((abi & ~0xffu) != DTH_ABI_MAGIC) {
         dth__set_err(err, len,
@@ -108,13 +109,18 @@ int dth__abi_check(unsigned abi, size_t size, unsigned version, size_t full, con
         return DTH_EINVAL;
     }
     unsigned v = abi & 0xffu, cur = version & 0xffu;
-    if (v < 2 || v > cur) {
-        dth__set_err(err, len, "%s table has layout version %u, this library reads versions 2 to %u%s", kind, v, cur,
-                     v > cur ? " (built against a newer dth)" : "");
+    if (v < oldest || v > cur) {
+        if (oldest == cur)
+            dth__set_err(err, len, "%s table has layout version %u, this library reads version %u only (%s)", kind, v,
+                         cur, v > cur ? "built against a newer dth" : "rebuild it against this dth's headers");
+        else
+            dth__set_err(err, len, "%s table has layout version %u, this library reads versions %u to %u%s", kind, v,
+                         oldest, cur, v > cur ? " (built against a newer dth)" : "");
         return DTH_EINVAL;
     }
-    /* one layout so far: version 2 is the current table; a later version keeps each earlier
-     * version's size here, so that a smaller table reads as its own layout */
+    /* one layout per kind so far (models 2, regularizers 3: the older regularizer layout is
+     * refused above); a later version keeps each earlier version's size here, so that a smaller
+     * table reads as its own layout */
     if (size != full) {
         dth__set_err(err, len, "%s table of layout version %u says it has %zu bytes, that layout has %zu", kind, v, size,
                      full);

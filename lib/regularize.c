@@ -10,6 +10,7 @@
 #include <string.h>
 #include "dth/regularize.h"
 #include "dth_internal.h"
+#include "fields.h"
 #include "kick.h"
 
 struct dth_regularizer {
@@ -17,6 +18,7 @@ struct dth_regularizer {
     dth_regularizer_type t;           /* the caller's table, checked and copied (model.h) */
     void *self;
     const dth_allocator *alloc;
+    size_t N;                         /* 2n + 2 of the model: a F64_PTR field's count 0 */
 };
 
 static int spec_accepts(const dth_regularizer_type *t, const char *key)
@@ -35,11 +37,16 @@ int dth_regularizer_type_check(const dth_regularizer_type *t, char *err, size_t 
         dth__set_err(err, errlen, "no regularizer table (NULL)");
         return DTH_EINVAL;
     }
-    int rc = dth__abi_check(t->abi, t->size, DTH_REG_TYPE_VERSION, sizeof *t, "regularizer", err, errlen);
+    int rc = dth__abi_check(t->abi, t->size, 3, DTH_REG_TYPE_VERSION, sizeof *t, "regularizer", err, errlen);
     if (rc) return rc;
     if (!t->name || !t->name[0] || !t->apply) {
         dth__set_err(err, errlen, "regularizer table '%s' lacks %s", t->name && t->name[0] ? t->name : "(unnamed)",
                      !t->name || !t->name[0] ? "a name" : "its apply callback");
+        return DTH_EINVAL;
+    }
+    char why[160];
+    if (dth__fields_valid(t->fields, t->n_fields, 1, why, sizeof why)) {
+        dth__set_err(err, errlen, "regularizer table '%s': %s", t->name, why);
         return DTH_EINVAL;
     }
     return DTH_OK;
@@ -73,6 +80,7 @@ int dth_regularizer_new(const dth_regularizer_type *utype, const dth_kv *kv, siz
     r->type = &r->t;
     type = r->type;
     r->alloc = alloc;
+    r->N = 2 * dth_model_dof(model) + 2;
     if (type->create) {
         dth_reg_args a = {kv, nkv, model, alloc, err, errlen};
         int rc = type->create(&a, &r->self);
@@ -96,20 +104,72 @@ void dth_regularizer_free(dth_regularizer *r)
 
 const dth_regularizer_type *dth_regularizer_get_type(const dth_regularizer *r) { return r ? r->type : NULL; }
 
+/* ---- the instance's state: its type's field list (regularize.h) ---- */
+
+const dth_field *dth__reg_fields(const dth_regularizer *r, size_t *n)
+{
+    *n = r && r->self ? r->type->n_fields : 0;
+    return *n ? r->type->fields : NULL;
+}
+
+void *dth__reg_self(const dth_regularizer *r) { return r ? r->self : NULL; }
+
+size_t dth__reg_veclen(const dth_regularizer *r) { return r ? r->N : 0; }
+
+int dth__reg_loaded(dth_regularizer *r)
+{
+    return r && r->self && r->type->state_loaded ? r->type->state_loaded(r->self) : 0;
+}
+
+/* A field's bytes in the instance: its member, or the doubles its pointer points to. */
+static char *field_bytes(const dth_regularizer *r, const dth_field *f, size_t *len)
+{
+    char *p = (char *)r->self + f->offset;
+    if (f->kind != DTH_FIELD_F64_PTR) {
+        *len = dth__field_size(f);
+        return p;
+    }
+    *len = (size_t)dth__field_count(f, r->N) * sizeof(double);
+    char *v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
+
 size_t dth__reg_state_size(const dth_regularizer *r)
 {
-    return r && r->type->state_size && r->type->save_state && r->type->load_state ? r->type->state_size(r->self) : 0;
+    size_t n, total = 0, len;
+    const dth_field *f = dth__reg_fields(r, &n);
+    for (size_t i = 0; i < n; i++) {
+        field_bytes(r, &f[i], &len);
+        total += len;
+    }
+    return total;
 }
 
 void dth__reg_save_state(const dth_regularizer *r, void *buf)
 {
-    if (dth__reg_state_size(r)) r->type->save_state(r->self, buf);
+    size_t n, len;
+    const dth_field *f = dth__reg_fields(r, &n);
+    char *out = buf;
+    for (size_t i = 0; i < n; i++) {
+        const char *p = field_bytes(r, &f[i], &len);
+        if (len) memcpy(out, p, len);
+        out += len;
+    }
 }
 
 int dth__reg_load_state(dth_regularizer *r, const void *buf, size_t len)
 {
     if (len != dth__reg_state_size(r)) return -1;
-    return len ? r->type->load_state(r->self, buf, len) : 0;
+    size_t n, l;
+    const dth_field *f = dth__reg_fields(r, &n);
+    const char *in = buf;
+    for (size_t i = 0; i < n; i++) {
+        char *p = field_bytes(r, &f[i], &l);
+        if (l) memcpy(p, in, l);
+        in += l;
+    }
+    return dth__reg_loaded(r) < 0 ? -1 : 0;
 }
 
 int dth__reg_admit(dth_regularizer *r, const double *za, const double *zb, double lambda)

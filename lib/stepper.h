@@ -61,6 +61,9 @@ typedef struct dth__stepper_type {
     struct dth_regularizer *(*regularizer)(const void *state);
     /** After a restore: the derived state (caches) made consistent; may be NULL. */
     void (*restored)(void *state);
+    /** A restored state's rules between fields (a field's own range is its check): DTH_OK, or
+     *  DTH_EPARSE with a message naming the fields (the restore is then undone). NULL: none. */
+    int (*consistent)(const void *state, char *err, size_t errlen);
     /** The dense output between vertices is the quintic Hermite interpolant of order 4 (run.c: from
      *  the flow f and f' = J H_zz f at both vertices); 0: the cubic/quartic of dth_dense_eval. */
     int dense5;
@@ -81,6 +84,8 @@ struct dth_integrator {
 };
 
 extern const dth__stepper_type dth__stepper_dth;
+/** The DTH stepper's `consistent` (restore_rules.c). */
+int dth__dth_consistent(const void *state, char *err, size_t errlen);
 /** The DTH method of order 4: a composition of level-shifted DTH steps (compose.c). */
 extern const dth__stepper_type dth__stepper_compose;
 /** The baselines (baselines.c): count and entry i. */

@@ -25,6 +25,7 @@
  */
 #include <float.h>
 #include <math.h>
+#include <stddef.h>
 #include <string.h>
 #include "dth_internal.h"
 #include "reg_common.h"
@@ -621,40 +622,28 @@ static int apply(void *self, const dth_reg_event *ev, dth_reg_action *act)
     return DTH_OK;
 }
 
-/* The state a checkpoint keeps: C, the clock's accumulator and its last vertex. */
-enum { NSTATE = 7 };
+/* The state a checkpoint keeps (all that carries from one step to the next; kappa, bound and clock are
+ * parameters, dir is set by each event before use, the rest is workspace): the step invariant C, the
+ * clock's accumulator and whether the run has crossed, the last vertex's psi' and the step from it. */
+static const dth_field state_fields[] = {
+    {"C", offsetof(land, C), DTH_FIELD_F64, DTH_CHECK_NONNEG, 1},
+    {"C_fixed", offsetof(land, C_fixed), DTH_FIELD_INT, DTH_CHECK_BOOL, 1},
+    {"crossed", offsetof(land, crossed), DTH_FIELD_INT, DTH_CHECK_BOOL, 1},
+    {"acc", offsetof(land, acc), DTH_FIELD_F64, DTH_CHECK_FINITE, 1},
+    {"have_prev", offsetof(land, have_prev), DTH_FIELD_INT, DTH_CHECK_BOOL, 1},
+    {"dpsi_prev", offsetof(land, dpsi_prev), DTH_FIELD_F64, DTH_CHECK_FINITE, 1},
+    {"lam_prev", offsetof(land, lam_prev), DTH_FIELD_F64, DTH_CHECK_FINITE, 1},
+};
 
-static size_t state_size(const void *self)
-{
-    (void)self;
-    return NSTATE * sizeof(double);
-}
-
-static void save_state(const void *self, void *buf)
+/* After a restore or a rollback: a fixed C is the run's constant (> 0; an unfixed one is overwritten
+ * before it is read); the clock's accumulator collects only before the first crossing; only a clock
+ * marks a crossing or accumulates (a parameter: an instance without it never has either). */
+static int state_loaded(void *self)
 {
     const land *r = self;
-    double s[NSTATE] = {r->C, r->C_fixed, r->crossed, r->acc, r->have_prev, r->dpsi_prev, r->lam_prev};
-    memcpy(buf, s, sizeof s);
-}
-
-static int load_state(void *self, const void *buf, size_t len)
-{
-    land *r = self;
-    double s[NSTATE];
-    if (len != sizeof s) return -1;
-    memcpy(s, buf, sizeof s);
-    for (int i = 0; i < NSTATE; i++)
-        if (!isfinite(s[i])) return -1;
-    for (int i = 1; i < 5; i++) /* the flags */
-        if (i != 3 && !(s[i] == 0 || s[i] == 1)) return -1;
-    if (s[1] == 1 && !(s[0] > 0)) return -1;
-    r->C = s[0];
-    r->C_fixed = (int)s[1];
-    r->crossed = (int)s[2];
-    r->acc = s[3];
-    r->have_prev = (int)s[4];
-    r->dpsi_prev = s[5];
-    r->lam_prev = s[6];
+    if (r->C_fixed && !(r->C > 0)) return -1;
+    if (r->crossed && r->acc != 0) return -1;
+    if (!r->clock && (r->crossed || r->acc != 0)) return -1;
     return 0;
 }
 
@@ -671,7 +660,7 @@ const dth_regularizer_type dth_reg_land = {
     .destroy = destroy,
     .apply = apply,
     .observe = observe,
-    .state_size = state_size,
-    .save_state = save_state,
-    .load_state = load_state,
+    .fields = state_fields,
+    .n_fields = sizeof state_fields / sizeof state_fields[0],
+    .state_loaded = state_loaded,
 };

@@ -17,6 +17,7 @@
  * a hard switch, was not reversible; the default regularizer `land` replaces only the crossing step.)
  */
 #include <float.h>
+#include <stddef.h>
 #include <math.h>
 #include <string.h>
 #include "dth/integrator.h"
@@ -295,35 +296,19 @@ static int replaces_all(const void *self)
 }
 
 /* The state a checkpoint keeps: arc once fixed, and the last segment (the next solve's seed). */
-static size_t state_size(const void *self)
+static const dth_field state_fields[] = {
+    {"arc", offsetof(prescribed, arc), DTH_FIELD_F64, DTH_CHECK_NONNEG, 1},
+    {"arc_fixed", offsetof(prescribed, arc_fixed), DTH_FIELD_INT, DTH_CHECK_BOOL, 1},
+    {"lam_last", offsetof(prescribed, lam_last), DTH_FIELD_F64, DTH_CHECK_FINITE, 1},
+    {"mu_last", offsetof(prescribed, mu_last), DTH_FIELD_F64, DTH_CHECK_FINITE, 1},
+    {"dlast", offsetof(prescribed, dlast), DTH_FIELD_F64_PTR, DTH_CHECK_FINITE, 0}, /* 2n + 2 doubles */
+};
+
+/* After a restore or a rollback: a fixed arc is a law's constant. */
+static int state_loaded(void *self)
 {
     const prescribed *r = self;
-    return (4 + (2 * r->n + 2)) * sizeof(double);
-}
-
-static void save_state(const void *self, void *buf)
-{
-    const prescribed *r = self;
-    double head[4] = {r->arc, (double)r->arc_fixed, r->lam_last, r->mu_last};
-    memcpy(buf, head, sizeof head);
-    memcpy((char *)buf + sizeof head, r->dlast, (2 * r->n + 2) * sizeof(double));
-}
-
-static int load_state(void *self, const void *buf, size_t len)
-{
-    prescribed *r = self;
-    double head[4];
-    if (len != state_size(self)) return -1;
-    memcpy(head, buf, sizeof head);
-    if (!(head[1] == 0 || head[1] == 1) || (head[1] == 1 && !(head[0] > 0 && isfinite(head[0]))) ||
-        !isfinite(head[2]) || !isfinite(head[3]))
-        return -1;
-    r->arc = head[0];
-    r->arc_fixed = (int)head[1];
-    r->lam_last = head[2];
-    r->mu_last = head[3];
-    memcpy(r->dlast, (const char *)buf + sizeof head, (2 * r->n + 2) * sizeof(double));
-    return 0;
+    return r->arc_fixed && !(r->arc > 0) ? -1 : 0;
 }
 
 const dth_regularizer_type dth_reg_prescribed = {
@@ -336,8 +321,8 @@ DTH_REG_TYPE_HEAD,
     .destroy = destroy,
     .apply = apply,
     .admit = admit,
-    .state_size = state_size,
-    .save_state = save_state,
-    .load_state = load_state,
+    .fields = state_fields,
+    .n_fields = sizeof state_fields / sizeof state_fields[0],
+    .state_loaded = state_loaded,
     .replaces_all = replaces_all,
 };

@@ -465,7 +465,7 @@ static void test_files(void)
 }
 
 /* The documented layout (docs/checkpoint.md) read independently: walk a checkpoint by it, and
- * every option and state field it holds is named in the document's tables, with the counts. */
+ * every section and field it holds is named in the document's tables, with the counts. */
 static uint64_t le(const unsigned char *p, int n)
 {
     uint64_t v = 0;
@@ -473,18 +473,109 @@ static uint64_t le(const unsigned char *p, int n)
     return v;
 }
 
-static void test_documented_layout(void)
+/* One section at b + *pos: its name and field count in the document's form, each field named there. */
+static void documented_section(const unsigned char *b, size_t *pos, const char *doc, int count_in_doc)
 {
-    const char *root = getenv("DTH_SOURCE_ROOT");
+    size_t sl = (size_t)le(b + *pos, 4);
+    char sname[64] = "`";
+    CU_ASSERT_FATAL(sl > 0 && sl < 60);
+    memcpy(sname + 1, b + *pos + 4, sl);
+    memcpy(sname + 1 + sl, "` |", 4);
+    *pos += 4 + sl;
+    uint64_t veclen = le(b + *pos, 8), nf = le(b + *pos + 8, 4);
+    *pos += 12;
+    char want[96], vl[24] = "N"; /* the pendulum's N = 2n + 2 = 4 reads as N in the document */
+    if (veclen != 4) snprintf(vl, sizeof vl, "%llu", (unsigned long long)veclen);
+    if (count_in_doc) snprintf(want, sizeof want, "| %s u64 %s, u32 count (%llu)", sname, vl, (unsigned long long)nf);
+    else snprintf(want, sizeof want, "| %s u64 %s, u32 count", sname, vl);
+    if (doc && !strstr(doc, want)) {
+        printf("  [section %s is not in docs/checkpoint.md as '%s']\n", sname, want);
+        CU_FAIL("undocumented section");
+    }
+    for (uint64_t i = 0; i < nf; i++) {
+        size_t nl = (size_t)le(b + *pos, 4);
+        char name[64] = "`";
+        CU_ASSERT_FATAL(nl > 0 && nl < 60);
+        memcpy(name + 1, b + *pos + 4, nl);
+        memcpy(name + 1 + nl, "` |", 4);
+        *pos += 4 + nl;
+        uint64_t type = le(b + *pos, 4), count = le(b + *pos + 4, 8);
+        CU_ASSERT(type == 1 || type == 2);
+        CU_ASSERT(count == 1 || count == veclen);
+        *pos += 12 + 8 * count;
+        if (doc && !strstr(doc, name)) {
+            printf("  [field %s is not in docs/checkpoint.md]\n", name);
+            CU_FAIL("undocumented field");
+        }
+    }
+}
+
+/* A checkpoint of the pendulum with regularizer rt (NULL: none), the error estimate if est, and a run
+ * state, walked by the document. */
+static void documented_checkpoint(const dth_regularizer_type *rt, int est, const char *doc)
+{
     dth_model *m = make_model(&dth_model_pendulum);
-    dth_integrator *A = make_it(m, 0.1, DTH_START_MIDPOINT);
+    dth_regularizer *rg = NULL;
+    if (rt) CU_ASSERT_FATAL(dth_regularizer_new(rt, NULL, 0, m, NULL, &rg, NULL, 0) == DTH_OK);
+    dth_options o;
+    dth_options_default(&o);
+    o.h = 0.1;
+    o.regularizer = rg;
+    o.estimate = est;
+    dth_integrator *A = NULL;
+    CU_ASSERT_FATAL(dth_integrator_new(m, &o, &A) == DTH_OK);
     double q = 1.0, p = 0.2;
     CU_ASSERT_FATAL(dth_integrator_start(A, &q, &p, 0) == DTH_OK);
-    CU_ASSERT(dth_integrator_step(A, NULL) == DTH_OK);
+    dth_run_config c;
+    dth_run_config_default(&c);
+    c.steps = 3;
+    dth_run_state st;
+    dth_run_state_init(&st);
+    CU_ASSERT_FATAL(dth_run(A, &c, &st) == DTH_OK);
     const char text[] = "x";
     dth_blob blob = {"scene", text, 1};
     size_t len;
-    unsigned char *b = save_alloc(A, &blob, 1, &len);
+    CU_ASSERT_FATAL(dth_checkpoint_save_run(A, &st, &blob, 1, NULL, 0, &len) == DTH_OK);
+    unsigned char *b = malloc(len);
+    CU_ASSERT_FATAL(b && dth_checkpoint_save_run(A, &st, &blob, 1, b, len, &len) == DTH_OK);
+    /* header (the byte-order mark: 04 03 02 01), method, model, n, then the sections: options
+     * first, then the stepper's */
+    CU_ASSERT(memcmp(b, "DTHCKPT", 8) == 0 && le(b + 8, 4) == DTH_CHECKPOINT_VERSION && le(b + 12, 4) == 0x01020304u &&
+              le(b + 16, 8) == len);
+    size_t pos = 24;
+    CU_ASSERT(le(b + pos, 4) == 3 && memcmp(b + pos + 4, "dth", 3) == 0);
+    pos += 4 + le(b + pos, 4);
+    pos += 4 + le(b + pos, 4);
+    CU_ASSERT(le(b + pos, 8) == 1);
+    pos += 8;
+    uint64_t nsec = le(b + pos, 4);
+    pos += 4;
+    CU_ASSERT(nsec == 3 + (uint64_t)est); /* options, state, policy; the estimate's */
+    for (uint64_t sec = 0; sec < nsec; sec++) documented_section(b, &pos, doc, 1);
+    /* the regularizer's name and its section, the run state's flag and section */
+    size_t rl = (size_t)le(b + pos, 4);
+    CU_ASSERT(rl == (rt ? strlen(rt->name) : 0) && (!rt || memcmp(b + pos + 4, rt->name, rl) == 0));
+    pos += 4 + rl;
+    CU_ASSERT(le(b + pos + 4 + 11 + 8, 4) == (rt ? rt->n_fields : 0));
+    documented_section(b, &pos, doc, 0);
+    CU_ASSERT(le(b + pos, 4) == 1);
+    pos += 4;
+    documented_section(b, &pos, doc, 1);
+    /* one blob, checksum */
+    CU_ASSERT(le(b + pos, 4) == 1);
+    pos += 4;
+    CU_ASSERT(le(b + pos, 4) == 5 && memcmp(b + pos + 4, "scene", 5) == 0 && le(b + pos + 9, 8) == 1);
+    pos += 4 + 5 + 8 + 1;
+    CU_ASSERT(pos + 8 == len);
+    free(b);
+    dth_integrator_free(A);
+    dth_regularizer_free(rg);
+    dth_model_free(m);
+}
+
+static void test_documented_layout(void)
+{
+    const char *root = getenv("DTH_SOURCE_ROOT");
     char *doc = NULL;
     if (root) {
         char path[4096];
@@ -499,62 +590,10 @@ static void test_documented_layout(void)
     } else {
         printf("  [DTH_SOURCE_ROOT not set: the document is not compared]\n");
     }
-    /* header, method, model, n, then the sections: options first, then the stepper's */
-    size_t pos = 24;
-    CU_ASSERT(memcmp(b, "DTHCKPT", 8) == 0 && le(b + 8, 4) == DTH_CHECKPOINT_VERSION && le(b + 16, 8) == len);
-    CU_ASSERT(le(b + pos, 4) == 3 && memcmp(b + pos + 4, "dth", 3) == 0);
-    pos += 4 + le(b + pos, 4);
-    pos += 4 + le(b + pos, 4);
-    CU_ASSERT(le(b + pos, 8) == 1);
-    pos += 8;
-    uint64_t nsec = le(b + pos, 4);
-    pos += 4;
-    CU_ASSERT(nsec == 3);
-    for (uint64_t sec = 0; sec < nsec; sec++) {
-        size_t sl = (size_t)le(b + pos, 4);
-        char sname[64] = "`";
-        CU_ASSERT_FATAL(sl > 0 && sl < 60);
-        memcpy(sname + 1, b + pos + 4, sl);
-        memcpy(sname + 1 + sl, "` |", 4);
-        pos += 4 + sl;
-        uint64_t veclen = le(b + pos, 8), nf = le(b + pos + 8, 4);
-        pos += 12;
-        char want[96], vl[24] = "N"; /* the pendulum's N = 2n + 2 = 4 reads as N in the document */
-        if (veclen != 4) snprintf(vl, sizeof vl, "%llu", (unsigned long long)veclen);
-        snprintf(want, sizeof want, "| %s u64 %s, u32 count (%llu)", sname, vl, (unsigned long long)nf);
-        if (doc && !strstr(doc, want)) {
-            printf("  [section %s is not in docs/checkpoint.md as '%s']\n", sname, want);
-            CU_FAIL("undocumented section");
-        }
-        for (uint64_t i = 0; i < nf; i++) {
-            size_t nl = (size_t)le(b + pos, 4);
-            char name[64] = "`";
-            CU_ASSERT_FATAL(nl > 0 && nl < 60);
-            memcpy(name + 1, b + pos + 4, nl);
-            memcpy(name + 1 + nl, "` |", 4);
-            pos += 4 + nl;
-            uint64_t type = le(b + pos, 4), count = le(b + pos + 4, 8);
-            CU_ASSERT(type == 1 || type == 2);
-            CU_ASSERT(count == 1 || count == veclen);
-            pos += 12 + 8 * count;
-            if (doc && !strstr(doc, name)) {
-                printf("  [field %s is not in docs/checkpoint.md]\n", name);
-                CU_FAIL("undocumented field");
-            }
-        }
-    }
-    /* regularizer name (none), its state, one blob, checksum */
-    CU_ASSERT(le(b + pos, 4) == 0 && le(b + pos + 4, 8) == 0);
-    pos += 12;
-    CU_ASSERT(le(b + pos, 4) == 1);
-    pos += 4;
-    CU_ASSERT(le(b + pos, 4) == 5 && memcmp(b + pos + 4, "scene", 5) == 0 && le(b + pos + 9, 8) == 1);
-    pos += 4 + 5 + 8 + 1;
-    CU_ASSERT(pos + 8 == len);
+    documented_checkpoint(NULL, 0, doc);
+    documented_checkpoint(&dth_reg_land, 1, doc);
+    documented_checkpoint(&dth_reg_prescribed, 0, doc);
     free(doc);
-    free(b);
-    dth_integrator_free(A);
-    dth_model_free(m);
 }
 
 static CU_TestInfo checkpoint_tests[] = {

@@ -359,25 +359,14 @@ static int tricky_all(const void *self)
     (void)self;
     return 1;
 }
-static size_t tricky_size(const void *self)
-{
-    (void)self;
-    return sizeof(double);
-}
-static void tricky_save(const void *self, void *buf) { memcpy(buf, &((const tricky *)self)->calls, sizeof(double)); }
-static int tricky_load(void *self, const void *buf, size_t len)
-{
-    if (len != sizeof(double)) return -1;
-    memcpy(&((tricky *)self)->calls, buf, sizeof(double));
-    return 0;
-}
+static const dth_field tricky_fields[] = {{"calls", offsetof(tricky, calls), DTH_FIELD_F64, DTH_CHECK_NONNEG, 1}};
 
 static const dth_param_spec tricky_params[] = {{"mode", "0", "which bad action"}};
 static const dth_regularizer_type tricky_type = {
 DTH_REG_TYPE_HEAD,
     .name = "tricky", .doc = "test", .params = tricky_params, .n_params = 1, .create = tricky_create,
-    .destroy = tricky_destroy, .apply = tricky_apply, .state_size = tricky_size, .save_state = tricky_save,
-    .load_state = tricky_load, .replaces_all = tricky_all,
+    .destroy = tricky_destroy, .apply = tricky_apply, .fields = tricky_fields, .n_fields = 1,
+    .replaces_all = tricky_all,
 };
 
 static void test_regularizer_failures(void)

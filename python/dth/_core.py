@@ -1001,8 +1001,9 @@ class Simulation:
             raise DthError(rc, "cannot create the integrator")
         self._it = ip[0]
         if _restore is not None:
-            buf, st = _restore
-            rc = L.dth_checkpoint_restore(self._it, buf, len(buf), err, _ERRLEN)
+            buf = _restore
+            # the integrator and the run driver's state, all or nothing (its rules checked)
+            rc = L.dth_checkpoint_restore_run(self._it, self._st, buf, len(buf), err, _ERRLEN)
             try:
                 _raise_pending()
             except BaseException:
@@ -1011,7 +1012,6 @@ class Simulation:
             if rc:
                 self.close()
                 raise DthError(rc, _err(err))
-            ffi.memmove(self._st, st, ffi.sizeof("dth_run_state"))
         else:
             rc = L.dth_integrator_start(self._it, rs.q0, rs.p0, rs.t0)
             try:
@@ -1295,8 +1295,8 @@ class Simulation:
     # ---- checkpoints (checkpoint.h: the public save/restore API only)
 
     def checkpoint(self, path=None):
-        """The integrator's checkpoint (dth_checkpoint_save) with two blobs: "scene" (the scene as
-        INI text, as dth run stores it) and "python" (the run driver's state and the package's
+        """The integrator's checkpoint with the run driver's state (dth_checkpoint_save_run) and two
+        blobs: "scene" (the scene as INI text, as dth run stores it) and "python" (the package's
         format version). Returns the bytes; with `path`, also writes them crash-safely."""
         with self._use():
             data = self._checkpoint()
@@ -1313,17 +1313,17 @@ class Simulation:
     def _checkpoint(self):
         L = lib()
         scene = self._text.encode()
-        meta = json.dumps({"version": 1, "scene_name": self.scene.name}).encode()
-        st = bytes(ffi.buffer(self._st))
-        b = ffi.new("dth_blob[3]")
-        keep = [ffi.new("char[]", x) for x in (b"scene", b"python", b"python-run-state")]
-        datas = [ffi.from_buffer(x) if x else ffi.NULL for x in (scene, meta, st)]
-        for i, (nm, d, x) in enumerate(zip(keep, datas, (scene, meta, st))):
+        # 2: the run state in the library's section "run" (1: its host bytes in a blob of their own)
+        meta = json.dumps({"version": 2, "scene_name": self.scene.name}).encode()
+        b = ffi.new("dth_blob[2]")
+        keep = [ffi.new("char[]", x) for x in (b"scene", b"python")]
+        datas = [ffi.from_buffer(x) if x else ffi.NULL for x in (scene, meta)]
+        for i, (nm, d, x) in enumerate(zip(keep, datas, (scene, meta))):
             b[i].name, b[i].data, b[i].size = nm, d, len(x)
         ln = ffi.new("size_t *")
-        rc = L.dth_checkpoint_save(self._it, b, 3, ffi.NULL, 0, ln)
+        rc = L.dth_checkpoint_save_run(self._it, self._st, b, 2, ffi.NULL, 0, ln)
         buf = ffi.new("char[]", ln[0])
-        rc = L.dth_checkpoint_save(self._it, b, 3, buf, ln[0], ln)
+        rc = L.dth_checkpoint_save_run(self._it, self._st, b, 2, buf, ln[0], ln)
         if rc:
             raise DthError(rc, "cannot save the checkpoint")
         return bytes(ffi.buffer(buf, ln[0]))
@@ -1352,9 +1352,8 @@ class Simulation:
 
         text = blob("scene").decode()
         meta = json.loads(blob("python").decode())
-        st = blob("python-run-state")
-        if meta.get("version") != 1 or len(st) != ffi.sizeof("dth_run_state"):
-            raise DthError(-6, "the checkpoint's run state is of another version of the package")
+        if meta.get("version") != 2:
+            raise DthError(-6, "the checkpoint is of another version of the package")
         name = meta.get("scene_name", "<checkpoint>")
         saved = Scene(text)
         saved.name = name
@@ -1368,7 +1367,7 @@ class Simulation:
                 L.dth_scene_free(b)
             if rc:
                 raise DthError(rc, _err(err))
-        return cls(sc, models=models, events=events, _restore=(data, st))
+        return cls(sc, models=models, events=events, _restore=data)
 
 
 def run(scene, set=None, models=(), check_model=True, events=(), **kw):

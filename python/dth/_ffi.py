@@ -387,6 +387,10 @@ int dth_checkpoint_save(const dth_integrator *it, const dth_blob *blobs, size_t 
                         size_t *len);
 int dth_checkpoint_verify(const void *buf, size_t len, char *err, size_t errlen);
 int dth_checkpoint_restore(dth_integrator *it, const void *buf, size_t len, char *err, size_t errlen);
+int dth_checkpoint_save_run(const dth_integrator *it, const dth_run_state *run, const dth_blob *blobs, size_t nblobs,
+                            void *buf, size_t cap, size_t *len);
+int dth_checkpoint_restore_run(dth_integrator *it, dth_run_state *run, const void *buf, size_t len, char *err,
+                               size_t errlen);
 int dth_checkpoint_blob(const void *buf, size_t len, const char *name, const void **data, size_t *size);
 int dth_checkpoint_model_name(const void *buf, size_t len, char *name, size_t namelen);
 

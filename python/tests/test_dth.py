@@ -293,6 +293,11 @@ class TestRootsCheckpointsMegno(unittest.TestCase):
         self.assertGreater(len(b.t), 10)
         np.testing.assert_array_equal(b.z, c.z)
         np.testing.assert_array_equal(b.lam, c.lam)
+        # the whole run driver's state too: counts, the error estimate (its shadow is in the
+        # checkpoint), the largest step
+        ffi = dth._ffi.ffi
+        self.assertEqual(bytes(ffi.buffer(sim._st)), bytes(ffi.buffer(sim2._st)))
+        self.assertFalse(math.isnan(sim2._st.err_q))
         # and the two legs are the one run to 20 (but for the first leg's end sample at t = 10)
         whole = dth.run(scene(sc), set=over, t_end=20)
         if a.kind[-1] == "end":

@@ -7,11 +7,12 @@
 # times far denser than the steps are refused; temporaries of dead runs are removed, a running
 # one's are not; two runs may share a checkpoint path; a write error names its real reason; bad
 # inputs (a time steps cannot advance, counts too large, singular starts, a step too large) are
-# refused naming the key.
+# refused naming the key; crafted checkpoints with a valid checksum are refused naming the field.
 # usage: check_resume.sh PATH/TO/dth SOURCE_ROOT
 set -u
 DTH=$(cd "$(dirname "$1")" && pwd)/$(basename "$1") # absolute: one check runs from another folder
 SC=$2/scenes
+ROOT=$2
 T=$(mktemp -d /tmp/dth_resume_test.XXXXXX)
 trap 'rm -rf "$T"' EXIT
 fails=0
@@ -55,15 +56,71 @@ expect 2 "was changed since the checkpoint" "$DTH" run --resume "$T/c.ckpt" -s i
 [ -e "$T/y.csv" ] && fail "changed output: an output was written"
 ok "resume from another directory; an output changed since the checkpoint is refused"
 
+# ---- crafted checkpoints that pass the checksum (issue 24, tests/cli/ckpt_patch.py recomputes it):
+# each was resumed with exit 0 and output that differed from the straight run; now refused (exit 2),
+# the message naming the field, no output written
+if command -v python3 >/dev/null 2>&1; then
+    "$DTH" run "$P" -s integrator.steps=120 -o "$T/cr.csv" --checkpoint "$T/cr.ckpt" --checkpoint-every 37 \
+        2>/dev/null || fail "checkpointed run for the crafted checkpoints"
+    crafted() { # crafted WANT [patch args ;]...: the patches applied to a copy of cr.ckpt
+        want=$1
+        shift
+        cp "$T/cr.ckpt" "$T/bad.ckpt"
+        while [ $# -gt 0 ]; do
+            args=""
+            while [ $# -gt 0 ] && [ "$1" != ";" ]; do args="$args $1"; shift; done
+            [ $# -gt 0 ] && shift
+            # shellcheck disable=SC2086
+            python3 "$ROOT/tests/cli/ckpt_patch.py" "$T/bad.ckpt" $args || fail "ckpt_patch.py$args"
+        done
+        rm -f "$T/x.csv"
+        expect 2 "$want" "$DTH" run --resume "$T/bad.ckpt" -s integrator.steps=300 -o "$T/x.csv"
+        [ -e "$T/x.csv" ] && fail "crafted ($want): an output was written"
+    }
+    cp "$T/cr.ckpt" "$T/same.ckpt"
+    python3 "$ROOT/tests/cli/ckpt_patch.py" "$T/same.ckpt" state steps 120 || fail "ckpt_patch.py: same value"
+    cmp -s "$T/cr.ckpt" "$T/same.ckpt" || fail "ckpt_patch.py rewrites an unchanged checkpoint differently"
+    crafted "field 'steps' holds 9223372036854775807" state steps 9223372036854775807
+    crafted "field 'samples' holds 9223372036854775807" run samples 9223372036854775807
+    crafted "field 'out.bytes' counts 0 bytes of .*, fewer than its header line" cli out.bytes 0 ";" cli out.hash 14695981039346656037
+    crafted "'lam_hint' = .* points against field 'dir' = -1" state dir -1.0
+    crafted "field 'lam' = 0 is no step" state lam 0.0
+    crafted "field 'nhist' = 3 exceeds field 'steps' = 2" state steps 2
+    crafted "field 'lam_hint' holds inf" state lam_hint inf # (1e308 is a step: the integrator takes any finite h)
+    crafted "field 'pending_exact' = 1" state pending_exact 1
+    crafted "field 't_stop' = 1e+308 lies outside the run's span" run t_stop 1e308
+    crafted "field 't_stop' = -1e+308 lies outside the run's span" run t_stop -1e308
+    crafted "does not begin with the header line this scene writes" scene output.diagnostics=yes
+    ok "crafted checkpoints with a valid checksum are refused naming the field"
+else
+    echo "skip: crafted checkpoints (no python3)"
+fi
+
 # ---- the issue's reproduction: a rotating pendulum through psi = 0 (regularized), stopped at
 # step 2278 and resumed to 2400, against the straight run
 R="$SC/pendulum-rotation.ini"
-"$DTH" run "$R" -s integrator.steps=2400 -s output.diagnostics=yes -o "$T/rot.csv" 2>/dev/null
+"$DTH" run "$R" -s integrator.steps=2400 -s output.diagnostics=yes -o "$T/rot.csv" 2>"$T/rot.err"
 "$DTH" run "$R" -s integrator.steps=2278 -s output.diagnostics=yes -o "$T/rotp.csv" --checkpoint "$T/rot.ckpt" 2>/dev/null
 "$DTH" run --resume "$T/rot.ckpt" -s integrator.steps=2400 --checkpoint "$T/rot.ckpt" 2>/dev/null ||
     fail "rotation: resume"
 cmp -s "$T/rot.csv" "$T/rotp.csv" || fail "rotation: resumed at 2278 differs from the straight run"
 ok "rotating pendulum resumed at step 2278: byte-identical"
+# and at the vertices around one of land's crossings past 2000 (the row with ordinary = 0 is the
+# replaced step): the one before, the one it lands on (its offset reset), the one after
+col=$(head -n 1 "$T/rot.csv" | tr ',' '\n' | grep -n '^ordinary$' | cut -d: -f1)
+[ -n "$col" ] || fail "rotation: no column 'ordinary'"
+kc=$(awk -F, -v c="$col" 'NR > 1 && $c == 0 && $1 > 2000 { print $1; exit }' "$T/rot.csv")
+[ -n "$kc" ] || fail "rotation: no replaced (crossing) step past 2000"
+for k in $((kc - 1)) "$kc" $((kc + 1)); do
+    "$DTH" run "$R" -s integrator.steps="$k" -s output.diagnostics=yes -o "$T/rotc.csv" --checkpoint "$T/rotc.ckpt" \
+        2>/dev/null || fail "rotation: run to $k"
+    "$DTH" run --resume "$T/rotc.ckpt" -s integrator.steps=2400 2>"$T/rotc.err" || fail "rotation: resume at $k"
+    cmp -s "$T/rot.csv" "$T/rotc.csv" || fail "rotation: resumed at vertex $k (crossing step $kc) differs"
+    # the end line too: the counts and the error estimate continue (the estimate's shadow is restored)
+    [ "$(sed 's/ rows to [^;]*;/;/' "$T/rot.err")" = "$(sed 's/ rows to [^;]*;/;/' "$T/rotc.err")" ] ||
+        fail "rotation: resumed at vertex $k, the end line differs: $(cat "$T/rotc.err") against $(cat "$T/rot.err")"
+done
+ok "rotating pendulum resumed at vertices $((kc - 1)), $kc, $((kc + 1)) around a crossing: byte-identical, same end line"
 
 # ---- signals: SIGHUP like SIGTERM (exit 129, rows kept); a stop request inside the dense output
 "$DTH" run "$P" -s integrator.t_end=1e7 -o "$T/hup.csv" 2>"$T/hup.err" &

@@ -37,7 +37,7 @@
  *    and another pilot; then C <- C (tol / (2 est))^3. With both, C is the smaller of the two.
  *
  * The pilots use the caller's options (copied: method dth only, the regularizer borrowed, its state
- * saved and restored around each pilot through its save_state/load_state callbacks) and the caller's
+ * saved and restored around each pilot through its type's field list) and the caller's
  * model; nothing of the caller's is changed, also on failure. Calibrate with the regularizer in the state
  * the run starts from: 'land' keeps the C it took from a run's first steps, so a regularizer that already
  * ran would carry that C into the calibrated run.

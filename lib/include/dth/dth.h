@@ -11,6 +11,7 @@
 #include "dth/regularize.h"
 #include "dth/branch.h"
 #include "dth/scene.h"
+#include "dth/fields.h"
 #include "dth/checkpoint.h"
 #include "dth/methods.h"
 #include "dth/run.h"

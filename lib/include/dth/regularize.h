@@ -25,6 +25,7 @@
 #define DTH_REGULARIZE_H
 
 #include <stddef.h>
+#include "dth/fields.h"
 #include "dth/model.h"
 
 #ifdef __cplusplus
@@ -115,8 +116,10 @@ typedef struct dth_reg_action {
                           low part of lambda, the wp entry 0), z_(k+1) = z_k + 2 (d + dlo) in double-double */
 } dth_reg_action;
 
-/** Layout version of dth_regularizer_type (model.h says how tables are versioned). */
-#define DTH_REG_TYPE_VERSION (DTH_ABI_MAGIC | 2u)
+/** Layout version of dth_regularizer_type (model.h says how tables are versioned). 3: the
+ *  instance's state as a field list (fields, n_fields, state_loaded) in place of the raw bytes of
+ *  state_size / save_state / load_state; tables of layout 2 are refused (rebuild them). */
+#define DTH_REG_TYPE_VERSION (DTH_ABI_MAGIC | 3u)
 
 /** A regularizer type: a static table of callbacks. */
 typedef struct dth_regularizer_type {
@@ -144,12 +147,22 @@ typedef struct dth_regularizer_type {
     int (*admit)(void *self, const double *za, const double *zb, double lambda);
     /**
      * Optional, for a regularizer whose instance carries state from step to step (a constant
-     * fixed at the first step, a predictor's seed): its size in bytes, and save/load of it, so
-     * that checkpoints restart bit for bit. NULL: the instance is stateless.
+     * fixed at the first step, a predictor's seed): the members of the instance struct (`self`)
+     * that hold it, as a field list (dth/fields.h: kinds F64, F64_PTR, INT, LONG; a F64_PTR of
+     * count 0 points to 2n + 2 doubles). The library saves them in checkpoints, little-endian
+     * like every other number there, restores them with each value checked by its field's check,
+     * and keeps them through a failed step, so that restarts continue bit for bit. NULL / 0: the
+     * instance is stateless.
      */
-    size_t (*state_size)(const void *self);
-    void (*save_state)(const void *self, void *buf);
-    int (*load_state)(void *self, const void *buf, size_t len); /**< 0, or < 0 if invalid */
+    const dth_field *fields;
+    size_t n_fields;             /**< length of fields */
+    /**
+     * Optional: called after the library wrote the fields into the instance (a checkpoint's
+     * restore, a failed step's rollback). Check the rules between them (a constant marked fixed
+     * is > 0) and drop caches of the state before: 0, or < 0 to refuse them (a restore is then
+     * refused and the instance gets its fields back). NULL: any values the checks pass.
+     */
+    int (*state_loaded)(void *self);
     /**
      * Optional: nonzero if this instance replaces every step. The integrator then calls apply at
      * every step *before* computing the ordinary step (ev->plain_pending = 1), which saves that
