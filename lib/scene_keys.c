@@ -167,7 +167,7 @@ static const dth__scene_key keys[] = {
          "regularizer `land` (land's replaced step and its parameters belong to order 2: giving them with order "
          "4 is refused, as is `prescribed`; with `[regularize] method = none` the run ends at the first "
          "crossing). `6` and `8` are refused: the construction measures order 4 with every 6th- and 8th-order "
-         "table (docs/theory.md). Kepler e = 0.6 over 1000 orbits: order 4 takes 0.075 of the CPU of order 2 "
+         "table (docs/theory.md). Kepler e = 0.6 over 1000 orbits: order 4 takes 0.066 of the CPU of order 2 "
          "at equal error 1e-5 (`bench_order4 --full`, part 3). Baselines have their own order (leave it at 2)."),
      .to = RS(opt.order), .ilo = 2, .ihi = 8},
     {KEY("integrator", "table", CHOICE, 0, "",
